@@ -1,0 +1,1 @@
+//! TrajNet loading (owned by the data work).

@@ -1,0 +1,3 @@
+//! gpecnet-trainer: see the crate README and ARCHITECTURE.md.
+pub mod data;
+pub mod eval;

@@ -1,0 +1,3 @@
+fn main() {
+    println!("gpecnet: CLI under construction");
+}
