@@ -1,0 +1,189 @@
+//! Golden vectors: the trainer's outputs for recorded inputs, as exact bit
+//! patterns, in a sidecar file `weights/<model>.golden` next to each blob.
+//!
+//! The firmware and the host tests replay every case through this crate and
+//! require identical bits. Layout (postcard values, like the blob):
+//!
+//! ```text
+//! GoldenPreamble { magic: [u8; 4] = "GPGV", version: u16 = 1 }
+//! GoldenInfo { model_name: &str, model_crc: u32, sine: &str, past_len: u8,
+//!              future_len: u8, k: u8, n_cases: u32 }
+//! n_cases × GoldenCaseWire { past: &[u8], seed: u64, endpoints: &[u8], trajectory0: &[u8] }
+//! crc32: 4 bytes LE over everything before it
+//! ```
+//!
+//! `past` holds `past_len` (x, y) f32 pairs, `endpoints` `k` pairs,
+//! `trajectory0` either nothing or `future_len` pairs (sample 0's full
+//! trajectory), all little endian.
+
+use serde::{Deserialize, Serialize};
+
+use crate::blob::{read_f32, BlobError, CRC32, MAX_FUTURE, MAX_PAST};
+
+/// First four bytes of a golden file.
+pub const GOLDEN_MAGIC: [u8; 4] = *b"GPGV";
+/// Golden format version.
+pub const GOLDEN_VERSION: u16 = 1;
+
+/// First value of a golden file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GoldenPreamble {
+    /// [`GOLDEN_MAGIC`].
+    pub magic: [u8; 4],
+    /// [`GOLDEN_VERSION`].
+    pub version: u16,
+}
+
+/// What the cases were produced with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GoldenInfo<'a> {
+    /// The model's name.
+    pub model_name: &'a str,
+    /// CRC-32 of the model blob the outputs belong to ([`crate::Model::crc`]).
+    pub model_crc: u32,
+    /// The [`crate::sine::Sine::NAME`] used.
+    pub sine: &'a str,
+    /// Observed steps per case.
+    pub past_len: u8,
+    /// Steps per trajectory.
+    pub future_len: u8,
+    /// Endpoints per case.
+    pub k: u8,
+    /// Number of cases.
+    pub n_cases: u32,
+}
+
+/// One case on the wire.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GoldenCaseWire<'a> {
+    /// Observed positions, f32 LE pairs.
+    pub past: &'a [u8],
+    /// Latent seed.
+    pub seed: u64,
+    /// Expected endpoints, f32 LE pairs.
+    pub endpoints: &'a [u8],
+    /// Expected trajectory of sample 0, f32 LE pairs, or empty.
+    pub trajectory0: &'a [u8],
+}
+
+/// A decoded case.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GoldenCase<'a> {
+    /// Observed positions.
+    pub past: heapless::Vec<[f32; 2], MAX_PAST>,
+    /// Latent seed.
+    pub seed: u64,
+    endpoints: &'a [u8],
+    trajectory0: &'a [u8],
+}
+
+impl GoldenCase<'_> {
+    /// Number of expected endpoints.
+    pub fn k(&self) -> usize {
+        self.endpoints.len() / 8
+    }
+    /// Expected endpoint `i` as bit patterns.
+    pub fn endpoint_bits(&self, i: usize) -> [u32; 2] {
+        [read_f32(self.endpoints, 2 * i).to_bits(), read_f32(self.endpoints, 2 * i + 1).to_bits()]
+    }
+    /// Expected point `t` of sample 0's trajectory, if recorded.
+    pub fn trajectory0_bits(&self, t: usize) -> Option<[u32; 2]> {
+        (8 * t + 8 <= self.trajectory0.len())
+            .then(|| [read_f32(self.trajectory0, 2 * t).to_bits(), read_f32(self.trajectory0, 2 * t + 1).to_bits()])
+    }
+    /// Number of recorded trajectory points (0 when none).
+    pub fn trajectory0_len(&self) -> usize {
+        self.trajectory0.len() / 8
+    }
+}
+
+/// A validated golden file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GoldenSet<'a> {
+    info: GoldenInfo<'a>,
+    cases: &'a [u8],
+}
+
+fn take<'a, T: Deserialize<'a>>(bytes: &mut &'a [u8]) -> Result<T, BlobError> {
+    let (v, rest) = postcard::take_from_bytes::<T>(bytes).map_err(|e| match e {
+        postcard::Error::DeserializeUnexpectedEnd => BlobError::Truncated,
+        _ => BlobError::Malformed,
+    })?;
+    *bytes = rest;
+    Ok(v)
+}
+
+impl<'a> GoldenSet<'a> {
+    /// Checks magic, version, CRC and every case's shape.
+    pub fn parse(bytes: &'a [u8]) -> Result<Self, BlobError> {
+        match bytes.get(..4) {
+            None => return Err(BlobError::Truncated),
+            Some(m) if m != GOLDEN_MAGIC => return Err(BlobError::BadMagic),
+            Some(_) => {}
+        }
+        let body_len = bytes.len().checked_sub(4).ok_or(BlobError::Truncated)?;
+        let (body, tail) = bytes.split_at(body_len);
+        let stored = match tail {
+            &[a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+            _ => return Err(BlobError::Truncated),
+        };
+        let mut cur = body;
+        let pre: GoldenPreamble = take(&mut cur)?;
+        if pre.version != GOLDEN_VERSION {
+            return Err(BlobError::UnsupportedVersion(pre.version));
+        }
+        let computed = CRC32.checksum(body);
+        if stored != computed {
+            return Err(BlobError::ChecksumMismatch { stored, computed });
+        }
+        let info: GoldenInfo = take(&mut cur)?;
+        if info.past_len as usize > MAX_PAST || info.future_len as usize > MAX_FUTURE {
+            return Err(BlobError::ExceedsCapacity);
+        }
+        let set = Self { info, cases: cur };
+        let mut rest = cur;
+        for _ in 0..info.n_cases {
+            let c: GoldenCaseWire = take(&mut rest)?;
+            let traj_ok = c.trajectory0.is_empty() || c.trajectory0.len() == 8 * info.future_len as usize;
+            if c.past.len() != 8 * info.past_len as usize || c.endpoints.len() != 8 * info.k as usize || !traj_ok {
+                return Err(BlobError::BadConfig);
+            }
+        }
+        if !rest.is_empty() {
+            return Err(BlobError::TrailingBytes);
+        }
+        Ok(set)
+    }
+
+    /// What the cases were produced with.
+    pub fn info(&self) -> &GoldenInfo<'a> {
+        &self.info
+    }
+
+    /// The cases, decoded lazily (validated by [`GoldenSet::parse`]).
+    pub fn cases(&self) -> impl Iterator<Item = GoldenCase<'a>> + 'a {
+        let mut rest = self.cases;
+        let n = self.info.n_cases;
+        (0..n).map_while(move |_| {
+            let c: GoldenCaseWire = take(&mut rest).ok()?;
+            let mut past = heapless::Vec::new();
+            for i in 0..c.past.len() / 8 {
+                past.push([read_f32(c.past, 2 * i), read_f32(c.past, 2 * i + 1)]).ok()?;
+            }
+            Some(GoldenCase { past, seed: c.seed, endpoints: c.endpoints, trajectory0: c.trajectory0 })
+        })
+    }
+}
+
+/// FNV-1a (32-bit) over the little-endian bytes of `words`: the compact
+/// per-case fingerprint the firmware prints and the host recomputes.
+pub fn fnv1a(words: impl IntoIterator<Item = u32>) -> u32 {
+    let mut h: u32 = 0x811c_9dc5;
+    for w in words {
+        for byte in w.to_le_bytes() {
+            h ^= byte as u32;
+            h = h.wrapping_mul(0x0100_0193);
+        }
+    }
+    h
+}
