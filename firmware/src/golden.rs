@@ -1,0 +1,208 @@
+//! Golden verification, shared verbatim by the firmware (defmt output) and
+//! the host (`golden-host`, println output): the same code, the same lines,
+//! so `cargo xtask qemu` can compare the two runs line by line.
+//!
+//! Lines (the firmware prints them with defmt, decoded by defmt-print):
+//!   golden <model> <case> <fnv32>      one per golden case, sidecar's sine, bit-compared
+//!   xcheck <model> <sine> <case> <fnv32> the same inputs through the other sine
+//!                                      paths (no expected values; host vs target only)
+//! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
+
+use gpecnet_core::golden::{fnv1a, GoldenSet};
+use gpecnet_core::sine::{FastSine, LibmSine, Sine};
+use gpecnet_core::{Model, Predictor};
+
+/// Scratch width of the predictor (widest layer the firmware supports).
+pub const SCRATCH: usize = 128;
+/// Maximum endpoints per golden case / prediction.
+pub const MAX_K: usize = 20;
+
+/// One model compiled into the image.
+pub struct EmbeddedModel {
+    pub name: &'static str,
+    pub blob: &'static [u8],
+    pub golden: &'static [u8],
+}
+
+/// A result line.
+pub enum Line<'a> {
+    /// `golden <model> <case> <hash>` (+ whether it matched the sidecar).
+    Golden {
+        model: &'a str,
+        case: u32,
+        hash: u32,
+        ok: bool,
+    },
+    /// `xcheck <model> <sine> <case> <hash>`.
+    Xcheck {
+        model: &'a str,
+        sine: &'static str,
+        case: u32,
+        hash: u32,
+    },
+    /// Something that prevents verification (counts as a failure).
+    Error { model: &'a str, what: &'static str },
+}
+
+/// Totals over all models.
+#[derive(Default, Clone, Copy)]
+pub struct Summary {
+    pub models: u32,
+    pub cases: u32,
+    pub mismatches: u32,
+    pub errors: u32,
+    pub xchecks: u32,
+}
+
+impl Summary {
+    pub fn ok(&self) -> bool {
+        self.models > 0 && self.cases > 0 && self.mismatches == 0 && self.errors == 0
+    }
+}
+
+/// Sine paths compiled in, by [`Sine::NAME`].
+pub const SINES: &[&str] = &[
+    LibmSine::NAME,
+    FastSine::NAME,
+    #[cfg(feature = "micromath")]
+    gpecnet_core::sine::MicromathSine::NAME,
+];
+
+/// Runs `f::<S>()` for the sine named `name`; `None` if it is not compiled in.
+macro_rules! with_sine {
+    ($name:expr, $f:ident ( $($arg:expr),* )) => {
+        match $name {
+            n if n == LibmSine::NAME => Some($f::<LibmSine>($($arg),*)),
+            n if n == FastSine::NAME => Some($f::<FastSine>($($arg),*)),
+            #[cfg(feature = "micromath")]
+            n if n == gpecnet_core::sine::MicromathSine::NAME => Some($f::<gpecnet_core::sine::MicromathSine>($($arg),*)),
+            _ => None,
+        }
+    };
+}
+
+/// Output fingerprint + bit-equality with the sidecar, for each case, sine `S`.
+fn cases_with<S: Sine>(
+    model: &Model<'_>,
+    set: &GoldenSet<'_>,
+    emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
+) {
+    let mut p = match Predictor::<S, SCRATCH>::new(model) {
+        Ok(p) => p,
+        Err(_) => {
+            emit(u32::MAX, Err(()));
+            return;
+        }
+    };
+    for (i, case) in set.cases().enumerate() {
+        let k = case.k();
+        let r = p.predict_endpoints::<MAX_K>(&case.past, case.seed, k);
+        let r = match r {
+            Ok(ends) => {
+                let hash = fnv1a(ends.iter().flat_map(|e| [e[0].to_bits(), e[1].to_bits()]));
+                let ok = ends.len() == k
+                    && ends
+                        .iter()
+                        .enumerate()
+                        .all(|(j, e)| case.endpoint_bits(j) == [e[0].to_bits(), e[1].to_bits()]);
+                Ok((hash, ok))
+            }
+            Err(_) => Err(()),
+        };
+        emit(i as u32, r);
+    }
+}
+
+/// Verifies every model; `xcheck`: also run the other compiled-in sines.
+pub fn verify_all(
+    models: &[EmbeddedModel],
+    xcheck: bool,
+    out: &mut dyn FnMut(Line<'_>),
+) -> Summary {
+    let mut s = Summary::default();
+    for m in models {
+        s.models += 1;
+        let model = match Model::from_blob(m.blob) {
+            Ok(model) => model,
+            Err(_) => {
+                s.errors += 1;
+                out(Line::Error {
+                    model: m.name,
+                    what: "blob rejected by Model::from_blob",
+                });
+                continue;
+            }
+        };
+        let set = match GoldenSet::parse(m.golden) {
+            Ok(set) => set,
+            Err(_) => {
+                s.errors += 1;
+                out(Line::Error {
+                    model: m.name,
+                    what: "golden sidecar rejected by GoldenSet::parse",
+                });
+                continue;
+            }
+        };
+        if set.info().model_crc != model.crc() {
+            s.errors += 1;
+            out(Line::Error {
+                model: m.name,
+                what: "golden sidecar belongs to another blob (model_crc)",
+            });
+            continue;
+        }
+        let sine = set.info().sine;
+        let mut emit = |case: u32, r: Result<(u32, bool), ()>| match r {
+            Ok((hash, ok)) => {
+                s.cases += 1;
+                s.mismatches += (!ok) as u32;
+                out(Line::Golden {
+                    model: m.name,
+                    case,
+                    hash,
+                    ok,
+                });
+            }
+            Err(()) => {
+                s.errors += 1;
+                out(Line::Error {
+                    model: m.name,
+                    what: "prediction failed",
+                });
+            }
+        };
+        if with_sine!(sine, cases_with(&model, &set, &mut emit)).is_none() {
+            s.errors += 1;
+            out(Line::Error {
+                model: m.name,
+                what: "golden sine not compiled in (feature micromath?)",
+            });
+            continue;
+        }
+        if xcheck {
+            for &other in SINES.iter().filter(|&&n| n != sine) {
+                let mut emit = |case: u32, r: Result<(u32, bool), ()>| match r {
+                    Ok((hash, _)) => {
+                        s.xchecks += 1;
+                        out(Line::Xcheck {
+                            model: m.name,
+                            sine: other,
+                            case,
+                            hash,
+                        });
+                    }
+                    Err(()) => {
+                        s.errors += 1;
+                        out(Line::Error {
+                            model: m.name,
+                            what: "prediction failed (xcheck)",
+                        });
+                    }
+                };
+                let _ = with_sine!(other, cases_with(&model, &set, &mut emit));
+            }
+        }
+    }
+    s
+}

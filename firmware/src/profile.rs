@@ -1,0 +1,128 @@
+//! Profiling build (`--features profile`, driven by `cargo xtask profile`):
+//! for each embedded model, one K = 20 prediction through the sine selected
+//! at build time (GPECNET_SINE -> cfg `prof_sine`), between `bench_start` and
+//! `bench_end`. The QEMU TCG plugin (tools/insn_window.c) counts the guest
+//! instructions executed between the two markers; on a real board
+//! (`--features board`) DWT CYCCNT gives the cycles.
+use core::hint::black_box;
+use core::ptr::{addr_of_mut, write_volatile};
+
+use gpecnet_core::{Model, PredictError, Predictor};
+use heapless::Vec;
+
+use crate::golden::SCRATCH;
+
+#[cfg(prof_sine = "libm")]
+type ProfSine = gpecnet_core::sine::LibmSine;
+#[cfg(prof_sine = "fast-f32")]
+type ProfSine = gpecnet_core::sine::FastSine;
+#[cfg(all(prof_sine = "micromath", feature = "micromath"))]
+type ProfSine = gpecnet_core::sine::MicromathSine;
+
+pub const K: usize = 20;
+
+static mut BENCH_MARK: u32 = 0;
+
+/// Marker: the plugin starts counting when this executes. Distinct body from
+/// `bench_end`, so LTO cannot merge the two into one address.
+#[inline(never)]
+#[no_mangle]
+pub extern "C" fn bench_start() {
+    unsafe { write_volatile(addr_of_mut!(BENCH_MARK), 1) };
+}
+
+#[inline(never)]
+#[no_mangle]
+pub extern "C" fn bench_end() {
+    unsafe { write_volatile(addr_of_mut!(BENCH_MARK), 2) };
+}
+
+/// The measured function: out of line, so its instruction count does not
+/// depend on what LTO inlines around it.
+#[inline(never)]
+#[no_mangle]
+pub fn gpecnet_predict_k20(
+    p: &mut Predictor<'_, '_, ProfSine, SCRATCH>,
+    past: &[[f32; 2]; 8],
+    seed: u64,
+) -> Result<Vec<[f32; 2], K>, PredictError> {
+    p.predict_endpoints::<K>(past, seed, K)
+}
+
+/// A pedestrian walking ~2.5 px per step (pixel units, like the SDD models).
+const PAST: [[f32; 2]; 8] = [
+    [512.0, 300.0],
+    [514.0, 301.0],
+    [516.5, 302.0],
+    [519.0, 303.5],
+    [521.0, 304.5],
+    [523.5, 305.0],
+    [526.0, 306.0],
+    [528.0, 307.5],
+];
+
+pub fn run() -> bool {
+    let mut ok = !crate::models::BLOBS.is_empty();
+    if !ok {
+        defmt::error!("profile: no model embedded");
+    }
+    #[cfg(feature = "board")]
+    let mut cp = unsafe { cortex_m::Peripherals::steal() };
+    #[cfg(feature = "board")]
+    {
+        cp.DCB.enable_trace();
+        cp.DWT.enable_cycle_counter();
+    }
+    for &(name, blob) in crate::models::BLOBS {
+        let model = match Model::from_blob(blob) {
+            Ok(m) => m,
+            Err(e) => {
+                defmt::error!("profile {=str}: {}", name, e);
+                ok = false;
+                continue;
+            }
+        };
+        let mut p = match Predictor::<ProfSine, SCRATCH>::new(&model) {
+            Ok(p) => p,
+            Err(e) => {
+                defmt::error!("profile {=str}: {}", name, e);
+                ok = false;
+                continue;
+            }
+        };
+        let base = crate::stack::repaint();
+        #[cfg(feature = "board")]
+        let c0 = cortex_m::peripheral::DWT::cycle_count();
+        bench_start();
+        let r = gpecnet_predict_k20(black_box(&mut p), black_box(&PAST), black_box(0x5eed));
+        bench_end();
+        #[cfg(feature = "board")]
+        {
+            let c1 = cortex_m::peripheral::DWT::cycle_count();
+            defmt::println!("cycles {=str} {=u32}", name, c1.wrapping_sub(c0));
+        }
+        let used = crate::stack::high_water().saturating_sub(base);
+        match r {
+            Ok(ends) => {
+                let hash = gpecnet_core::golden::fnv1a(
+                    ends.iter().flat_map(|e| [e[0].to_bits(), e[1].to_bits()]),
+                );
+                defmt::println!(
+                    "profile {=str} sine={=str} k={=usize} macs={=usize} predict_stack={=u32} predictor_size={=u32} hash={=u32:08x}",
+                    name,
+                    <ProfSine as gpecnet_core::Sine>::NAME,
+                    ends.len(),
+                    model.endpoint_macs(K),
+                    used as u32,
+                    core::mem::size_of_val(&p) as u32,
+                    hash
+                );
+            }
+            Err(e) => {
+                defmt::error!("profile {=str}: {}", name, e);
+                ok = false;
+            }
+        }
+    }
+    ok
+}
