@@ -169,17 +169,29 @@ impl core::fmt::Display for BlobError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             BlobError::BadMagic => f.write_str("not a gpecnet blob (bad magic)"),
-            BlobError::UnsupportedVersion(v) => write!(f, "unsupported blob format version {v} (this reader: {FORMAT_VERSION})"),
+            BlobError::UnsupportedVersion(v) => write!(
+                f,
+                "unsupported blob format version {v} (this reader: {FORMAT_VERSION})"
+            ),
             BlobError::Truncated => f.write_str("blob is truncated"),
             BlobError::ChecksumMismatch { stored, computed } => {
-                write!(f, "checksum mismatch: stored {stored:#010x}, computed {computed:#010x}")
+                write!(
+                    f,
+                    "checksum mismatch: stored {stored:#010x}, computed {computed:#010x}"
+                )
             }
             BlobError::Malformed => f.write_str("malformed postcard value in blob"),
             BlobError::TrailingBytes => f.write_str("unexpected bytes before the checksum"),
-            BlobError::UnsupportedNumeric => f.write_str("numeric kind not supported by this build"),
-            BlobError::ShapeMismatch(n) => write!(f, "layer shapes of {n:?} do not match the model config"),
+            BlobError::UnsupportedNumeric => {
+                f.write_str("numeric kind not supported by this build")
+            }
+            BlobError::ShapeMismatch(n) => {
+                write!(f, "layer shapes of {n:?} do not match the model config")
+            }
             BlobError::BadConfig => f.write_str("model hyper-parameters out of range"),
-            BlobError::ExceedsCapacity => f.write_str("model exceeds this build's compile-time capacity"),
+            BlobError::ExceedsCapacity => {
+                f.write_str("model exceeds this build's compile-time capacity")
+            }
             BlobError::NonFinite(n) => write!(f, "non-finite value in {n:?}"),
         }
     }
@@ -261,7 +273,10 @@ pub struct Network<'a> {
 }
 
 impl<'a> Network<'a> {
-    const EMPTY: Self = Self { layers: [None; MAX_LAYERS], len: 0 };
+    const EMPTY: Self = Self {
+        layers: [None; MAX_LAYERS],
+        len: 0,
+    };
 
     /// The layers, first to last.
     pub fn layers(&self) -> impl Iterator<Item = &Layer<'a>> {
@@ -285,7 +300,10 @@ impl<'a> Network<'a> {
     }
     /// Widest layer output (the scratch buffer this network needs).
     pub fn max_width(&self) -> usize {
-        self.layers().map(|l| l.out_dim.max(l.in_dim)).max().unwrap_or(0)
+        self.layers()
+            .map(|l| l.out_dim.max(l.in_dim))
+            .max()
+            .unwrap_or(0)
     }
     /// Multiply-accumulates of one pass.
     pub fn macs(&self) -> usize {
@@ -293,7 +311,10 @@ impl<'a> Network<'a> {
     }
     /// Layer `i`, if present.
     pub fn layer(&self, i: usize) -> Option<&Layer<'a>> {
-        self.layers.get(i).and_then(Option::as_ref).filter(|_| i < self.len)
+        self.layers
+            .get(i)
+            .and_then(Option::as_ref)
+            .filter(|_| i < self.len)
     }
 }
 
@@ -321,7 +342,13 @@ impl<'a> Model<'a> {
         // Magic and version first, so a wrong file or a newer format is named
         // as such rather than as a checksum failure.
         match bytes.get(..4) {
-            None => return Err(if MAGIC.starts_with(bytes) { BlobError::Truncated } else { BlobError::BadMagic }),
+            None => {
+                return Err(if MAGIC.starts_with(bytes) {
+                    BlobError::Truncated
+                } else {
+                    BlobError::BadMagic
+                })
+            }
             Some(m) if m != MAGIC => return Err(BlobError::BadMagic),
             Some(_) => {}
         }
@@ -390,15 +417,21 @@ impl<'a> Model<'a> {
     /// The widest layer of any network: the scratch width a predictor needs.
     pub fn max_width(&self) -> usize {
         let m = self.encoder_past.max_width().max(self.decoder.max_width());
-        m.max(self.encoder_dest.max_width()).max(self.predictor.max_width())
+        m.max(self.encoder_dest.max_width())
+            .max(self.predictor.max_width())
     }
     /// Number of weights and biases.
     pub fn parameter_count(&self) -> usize {
-        [&self.encoder_past, &self.decoder, &self.encoder_dest, &self.predictor]
-            .iter()
-            .flat_map(|n| n.layers())
-            .map(|l| l.macs() + l.out_dim)
-            .sum()
+        [
+            &self.encoder_past,
+            &self.decoder,
+            &self.encoder_dest,
+            &self.predictor,
+        ]
+        .iter()
+        .flat_map(|n| n.layers())
+        .map(|l| l.macs() + l.out_dim)
+        .sum()
     }
     /// Multiply-accumulates to predict `k` endpoints (encoder once, the
     /// decoder's feature columns once, its latent columns and the rest `k` times).
@@ -451,7 +484,9 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
 
 fn validate(m: &Model<'_>) -> Result<(), BlobError> {
     let c = &m.config;
-    let finite = [c.data_scale, c.sigma, c.initial_pos_divisor, c.w0].iter().all(|v| v.is_finite());
+    let finite = [c.data_scale, c.sigma, c.initial_pos_divisor, c.w0]
+        .iter()
+        .all(|v| v.is_finite());
     if !finite || c.data_scale <= 0.0 || c.sigma < 0.0 || c.initial_pos_divisor <= 0.0 {
         return Err(BlobError::BadConfig);
     }
@@ -462,7 +497,12 @@ fn validate(m: &Model<'_>) -> Result<(), BlobError> {
         return Err(BlobError::ExceedsCapacity);
     }
     let (fdim, zdim) = (c.fdim as usize, c.zdim as usize);
-    check_network(&m.encoder_past, NetworkId::EncoderPast, 2 * c.past_len as usize, fdim)?;
+    check_network(
+        &m.encoder_past,
+        NetworkId::EncoderPast,
+        2 * c.past_len as usize,
+        fdim,
+    )?;
     check_network(&m.decoder, NetworkId::Decoder, fdim + zdim, 2)?;
     match (m.encoder_dest.is_empty(), m.predictor.is_empty()) {
         (true, true) => {}
@@ -478,7 +518,12 @@ fn validate(m: &Model<'_>) -> Result<(), BlobError> {
     Ok(())
 }
 
-fn check_network(net: &Network<'_>, id: NetworkId, input: usize, output: usize) -> Result<(), BlobError> {
+fn check_network(
+    net: &Network<'_>,
+    id: NetworkId,
+    input: usize,
+    output: usize,
+) -> Result<(), BlobError> {
     if net.is_empty() || net.in_dim() != input || net.out_dim() != output || output == 0 {
         return Err(BlobError::ShapeMismatch(id));
     }
@@ -487,14 +532,21 @@ fn check_network(net: &Network<'_>, id: NetworkId, input: usize, output: usize) 
         if l.in_dim != width || l.out_dim == 0 {
             return Err(BlobError::ShapeMismatch(id));
         }
-        let n = l.in_dim.checked_mul(l.out_dim).and_then(|n| n.checked_mul(4));
+        let n = l
+            .in_dim
+            .checked_mul(l.out_dim)
+            .and_then(|n| n.checked_mul(4));
         if n != Some(l.weights.len()) || l.bias.len() != l.out_dim * 4 {
             return Err(BlobError::ShapeMismatch(id));
         }
-        let all_finite = l.weights.chunks_exact(4).chain(l.bias.chunks_exact(4)).all(|b| match b {
-            &[a, b, c, d] => f32::from_le_bytes([a, b, c, d]).is_finite(),
-            _ => false,
-        });
+        let all_finite = l
+            .weights
+            .chunks_exact(4)
+            .chain(l.bias.chunks_exact(4))
+            .all(|b| match b {
+                &[a, b, c, d] => f32::from_le_bytes([a, b, c, d]).is_finite(),
+                _ => false,
+            });
         if !all_finite {
             return Err(BlobError::NonFinite(id));
         }

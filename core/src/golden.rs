@@ -84,12 +84,19 @@ impl GoldenCase<'_> {
     }
     /// Expected endpoint `i` as bit patterns.
     pub fn endpoint_bits(&self, i: usize) -> [u32; 2] {
-        [read_f32(self.endpoints, 2 * i).to_bits(), read_f32(self.endpoints, 2 * i + 1).to_bits()]
+        [
+            read_f32(self.endpoints, 2 * i).to_bits(),
+            read_f32(self.endpoints, 2 * i + 1).to_bits(),
+        ]
     }
     /// Expected point `t` of sample 0's trajectory, if recorded.
     pub fn trajectory0_bits(&self, t: usize) -> Option<[u32; 2]> {
-        (8 * t + 8 <= self.trajectory0.len())
-            .then(|| [read_f32(self.trajectory0, 2 * t).to_bits(), read_f32(self.trajectory0, 2 * t + 1).to_bits()])
+        (8 * t + 8 <= self.trajectory0.len()).then(|| {
+            [
+                read_f32(self.trajectory0, 2 * t).to_bits(),
+                read_f32(self.trajectory0, 2 * t + 1).to_bits(),
+            ]
+        })
     }
     /// Number of recorded trajectory points (0 when none).
     pub fn trajectory0_len(&self) -> usize {
@@ -144,8 +151,12 @@ impl<'a> GoldenSet<'a> {
         let mut rest = cur;
         for _ in 0..info.n_cases {
             let c: GoldenCaseWire = take(&mut rest)?;
-            let traj_ok = c.trajectory0.is_empty() || c.trajectory0.len() == 8 * info.future_len as usize;
-            if c.past.len() != 8 * info.past_len as usize || c.endpoints.len() != 8 * info.k as usize || !traj_ok {
+            let traj_ok =
+                c.trajectory0.is_empty() || c.trajectory0.len() == 8 * info.future_len as usize;
+            if c.past.len() != 8 * info.past_len as usize
+                || c.endpoints.len() != 8 * info.k as usize
+                || !traj_ok
+            {
                 return Err(BlobError::BadConfig);
             }
         }
@@ -168,9 +179,15 @@ impl<'a> GoldenSet<'a> {
             let c: GoldenCaseWire = take(&mut rest).ok()?;
             let mut past = heapless::Vec::new();
             for i in 0..c.past.len() / 8 {
-                past.push([read_f32(c.past, 2 * i), read_f32(c.past, 2 * i + 1)]).ok()?;
+                past.push([read_f32(c.past, 2 * i), read_f32(c.past, 2 * i + 1)])
+                    .ok()?;
             }
-            Some(GoldenCase { past, seed: c.seed, endpoints: c.endpoints, trajectory0: c.trajectory0 })
+            Some(GoldenCase {
+                past,
+                seed: c.seed,
+                endpoints: c.endpoints,
+                trajectory0: c.trajectory0,
+            })
         })
     }
 }

@@ -43,7 +43,7 @@ pub fn round_ties_even(x: f32) -> f32 {
 /// fractional part and the result is `±0`.
 #[inline]
 pub fn sin_turns(t: f32) -> f32 {
-    const C1: f32 = 6.283_185_3;
+    const C1: f32 = core::f32::consts::TAU;
     const C3: f32 = -41.341_7;
     const C5: f32 = 81.605_25;
     const C7: f32 = -76.705_86;
@@ -80,7 +80,7 @@ pub fn ln(x: f32) -> f32 {
     const LN2_HI: f32 = 0.693_145_75; // 0x3f317200: 8 trailing zero bits
     const LN2_LO: f32 = 1.428_606_8e-6;
     const SQRT2: f32 = core::f32::consts::SQRT_2;
-    if !(x >= f32::MIN_POSITIVE) || !x.is_finite() {
+    if x.is_nan() || x < f32::MIN_POSITIVE || !x.is_finite() {
         return f32::NAN;
     }
     let bits = x.to_bits();
@@ -92,7 +92,8 @@ pub fn ln(x: f32) -> f32 {
     }
     let s = (m - 1.0) / (m + 1.0);
     let s2 = s * s;
-    let atanh = s * (1.0 + s2 * (0.333_333_34 + s2 * (0.2 + s2 * (0.142_857_15 + s2 * 0.111_111_11))));
+    let atanh =
+        s * (1.0 + s2 * (0.333_333_34 + s2 * (0.2 + s2 * (0.142_857_15 + s2 * 0.111_111_11))));
     let ef = e as f32;
     (ef * LN2_HI + (atanh + atanh)) + ef * LN2_LO
 }

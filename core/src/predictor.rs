@@ -83,10 +83,17 @@ impl core::fmt::Display for PredictError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             PredictError::ScratchTooSmall { needed, capacity } => {
-                write!(f, "model needs scratch width {needed}, predictor has {capacity}")
+                write!(
+                    f,
+                    "model needs scratch width {needed}, predictor has {capacity}"
+                )
             }
-            PredictError::WrongPastLength { expected, got } => write!(f, "expected {expected} observed steps, got {got}"),
-            PredictError::BadSampleCount => f.write_str("sample count is 0 or exceeds the output capacity"),
+            PredictError::WrongPastLength { expected, got } => {
+                write!(f, "expected {expected} observed steps, got {got}")
+            }
+            PredictError::BadSampleCount => {
+                f.write_str("sample count is 0 or exceeds the output capacity")
+            }
             PredictError::NonFiniteInput => f.write_str("non-finite input coordinate"),
             PredictError::NonFiniteOutput => f.write_str("model output is not finite"),
             PredictError::NoPredictor => f.write_str("model has no trajectory predictor"),
@@ -145,7 +152,12 @@ fn dense<S: Sine>(layer: &Layer<'_>, x: &[f32], out: &mut [f32]) {
 
 /// Runs `net` on `input` using `a`/`b` as ping-pong buffers; returns the
 /// output slice (which lives in `a` or `b`).
-fn run_network<'s, S: Sine>(net: &Network<'_>, input: &[f32], a: &'s mut [f32], b: &'s mut [f32]) -> &'s [f32] {
+fn run_network<'s, S: Sine>(
+    net: &Network<'_>,
+    input: &[f32],
+    a: &'s mut [f32],
+    b: &'s mut [f32],
+) -> &'s [f32] {
     let n = input.len().min(a.len());
     a[..n].copy_from_slice(&input[..n]);
     let (mut src, mut dst) = (a, b);
@@ -174,14 +186,22 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
     /// A predictor for `model`; fails if the model is wider than `W`.
     pub fn new(model: &'m Model<'a>) -> Result<Self, PredictError> {
         let c = model.config();
-        let needed = model
-            .max_width()
-            .max(c.fdim as usize + c.zdim as usize)
-            .max(2 * c.future_len as usize);
+        let needed = model.max_width().max(c.fdim as usize + c.zdim as usize);
         if needed > W {
-            return Err(PredictError::ScratchTooSmall { needed, capacity: W });
+            return Err(PredictError::ScratchTooSmall {
+                needed,
+                capacity: W,
+            });
         }
-        Ok(Self { model, a: [0.0; W], b: [0.0; W], feat: [0.0; W], part: [0.0; W], z: [0.0; W], _sine: PhantomData })
+        Ok(Self {
+            model,
+            a: [0.0; W],
+            b: [0.0; W],
+            feat: [0.0; W],
+            part: [0.0; W],
+            z: [0.0; W],
+            _sine: PhantomData,
+        })
     }
 
     /// The model.
@@ -194,7 +214,10 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         let c = *self.model.config();
         let p = c.past_len as usize;
         if past.len() != p {
-            return Err(PredictError::WrongPastLength { expected: p, got: past.len() });
+            return Err(PredictError::WrongPastLength {
+                expected: p,
+                got: past.len(),
+            });
         }
         if past.iter().flatten().any(|v| !v.is_finite()) {
             return Err(PredictError::NonFiniteInput);
@@ -206,7 +229,12 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
             x[2 * t + 1] = (pt[1] - origin[1]) * c.data_scale;
         }
         let fdim = c.fdim as usize;
-        let f = run_network::<S>(self.model.encoder_past(), &x[..2 * p], &mut self.a, &mut self.b);
+        let f = run_network::<S>(
+            self.model.encoder_past(),
+            &x[..2 * p],
+            &mut self.a,
+            &mut self.b,
+        );
         self.feat[..fdim].copy_from_slice(&f[..fdim]);
         if let Some(l0) = self.model.decoder().layer(0) {
             let out = l0.out_dim();
@@ -223,7 +251,9 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         let c = self.model.config();
         let (fdim, zdim) = (c.fdim as usize, c.zdim as usize);
         let dec = self.model.decoder();
-        let Some(l0) = dec.layer(0) else { return [f32::NAN; 2] };
+        let Some(l0) = dec.layer(0) else {
+            return [f32::NAN; 2];
+        };
         let out0 = l0.out_dim();
         self.a[..out0].copy_from_slice(&self.part[..out0]);
         accumulate(l0, fdim, &self.z[..zdim], &mut self.a[..out0]);
@@ -307,7 +337,10 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
                 *zi = c.sigma * g.next();
             }
             let d = self.decode();
-            let e = [d[0] / c.data_scale + origin[0], d[1] / c.data_scale + origin[1]];
+            let e = [
+                d[0] / c.data_scale + origin[0],
+                d[1] / c.data_scale + origin[1],
+            ];
             if !(e[0].is_finite() && e[1].is_finite()) {
                 return Err(PredictError::NonFiniteOutput);
             }
@@ -319,7 +352,13 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
     }
 
     /// Step 6 for one normalised endpoint `d` (features already in `self.feat`).
-    fn trajectory(&mut self, origin: [f32; 2], last: [f32; 2], e: [f32; 2], d: [f32; 2]) -> Result<Trajectory, PredictError> {
+    fn trajectory(
+        &mut self,
+        origin: [f32; 2],
+        last: [f32; 2],
+        e: [f32; 2],
+        d: [f32; 2],
+    ) -> Result<Trajectory, PredictError> {
         let c = *self.model.config();
         let fdim = c.fdim as usize;
         let g = run_network::<S>(self.model.encoder_dest(), &d, &mut self.a, &mut self.b);
@@ -330,10 +369,18 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         self.z[fdim + ddim] = last[0] / c.initial_pos_divisor;
         self.z[fdim + ddim + 1] = last[1] / c.initial_pos_divisor;
         let n_in = fdim + ddim + 2;
-        let q = run_network::<S>(self.model.predictor(), &self.z[..n_in], &mut self.a, &mut self.b);
+        let q = run_network::<S>(
+            self.model.predictor(),
+            &self.z[..n_in],
+            &mut self.a,
+            &mut self.b,
+        );
         let mut t = Trajectory::new();
         for pair in q.chunks_exact(2) {
-            let pt = [pair[0] / c.data_scale + origin[0], pair[1] / c.data_scale + origin[1]];
+            let pt = [
+                pair[0] / c.data_scale + origin[0],
+                pair[1] / c.data_scale + origin[1],
+            ];
             if !(pt[0].is_finite() && pt[1].is_finite()) {
                 return Err(PredictError::NonFiniteOutput);
             }

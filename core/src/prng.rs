@@ -165,7 +165,9 @@ mod tests {
     #[test]
     fn xoshiro_reference_sequence() {
         let mut g = Xoshiro128PlusPlus::from_state([1, 2, 3, 4]);
-        let want = [641u32, 1573767, 3222811527, 3517856514, 836907274, 4247214768, 3867114732, 1355841295];
+        let want = [
+            641u32, 1573767, 3222811527, 3517856514, 836907274, 4247214768, 3867114732, 1355841295,
+        ];
         for w in want {
             assert_eq!(g.next_u32(), w);
         }
@@ -183,7 +185,14 @@ mod tests {
     fn seeded_reference_sequence() {
         let mut g = Xoshiro128PlusPlus::seed_from_u64(42);
         assert_eq!(g.state(), [0x2feb6e95, 0xbdd73226, 0xb266f103, 0x28efe333]);
-        for w in [2643743425u32, 1762251840, 1632151183, 1417845339, 3326664244, 3989346982] {
+        for w in [
+            2643743425u32,
+            1762251840,
+            1632151183,
+            1417845339,
+            3326664244,
+            3989346982,
+        ] {
             assert_eq!(g.next_u32(), w);
         }
     }

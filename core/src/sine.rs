@@ -56,7 +56,7 @@ impl Sine for FastSine {
         const H: f32 = 6.281_25;
         const L: f32 = 1.935_307_2e-3;
         let t = x * math::INV_TWO_PI;
-        if !(t.abs() < 65_536.0) {
+        if t.is_nan() || t.abs() >= 65_536.0 {
             return math::sin_turns(t);
         }
         let n = math::round_ties_even(t);

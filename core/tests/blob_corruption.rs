@@ -16,9 +16,16 @@ fn valid_blob_parses() {
     assert_eq!(m.decoder().out_dim(), 2);
     assert!(m.has_predictor());
     assert_eq!(m.max_width(), 22);
-    let params: usize = small_nets(Activation::Sine).iter().flatten().map(|l| l.w.len() + l.b.len()).sum();
+    let params: usize = small_nets(Activation::Sine)
+        .iter()
+        .flatten()
+        .map(|l| l.w.len() + l.b.len())
+        .sum();
     assert_eq!(m.parameter_count(), params);
-    assert_eq!(m.crc(), u32::from_le_bytes(blob[blob.len() - 4..].try_into().unwrap()));
+    assert_eq!(
+        m.crc(),
+        u32::from_le_bytes(blob[blob.len() - 4..].try_into().unwrap())
+    );
 }
 
 #[test]
@@ -28,13 +35,22 @@ fn every_truncation_is_rejected() {
         let err = Model::from_blob(&blob[..n]).unwrap_err();
         match n {
             0..=3 => assert_eq!(err, BlobError::Truncated, "len {n}"),
-            _ => assert!(matches!(err, BlobError::Truncated | BlobError::ChecksumMismatch { .. }), "len {n}: {err:?}"),
+            _ => assert!(
+                matches!(
+                    err,
+                    BlobError::Truncated | BlobError::ChecksumMismatch { .. }
+                ),
+                "len {n}: {err:?}"
+            ),
         }
     }
     // Structure cut short but with a valid checksum over what is left.
     for n in 6..blob.len() - 4 {
         let err = Model::from_blob(&seal(blob[..n].to_vec())).unwrap_err();
-        assert!(err == BlobError::Truncated || matches!(err, BlobError::ShapeMismatch(_)), "len {n}: {err:?}");
+        assert!(
+            err == BlobError::Truncated || matches!(err, BlobError::ShapeMismatch(_)),
+            "len {n}: {err:?}"
+        );
     }
 }
 
@@ -101,7 +117,10 @@ fn random_bytes_never_panic() {
     }
 }
 
-fn with(config_edit: impl Fn(&mut gpecnet_core::ModelConfig), nets_edit: impl Fn(&mut [Vec<TestLayer>; 4])) -> Result<(), BlobError> {
+fn with(
+    config_edit: impl Fn(&mut gpecnet_core::ModelConfig),
+    nets_edit: impl Fn(&mut [Vec<TestLayer>; 4]),
+) -> Result<(), BlobError> {
     let mut c = config();
     config_edit(&mut c);
     let mut nets = small_nets(Activation::Sine);
@@ -112,48 +131,132 @@ fn with(config_edit: impl Fn(&mut gpecnet_core::ModelConfig), nets_edit: impl Fn
 
 #[test]
 fn error_paths() {
-    assert_eq!(Model::from_blob(b"XPEC\x01").unwrap_err(), BlobError::BadMagic);
+    assert_eq!(
+        Model::from_blob(b"XPEC\x01").unwrap_err(),
+        BlobError::BadMagic
+    );
     assert_eq!(Model::from_blob(b"GPE").unwrap_err(), BlobError::Truncated);
     assert_eq!(Model::from_blob(b"GPX").unwrap_err(), BlobError::BadMagic);
     assert_eq!(Model::from_blob(b"GPEC").unwrap_err(), BlobError::Truncated);
     let v2 = encode("v2", config(), &small_nets(Activation::Sine), 2);
-    assert_eq!(Model::from_blob(&v2).unwrap_err(), BlobError::UnsupportedVersion(2));
+    assert_eq!(
+        Model::from_blob(&v2).unwrap_err(),
+        BlobError::UnsupportedVersion(2)
+    );
 
     let mut bad_crc = small_blob();
     let n = bad_crc.len();
     bad_crc[n - 1] ^= 0x80;
-    assert!(matches!(Model::from_blob(&bad_crc).unwrap_err(), BlobError::ChecksumMismatch { .. }));
+    assert!(matches!(
+        Model::from_blob(&bad_crc).unwrap_err(),
+        BlobError::ChecksumMismatch { .. }
+    ));
 
     let mut trailing = small_blob();
     trailing.truncate(trailing.len() - 4);
     trailing.push(0);
-    assert_eq!(Model::from_blob(&seal(trailing)).unwrap_err(), BlobError::TrailingBytes);
+    assert_eq!(
+        Model::from_blob(&seal(trailing)).unwrap_err(),
+        BlobError::TrailingBytes
+    );
 
     // Config out of range.
-    assert_eq!(with(|c| c.data_scale = 0.0, |_| ()), Err(BlobError::BadConfig));
-    assert_eq!(with(|c| c.sigma = f32::NAN, |_| ()), Err(BlobError::BadConfig));
-    assert_eq!(with(|c| c.initial_pos_divisor = -1.0, |_| ()), Err(BlobError::BadConfig));
+    assert_eq!(
+        with(|c| c.data_scale = 0.0, |_| ()),
+        Err(BlobError::BadConfig)
+    );
+    assert_eq!(
+        with(|c| c.sigma = f32::NAN, |_| ()),
+        Err(BlobError::BadConfig)
+    );
+    assert_eq!(
+        with(|c| c.initial_pos_divisor = -1.0, |_| ()),
+        Err(BlobError::BadConfig)
+    );
     assert_eq!(with(|c| c.zdim = 0, |_| ()), Err(BlobError::BadConfig));
-    assert_eq!(with(|c| c.past_len = 40, |_| ()), Err(BlobError::ExceedsCapacity));
+    assert_eq!(
+        with(|c| c.past_len = 40, |_| ()),
+        Err(BlobError::ExceedsCapacity)
+    );
     // Shapes.
-    assert_eq!(with(|c| c.fdim = 5, |_| ()), Err(BlobError::ShapeMismatch(NetworkId::EncoderPast)));
-    assert_eq!(with(|c| c.zdim = 4, |_| ()), Err(BlobError::ShapeMismatch(NetworkId::Decoder)));
-    assert_eq!(with(|c| c.future_len = 10, |_| ()), Err(BlobError::ShapeMismatch(NetworkId::Predictor)));
-    assert_eq!(with(|_| (), |n| n[1][1] = layer(4, 2, Activation::Linear, 9, 1.0)), Err(BlobError::ShapeMismatch(NetworkId::Decoder)));
-    assert_eq!(with(|_| (), |n| { n[1][0].w.pop(); }), Err(BlobError::ShapeMismatch(NetworkId::Decoder)));
-    assert_eq!(with(|_| (), |n| { n[0][0].b.push(0.0); }), Err(BlobError::ShapeMismatch(NetworkId::EncoderPast)));
-    assert_eq!(with(|_| (), |n| n[2].clear()), Err(BlobError::ShapeMismatch(NetworkId::EncoderDest)));
-    assert_eq!(with(|_| (), |n| n[3].clear()), Err(BlobError::ShapeMismatch(NetworkId::Predictor)));
-    assert_eq!(with(|_| (), |n| n[0].clear()), Err(BlobError::ShapeMismatch(NetworkId::EncoderPast)));
-    assert_eq!(with(|_| (), |n| n[1][0].out_dim = 0), Err(BlobError::ShapeMismatch(NetworkId::Decoder)));
+    assert_eq!(
+        with(|c| c.fdim = 5, |_| ()),
+        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
+    );
+    assert_eq!(
+        with(|c| c.zdim = 4, |_| ()),
+        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+    );
+    assert_eq!(
+        with(|c| c.future_len = 10, |_| ()),
+        Err(BlobError::ShapeMismatch(NetworkId::Predictor))
+    );
+    assert_eq!(
+        with(
+            |_| (),
+            |n| n[1][1] = layer(4, 2, Activation::Linear, 9, 1.0)
+        ),
+        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+    );
+    assert_eq!(
+        with(
+            |_| (),
+            |n| {
+                n[1][0].w.pop();
+            }
+        ),
+        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+    );
+    assert_eq!(
+        with(
+            |_| (),
+            |n| {
+                n[0][0].b.push(0.0);
+            }
+        ),
+        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
+    );
+    assert_eq!(
+        with(|_| (), |n| n[2].clear()),
+        Err(BlobError::ShapeMismatch(NetworkId::EncoderDest))
+    );
+    assert_eq!(
+        with(|_| (), |n| n[3].clear()),
+        Err(BlobError::ShapeMismatch(NetworkId::Predictor))
+    );
+    assert_eq!(
+        with(|_| (), |n| n[0].clear()),
+        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
+    );
+    assert_eq!(
+        with(|_| (), |n| n[1][0].out_dim = 0),
+        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+    );
     // Endpoint-only models are valid.
-    assert_eq!(with(|_| (), |n| { n[2].clear(); n[3].clear(); }), Ok(()));
+    assert_eq!(
+        with(
+            |_| (),
+            |n| {
+                n[2].clear();
+                n[3].clear();
+            }
+        ),
+        Ok(())
+    );
     // Non-finite weights.
-    assert_eq!(with(|_| (), |n| n[3][1].w[7] = f32::INFINITY), Err(BlobError::NonFinite(NetworkId::Predictor)));
-    assert_eq!(with(|_| (), |n| n[0][0].b[0] = f32::NAN), Err(BlobError::NonFinite(NetworkId::EncoderPast)));
+    assert_eq!(
+        with(|_| (), |n| n[3][1].w[7] = f32::INFINITY),
+        Err(BlobError::NonFinite(NetworkId::Predictor))
+    );
+    assert_eq!(
+        with(|_| (), |n| n[0][0].b[0] = f32::NAN),
+        Err(BlobError::NonFinite(NetworkId::EncoderPast))
+    );
     // Capacity.
     let too_many = |n: &mut [Vec<TestLayer>; 4]| {
-        n[0] = (0..=MAX_LAYERS).map(|i| layer(16, 16, Activation::Sine, i as u32, 0.1)).collect();
+        n[0] = (0..=MAX_LAYERS)
+            .map(|i| layer(16, 16, Activation::Sine, i as u32, 0.1))
+            .collect();
         n[0].push(layer(16, 4, Activation::Linear, 99, 0.1));
     };
     assert_eq!(with(|_| (), too_many), Err(BlobError::ExceedsCapacity));
@@ -165,12 +268,18 @@ fn malformed_values_are_typed() {
     let mut b = small_blob();
     b.truncate(b.len() - 4);
     b[5] = 7;
-    assert_eq!(Model::from_blob(&seal(b)).unwrap_err(), BlobError::Malformed);
+    assert_eq!(
+        Model::from_blob(&seal(b)).unwrap_err(),
+        BlobError::Malformed
+    );
     // Invalid UTF-8 in the name (name length at [6], bytes from [7]).
     let mut b = small_blob();
     b.truncate(b.len() - 4);
     b[7] = 0xff;
-    assert_eq!(Model::from_blob(&seal(b)).unwrap_err(), BlobError::Malformed);
+    assert_eq!(
+        Model::from_blob(&seal(b)).unwrap_err(),
+        BlobError::Malformed
+    );
     // A name length running past the end.
     let mut b = small_blob();
     b.truncate(b.len() - 4);

@@ -1,7 +1,10 @@
 //! A small blob writer for tests (the trainer has the production exporter).
 #![allow(dead_code)]
 
-use gpecnet_core::blob::{Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC};
+use gpecnet_core::blob::{
+    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION,
+    MAGIC,
+};
 
 pub struct TestLayer {
     pub in_dim: usize,
@@ -22,7 +25,13 @@ pub fn layer(in_dim: usize, out_dim: usize, act: Activation, seed: u32, scale: f
     };
     let w = (0..in_dim * out_dim).map(|_| next()).collect();
     let b = (0..out_dim).map(|_| next()).collect();
-    TestLayer { in_dim, out_dim, act, w, b }
+    TestLayer {
+        in_dim,
+        out_dim,
+        act,
+        w,
+        b,
+    }
 }
 
 pub fn bytes(v: &[f32]) -> Vec<u8> {
@@ -46,22 +55,53 @@ pub fn config() -> ModelConfig {
 /// A small but complete model: encoder 16-6-4, decoder 7-5-2, dest 2-3, predictor 9-6-22.
 pub fn small_nets(act: Activation) -> [Vec<TestLayer>; 4] {
     [
-        vec![layer(16, 6, act, 1, 0.5), layer(6, 4, Activation::Linear, 2, 0.5)],
-        vec![layer(7, 5, act, 3, 0.8), layer(5, 2, Activation::Linear, 4, 0.8)],
+        vec![
+            layer(16, 6, act, 1, 0.5),
+            layer(6, 4, Activation::Linear, 2, 0.5),
+        ],
+        vec![
+            layer(7, 5, act, 3, 0.8),
+            layer(5, 2, Activation::Linear, 4, 0.8),
+        ],
         vec![layer(2, 3, act, 5, 0.8)],
-        vec![layer(9, 6, act, 6, 0.5), layer(6, 22, Activation::Linear, 7, 0.5)],
+        vec![
+            layer(9, 6, act, 6, 0.5),
+            layer(6, 22, Activation::Linear, 7, 0.5),
+        ],
     ]
 }
 
 /// Serialises a blob exactly as weights/FORMAT.md describes.
-pub fn encode(name: &str, config: ModelConfig, nets: &[Vec<TestLayer>; 4], version: u16) -> Vec<u8> {
-    let mut out = postcard::to_stdvec(&Preamble { magic: MAGIC, version }).unwrap();
-    out.extend(postcard::to_stdvec(&ModelInfo { numeric: NumericKind::F32, name, config }).unwrap());
+pub fn encode(
+    name: &str,
+    config: ModelConfig,
+    nets: &[Vec<TestLayer>; 4],
+    version: u16,
+) -> Vec<u8> {
+    let mut out = postcard::to_stdvec(&Preamble {
+        magic: MAGIC,
+        version,
+    })
+    .unwrap();
+    out.extend(
+        postcard::to_stdvec(&ModelInfo {
+            numeric: NumericKind::F32,
+            name,
+            config,
+        })
+        .unwrap(),
+    );
     for net in nets {
         out.extend(postcard::to_stdvec(&(net.len() as u8)).unwrap());
         for l in net {
             let (w, b) = (bytes(&l.w), bytes(&l.b));
-            let wire = LayerWire { in_dim: l.in_dim as u16, out_dim: l.out_dim as u16, activation: l.act, weights: &w, bias: &b };
+            let wire = LayerWire {
+                in_dim: l.in_dim as u16,
+                out_dim: l.out_dim as u16,
+                activation: l.act,
+                weights: &w,
+                bias: &b,
+            };
             out.extend(postcard::to_stdvec(&wire).unwrap());
         }
     }
@@ -81,5 +121,10 @@ pub fn reseal(blob: &[u8]) -> Vec<u8> {
 }
 
 pub fn small_blob() -> Vec<u8> {
-    encode("test-small", config(), &small_nets(Activation::Sine), FORMAT_VERSION)
+    encode(
+        "test-small",
+        config(),
+        &small_nets(Activation::Sine),
+        FORMAT_VERSION,
+    )
 }
