@@ -1,0 +1,444 @@
+//! Data loading on the real benchmark files (shared/data) and on malformed temp files.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use gpecnet_trainer::data::*;
+
+fn root() -> PathBuf {
+    let r = default_data_root();
+    assert!(
+        r.join("README.md").is_file(),
+        "benchmark data not found at {}",
+        r.display()
+    );
+    r
+}
+
+#[test]
+fn sdd_train_counts() {
+    let ds = load_sdd(&root(), SddSplit::Train).unwrap();
+    assert_eq!(ds.unit, Unit::Pixels);
+    assert_eq!(ds.name, "sdd/train");
+    assert_eq!(ds.len(), 8494);
+    let per = ds.windows_per_scene();
+    assert_eq!(per.len(), 30);
+    assert_eq!(per["bookstore_0"], 805);
+    assert_eq!(per["hyang_9"], 1);
+    assert_eq!(per["nexus_9"], 326);
+    // Sorted file-name order.
+    let scenes = ds.scenes();
+    assert_eq!(scenes.len(), 30);
+    let mut sorted = scenes.clone();
+    sorted.sort();
+    assert_eq!(scenes, sorted);
+    assert_eq!(scenes[0], "bookstore_0");
+}
+
+#[test]
+fn sdd_test_and_extra_counts() {
+    let ds = load_sdd(&root(), SddSplit::Test).unwrap();
+    assert_eq!(ds.len(), 2829);
+    assert_eq!(ds.scenes().len(), 17);
+    assert_eq!(ds.windows_per_scene()["hyang_0"], 630);
+    let extra = load_sdd(&root(), SddSplit::TrainExtra).unwrap();
+    assert_eq!(extra.len(), 491);
+    assert_eq!(extra.scenes(), vec!["nexus_2".to_string()]);
+}
+
+#[test]
+fn sdd_first_window_equals_first_20_lines() {
+    let r = root();
+    let text = fs::read_to_string(r.join("sdd/train/bookstore_0.txt")).unwrap();
+    let ds = load_sdd(&r, SddSplit::Train).unwrap();
+    let w = &ds.windows[0];
+    assert_eq!(w.scene, "bookstore_0");
+    assert_eq!(w.ped_id, 100.0);
+    for (t, line) in text.lines().take(WINDOW).enumerate() {
+        let c: Vec<&str> = line.split(' ').collect();
+        assert_eq!(w.frames[t], c[0].parse::<i64>().unwrap());
+        assert_eq!(w.ped_id, c[1].parse::<f64>().unwrap());
+        assert_eq!(w.pos[t][0], c[2].parse::<f32>().unwrap());
+        assert_eq!(w.pos[t][1], c[3].parse::<f32>().unwrap());
+    }
+    assert_eq!(w.frames[0], 0);
+    assert_eq!(w.pos[0], [757.0, 918.5]);
+    assert_eq!(w.frames[19], 228);
+    assert_eq!(w.endpoint(), w.pos[19]);
+    assert_eq!(w.obs()[..], w.pos[..PAST]);
+    assert_eq!(w.future()[..], w.pos[PAST..]);
+}
+
+/// The whole test split equals Y-Net's `test_trajnet.csv`, row for row and in order.
+#[test]
+fn sdd_test_matches_ynet_csv() {
+    let r = root();
+    let ds = load_sdd(&r, SddSplit::Test).unwrap();
+    let csv = fs::read_to_string(r.join("sdd/ynet/test_trajnet.csv")).unwrap();
+    let mut n = 0usize;
+    for (i, line) in csv.lines().skip(1).enumerate() {
+        let c: Vec<&str> = line.split(',').collect();
+        let meta: usize = c[5].parse().unwrap();
+        assert_eq!(meta, i / WINDOW);
+        let w = &ds.windows[meta];
+        let t = i % WINDOW;
+        assert_eq!(w.scene, c[4]);
+        assert_eq!(w.ped_id, c[1].parse::<f64>().unwrap());
+        assert_eq!(w.frames[t], c[0].parse::<i64>().unwrap());
+        assert_eq!(w.pos[t][0], c[2].parse::<f32>().unwrap(), "row {i}");
+        assert_eq!(w.pos[t][1], c[3].parse::<f32>().unwrap(), "row {i}");
+        n += 1;
+    }
+    assert_eq!(n, 56_580);
+}
+
+#[test]
+fn eth_ucy_counts() {
+    let r = root();
+    let cases = [
+        ("eth", EthUcySplit::Test, 181),
+        ("zara1", EthUcySplit::Test, 2253),
+        ("hotel", EthUcySplit::Test, 1053),
+        ("zara2", EthUcySplit::Test, 5833),
+        ("univ", EthUcySplit::Test, 24334),
+        ("eth", EthUcySplit::Train, 29809),
+        ("zara1", EthUcySplit::Val, 5118),
+    ];
+    for (scene, split, n) in cases {
+        let ds = load_eth_ucy(&r, scene, split).unwrap();
+        assert_eq!(ds.unit, Unit::Metres);
+        assert_eq!(ds.len(), n, "{scene} {split:?}");
+    }
+}
+
+#[test]
+fn eth_ucy_windows_are_consistent() {
+    let ds = load_eth_ucy(&root(), "eth", EthUcySplit::Test).unwrap();
+    assert_eq!(ds.scenes(), vec!["biwi_eth".to_string()]);
+    for w in &ds.windows {
+        for t in 1..WINDOW {
+            assert!(w.frames[t] > w.frames[t - 1]);
+        }
+        assert!(w.pos.iter().flatten().all(|v| v.is_finite()));
+    }
+}
+
+#[test]
+fn eth_ucy_sliding_window_rule_on_small_file() {
+    // Three peds: 1 and 2 present in frames 0..=20 (21 unique frames -> 2 windows), ped 3 only
+    // in frames 0..=18 (never complete). A lone ped 4 in frames 100..=119 alone -> dropped.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("eth_ucy/eth/test");
+    fs::create_dir_all(&d).unwrap();
+    let mut s = String::new();
+    for f in 0..=20 {
+        for p in 1..=3 {
+            if p == 3 && f > 18 {
+                continue;
+            }
+            s.push_str(&format!("{}\t{p}.0\t{}.5\t{}\n", f * 10, f, p));
+        }
+    }
+    for f in 21..41 {
+        s.push_str(&format!("{}\t4.0\t1.0\t1.0\n", f * 10));
+    }
+    fs::write(d.join("a.txt"), s).unwrap();
+    let ds = load_eth_ucy(dir.path(), "eth", EthUcySplit::Test).unwrap();
+    // windows start at unique-frame index 0 and 1 (peds 1,2), later starts lack two peds.
+    assert_eq!(ds.len(), 4);
+    assert_eq!(ds.windows[0].ped_id, 1.0);
+    assert_eq!(ds.windows[1].ped_id, 2.0);
+    assert_eq!(ds.windows[2].frames[0], 10);
+    assert_eq!(ds.windows[2].pos[0], [1.5, 1.0]);
+}
+
+#[test]
+fn val_split_by_scene() {
+    let ds = load_sdd(&root(), SddSplit::Train).unwrap();
+    let val_scenes = default_sdd_val_scenes();
+    assert_eq!(val_scenes.len(), 5);
+    let (train, val) = split_by_scene(ds, &val_scenes);
+    assert_eq!(val.len(), 846);
+    assert_eq!(train.len(), 8494 - 846);
+    let frac = val.len() as f64 / 8494.0;
+    assert!((0.09..0.11).contains(&frac), "{frac}");
+    assert_eq!(val.scenes().len(), 5);
+    assert_eq!(train.scenes().len(), 25);
+    assert!(train.windows.iter().all(|w| !val_scenes.contains(&w.scene)));
+    assert!(val.windows.iter().all(|w| val_scenes.contains(&w.scene)));
+}
+
+fn hand_window() -> Window {
+    let mut w = Window {
+        scene: "hand".into(),
+        ped_id: 7.0,
+        frames: [0; WINDOW],
+        pos: [[0.0; 2]; WINDOW],
+    };
+    for t in 0..WINDOW {
+        w.frames[t] = 12 * t as i64;
+        w.pos[t] = [100.0 + 2.0 * t as f32, 50.0 - t as f32];
+    }
+    w
+}
+
+#[test]
+fn normalize_hand_computed() {
+    let w = hand_window();
+    let s = normalize(&w, 1.86);
+    assert_eq!(s.obs[0], [0.0, 0.0]);
+    assert_eq!(s.obs[1], [2.0f32 * 1.86, -1.86]);
+    assert!((s.obs[7][0] - 26.04).abs() < 1e-5);
+    assert!((s.obs[7][1] + 13.02).abs() < 1e-5);
+    assert!((s.future[11][0] - 70.68).abs() < 1e-4); // (138-100)*1.86
+    assert!((s.future[11][1] + 35.34).abs() < 1e-4); // (31-50)*1.86
+    assert_eq!(s.initial_pos, [114.0 / 1000.0, 43.0 / 1000.0]);
+    // Exact f32 op order: (p - p0) * scale; future[3] is step 11, x = 100 + 22.
+    assert_eq!(s.future[3][0], (122.0f32 - 100.0f32) * 1.86f32);
+    // Round trip.
+    let back = denormalize_point(s.future[11], w.pos[0], 1.86);
+    assert!((back[0] - 138.0).abs() < 1e-4 && (back[1] - 31.0).abs() < 1e-4);
+}
+
+#[test]
+fn time_reversal() {
+    let w = hand_window();
+    let r = time_reversed(&w);
+    assert_eq!(r.pos[0], w.pos[19]);
+    assert_eq!(r.frames[19], w.frames[0]);
+    assert_ne!(r, w);
+    assert_eq!(time_reversed(&r), w);
+    let ds = Dataset {
+        name: "x".into(),
+        unit: Unit::Pixels,
+        windows: vec![w.clone()],
+    }
+    .with_time_reversed();
+    assert_eq!(ds.windows, vec![w, r]);
+}
+
+#[test]
+fn default_root_exists() {
+    assert!(default_data_root().join("sdd/train").is_dir());
+}
+
+// ---------------------------------------------------------------- malformed files
+
+/// A valid 20-row trajectory for ped `id` starting at frame `f0`.
+fn good_rows(id: &str, f0: i64) -> Vec<String> {
+    (0..20)
+        .map(|t| format!("{} {id} {}.0 5.5", f0 + 12 * t, 10 + t))
+        .collect()
+}
+
+/// Write `lines` as root/sdd/train/bad.txt and load the train split.
+fn load_bad_sdd(lines: &[String]) -> (tempfile::TempDir, Result<Dataset, DataError>) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("sdd/train");
+    fs::create_dir_all(&d).unwrap();
+    fs::write(d.join("bad.txt"), lines.join("\n")).unwrap();
+    let r = load_sdd(dir.path(), SddSplit::Train);
+    (dir, r)
+}
+
+fn assert_names(e: &DataError, line: usize) {
+    assert_eq!(e.line(), Some(line), "{e}");
+    assert!(e.path().ends_with("sdd/train/bad.txt"), "{e}");
+    let msg = e.to_string();
+    assert!(msg.contains(&format!("bad.txt:{line}:")), "{msg}");
+}
+
+#[test]
+fn good_temp_file_loads() {
+    let mut l = good_rows("3", 0);
+    l.extend(good_rows("4.0", 600));
+    let (_d, r) = load_bad_sdd(&l);
+    let ds = r.unwrap();
+    assert_eq!(ds.len(), 2);
+    assert_eq!(ds.windows[1].ped_id, 4.0);
+    assert_eq!(ds.windows[1].frames[0], 600);
+    assert_eq!(ds.windows[0].scene, "bad");
+}
+
+#[test]
+fn bad_column_count() {
+    let mut l = good_rows("1", 0);
+    l[2] = "24 1 5.0".into();
+    let (_d, r) = load_bad_sdd(&l);
+    let e = r.unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DataError::ColumnCount {
+                found: 3,
+                expected: 4,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert_names(&e, 3);
+}
+
+#[test]
+fn text_in_number() {
+    let mut l = good_rows("1", 0);
+    l[4] = "48 1 abc 5.0".into();
+    let (_d, r) = load_bad_sdd(&l);
+    let e = r.unwrap_err();
+    assert!(
+        matches!(&e, DataError::BadNumber { column: 3, text, .. } if text == "abc"),
+        "{e:?}"
+    );
+    assert_names(&e, 5);
+    assert!(e.to_string().contains("abc"));
+}
+
+#[test]
+fn fractional_frame() {
+    let mut l = good_rows("1", 0);
+    l[1] = "12.5 1 5.0 5.0".into();
+    let (_d, r) = load_bad_sdd(&l);
+    let e = r.unwrap_err();
+    assert!(matches!(e, DataError::BadNumber { column: 1, .. }), "{e:?}");
+    assert_names(&e, 2);
+}
+
+#[test]
+fn nan_and_inf() {
+    for (bad, col) in [("NaN", 4), ("inf", 4), ("1e39", 4)] {
+        let mut l = good_rows("1", 0);
+        l[6] = format!("72 1 5.0 {bad}");
+        let (_d, r) = load_bad_sdd(&l);
+        let e = r.unwrap_err();
+        assert!(
+            matches!(e, DataError::NonFinite { column, .. } if column == col),
+            "{bad}: {e:?}"
+        );
+        assert_names(&e, 7);
+    }
+}
+
+#[test]
+fn nineteen_row_ped() {
+    let mut l = good_rows("1", 0);
+    let mut second = good_rows("2", 0);
+    second.pop();
+    l.extend(second);
+    let (_d, r) = load_bad_sdd(&l);
+    let e = r.unwrap_err();
+    assert!(
+        matches!(e, DataError::TrajectoryLength { rows: 19, last_line: 39, ped_id, .. } if ped_id == 2.0),
+        "{e:?}"
+    );
+    assert_names(&e, 21);
+}
+
+#[test]
+fn wrong_frame_step() {
+    let mut l = good_rows("1", 0);
+    l[5] = "61 1 5.0 5.0".into();
+    let (_d, r) = load_bad_sdd(&l);
+    let e = r.unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DataError::FrameStep {
+                found: 13,
+                prev_frame: 48,
+                frame: 61,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert_names(&e, 6);
+}
+
+#[test]
+fn non_utf8_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("sdd/train");
+    fs::create_dir_all(&d).unwrap();
+    let mut bytes = good_rows("1", 0).join("\n").into_bytes();
+    bytes.extend_from_slice(b"\n0 9 \xff\xfe 1");
+    fs::write(d.join("bad.txt"), bytes).unwrap();
+    let e = load_sdd(dir.path(), SddSplit::Train).unwrap_err();
+    assert!(matches!(e, DataError::Encoding { line: 21, .. }), "{e:?}");
+}
+
+#[test]
+fn crlf_and_blank_lines_are_tolerated() {
+    let mut l = good_rows("1", 0);
+    l.insert(3, String::new());
+    let text = l.join("\r\n") + "\r\n";
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("sdd/test");
+    fs::create_dir_all(&d).unwrap();
+    fs::write(d.join("x.txt"), text).unwrap();
+    let ds = load_sdd(dir.path(), SddSplit::Test).unwrap();
+    assert_eq!(ds.len(), 1);
+    assert_eq!(ds.windows[0].pos[19], [29.0, 5.5]);
+}
+
+#[test]
+fn missing_directory_has_hint() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = load_sdd(dir.path(), SddSplit::Test).unwrap_err();
+    assert!(matches!(e, DataError::Missing { .. }), "{e:?}");
+    assert!(e.path().ends_with("sdd/test"));
+    assert_eq!(e.line(), None);
+    let msg = e.to_string();
+    assert!(msg.contains("README") && msg.contains("--data"), "{msg}");
+
+    let e = load_eth_ucy(dir.path(), "nowhere", EthUcySplit::Val).unwrap_err();
+    assert!(matches!(e, DataError::Missing { .. }), "{e:?}");
+    assert!(e.to_string().contains("zara1"));
+}
+
+#[test]
+fn empty_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir_all(dir.path().join("sdd/train")).unwrap();
+    let e = load_sdd(dir.path(), SddSplit::Train).unwrap_err();
+    assert!(matches!(e, DataError::NoFiles { .. }), "{e:?}");
+}
+
+#[test]
+fn eth_ucy_duplicate_and_bad_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("eth_ucy/zara1/train");
+    fs::create_dir_all(&d).unwrap();
+    let f = d.join("a.txt");
+    fs::write(
+        &f,
+        "0\t1.0\t1.0\t1.0\n10\t1.0\t1.0\t1.0\n10\t1.0\t2.0\t2.0\n",
+    )
+    .unwrap();
+    let e = load_eth_ucy(dir.path(), "zara1", EthUcySplit::Train).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DataError::DuplicateRow {
+                line: 3,
+                frame: 10,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    fs::write(&f, "0\t1.0\t1.0\t1.0\n10\t1.0\t1.0\n").unwrap();
+    let e = load_eth_ucy(dir.path(), "zara1", EthUcySplit::Train).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DataError::ColumnCount {
+                line: 2,
+                found: 3,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(e.path() == Path::new(&f));
+}
