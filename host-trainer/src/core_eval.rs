@@ -1,0 +1,126 @@
+//! Evaluation of exported blobs **through `gpecnet-core`** (what the device
+//! runs) and through the trainer's reference path, with the same seeds.
+//!
+//! Seeds: window `i` of a dataset (in loading order) uses latent seed
+//! `base_seed + i`. Predictions are computed in parallel but accumulated in
+//! window order, so the metrics are identical for any thread count.
+//!
+//! For a model without a trajectory predictor, the 11 intermediate points
+//! are placed on the straight line from the last observation to each
+//! endpoint (documented in the model card when used).
+
+use anyhow::{anyhow, Result};
+use gpecnet_core::{FastSine, LibmSine, Model, Predictor, Sine};
+
+use crate::data::{Dataset, Window, FUTURE, PAST};
+use crate::eval::{Metrics, MetricsAccumulator, Prediction};
+use crate::reference::{RefModel, SineKind};
+
+/// Scratch width of the host predictor: enough for the paper-size model.
+pub const HOST_WIDTH: usize = 1024;
+/// Most samples per window on the host.
+pub const HOST_MAX_K: usize = 64;
+
+fn to_fixed(t: &[[f32; 2]]) -> [[f32; 2]; FUTURE] {
+    let mut out = [[0.0; 2]; FUTURE];
+    for (o, p) in out.iter_mut().zip(t) {
+        *o = *p;
+    }
+    out
+}
+
+/// Straight-line fill from `last` to `end` (for endpoint-only models).
+pub fn linear_fill(last: [f32; 2], end: [f32; 2]) -> [[f32; 2]; FUTURE] {
+    let mut out = [[0.0; 2]; FUTURE];
+    for (t, o) in out.iter_mut().enumerate() {
+        let a = (t + 1) as f32 / FUTURE as f32;
+        *o = [last[0] + (end[0] - last[0]) * a, last[1] + (end[1] - last[1]) * a];
+    }
+    out
+}
+
+fn predict_core_with<S: Sine>(model: &Model<'_>, w: &Window, seed: u64, k: usize) -> Result<Prediction> {
+    let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?);
+    let past = w.obs();
+    let trajectories = if model.has_predictor() {
+        p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
+            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?
+            .iter()
+            .map(|t| to_fixed(t))
+            .collect()
+    } else {
+        p.predict_endpoints::<HOST_MAX_K>(&past, seed, k)
+            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?
+            .iter()
+            .map(|e| linear_fill(past[PAST - 1], *e))
+            .collect()
+    };
+    Ok(Prediction { trajectories })
+}
+
+/// K samples for one window through `gpecnet-core`.
+pub fn predict_core(model: &Model<'_>, sine: SineKind, w: &Window, seed: u64, k: usize) -> Result<Prediction> {
+    if k == 0 || k > HOST_MAX_K {
+        return Err(anyhow!("k must be 1..={HOST_MAX_K}"));
+    }
+    match sine {
+        SineKind::Libm => predict_core_with::<LibmSine>(model, w, seed, k),
+        SineKind::Fast => predict_core_with::<FastSine>(model, w, seed, k),
+    }
+}
+
+/// K samples for one window through the reference path.
+pub fn predict_reference(model: &RefModel, sine: SineKind, w: &Window, seed: u64, k: usize) -> Prediction {
+    let past = w.obs();
+    let p = model.predict(&past, seed, k, sine, !model.predictor.is_empty());
+    let trajectories = if model.predictor.is_empty() {
+        p.endpoints.iter().map(|e| linear_fill(past[PAST - 1], *e)).collect()
+    } else {
+        p.trajectories.iter().map(|t| to_fixed(t)).collect()
+    };
+    Prediction { trajectories }
+}
+
+fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(n.max(1));
+    let chunk = n.div_ceil(threads);
+    let parts: Vec<Result<Vec<T>>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let f = &f;
+                s.spawn(move || (t * chunk..((t + 1) * chunk).min(n)).map(f).collect::<Result<Vec<T>>>())
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err(anyhow!("worker panicked")))).collect()
+    });
+    let mut out = Vec::with_capacity(n);
+    for p in parts {
+        out.extend(p?);
+    }
+    Ok(out)
+}
+
+/// Evaluates a blob through `gpecnet-core` on every window of `ds`.
+pub fn evaluate_core(blob: &[u8], sine: SineKind, ds: &Dataset, k: usize, base_seed: u64) -> Result<(Metrics, Vec<Prediction>)> {
+    let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
+    let preds = parallel_map(ds.windows.len(), |i| {
+        predict_core(&model, sine, &ds.windows[i], base_seed.wrapping_add(i as u64), k)
+    })?;
+    Ok((accumulate(ds, &preds)?, preds))
+}
+
+/// Evaluates the reference path on every window of `ds`.
+pub fn evaluate_reference(model: &RefModel, sine: SineKind, ds: &Dataset, k: usize, base_seed: u64) -> Result<(Metrics, Vec<Prediction>)> {
+    let preds = parallel_map(ds.windows.len(), |i| {
+        Ok(predict_reference(model, sine, &ds.windows[i], base_seed.wrapping_add(i as u64), k))
+    })?;
+    Ok((accumulate(ds, &preds)?, preds))
+}
+
+fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
+    let mut acc = MetricsAccumulator::new();
+    for (w, p) in ds.windows.iter().zip(preds) {
+        acc.add(w, p).map_err(|e| anyhow!("{}#{}: {e:?}", w.scene, w.ped_id))?;
+    }
+    Ok(acc.finish())
+}

@@ -1,0 +1,180 @@
+//! Writes weight blobs (`weights/FORMAT.md`) and golden-vector sidecars
+//! (`gpecnet_core::golden`) from a [`RefModel`], and reads blobs back into one.
+
+use anyhow::{bail, Context, Result};
+use gpecnet_core::blob::{
+    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC,
+};
+use gpecnet_core::golden::{GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION};
+
+use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
+
+fn act_to_wire(a: Act) -> Activation {
+    match a {
+        Act::Linear => Activation::Linear,
+        Act::Relu => Activation::Relu,
+        Act::Sine => Activation::Sine,
+    }
+}
+
+fn act_from_wire(a: Activation) -> Act {
+    match a {
+        Activation::Linear => Act::Linear,
+        Activation::Relu => Act::Relu,
+        Activation::Sine => Act::Sine,
+    }
+}
+
+fn le_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+fn push<T: serde::Serialize>(out: &mut Vec<u8>, v: &T) -> Result<()> {
+    out.extend(postcard::to_stdvec(v).context("postcard encoding")?);
+    Ok(())
+}
+
+/// Serialises `model` as an f32 blob (format version 1), CRC included.
+pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
+    model.validate()?;
+    let c = &model.config;
+    let config = ModelConfig {
+        past_len: u8::try_from(c.past_len)?,
+        future_len: u8::try_from(c.future_len)?,
+        fdim: u16::try_from(c.fdim)?,
+        zdim: u16::try_from(c.zdim)?,
+        data_scale: c.data_scale,
+        sigma: c.sigma,
+        initial_pos_divisor: c.initial_pos_divisor,
+        w0: c.w0,
+        hidden_activation: act_to_wire(c.hidden_act),
+    };
+    let mut out = Vec::new();
+    push(&mut out, &Preamble { magic: MAGIC, version: FORMAT_VERSION })?;
+    push(&mut out, &ModelInfo { numeric: NumericKind::F32, name: &model.name, config })?;
+    for net in [&model.encoder_past, &model.decoder, &model.encoder_dest, &model.predictor] {
+        push(&mut out, &u8::try_from(net.len())?)?;
+        for l in net {
+            let (w, b) = (le_bytes(&l.w), le_bytes(&l.b));
+            let wire = LayerWire {
+                in_dim: u16::try_from(l.in_dim)?,
+                out_dim: u16::try_from(l.out_dim)?,
+                activation: act_to_wire(l.act),
+                weights: &w,
+                bias: &b,
+            };
+            push(&mut out, &wire)?;
+        }
+    }
+    let crc = CRC32.checksum(&out);
+    out.extend(crc.to_le_bytes());
+    // The embedded reader must accept what we write.
+    gpecnet_core::Model::from_blob(&out).map_err(|e| anyhow::anyhow!("exported blob rejected by gpecnet-core: {e}"))?;
+    Ok(out)
+}
+
+/// Reads a blob back into memory (through `gpecnet-core`'s validating reader).
+pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
+    let m = gpecnet_core::Model::from_blob(bytes).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let c = m.config();
+    let net = |n: &gpecnet_core::blob::Network<'_>| -> Vec<RefLayer> {
+        n.layers()
+            .map(|l| RefLayer {
+                in_dim: l.in_dim(),
+                out_dim: l.out_dim(),
+                act: act_from_wire(l.activation()),
+                w: (0..l.out_dim()).flat_map(|j| (0..l.in_dim()).map(move |i| (j, i))).map(|(j, i)| l.weight(j, i)).collect(),
+                b: (0..l.out_dim()).map(|j| l.bias(j)).collect(),
+            })
+            .collect()
+    };
+    Ok(RefModel {
+        name: m.name().to_string(),
+        config: RefConfig {
+            past_len: c.past_len as usize,
+            future_len: c.future_len as usize,
+            fdim: c.fdim as usize,
+            zdim: c.zdim as usize,
+            data_scale: c.data_scale,
+            sigma: c.sigma,
+            initial_pos_divisor: c.initial_pos_divisor,
+            w0: c.w0,
+            hidden_act: act_from_wire(c.hidden_activation),
+        },
+        encoder_past: net(m.encoder_past()),
+        decoder: net(m.decoder()),
+        encoder_dest: net(m.encoder_dest()),
+        predictor: net(m.predictor()),
+    })
+}
+
+/// One golden case: inputs and the reference path's outputs.
+#[derive(Clone, Debug)]
+pub struct GoldenCase {
+    /// Observed positions.
+    pub past: Vec<[f32; 2]>,
+    /// Latent seed.
+    pub seed: u64,
+    /// K endpoints.
+    pub endpoints: Vec<[f32; 2]>,
+    /// Sample 0's trajectory (empty for endpoint-only models).
+    pub trajectory0: Vec<[f32; 2]>,
+}
+
+/// Computes golden cases with the canonical reference path.
+pub fn golden_cases(model: &RefModel, inputs: &[(Vec<[f32; 2]>, u64)], k: usize, sine: SineKind) -> Vec<GoldenCase> {
+    inputs
+        .iter()
+        .map(|(past, seed)| {
+            let p = model.predict(past, *seed, k, sine, !model.predictor.is_empty());
+            GoldenCase {
+                past: past.clone(),
+                seed: *seed,
+                endpoints: p.endpoints,
+                trajectory0: p.trajectories.first().cloned().unwrap_or_default(),
+            }
+        })
+        .collect()
+}
+
+/// Serialises golden cases for the blob whose CRC is `model_crc`.
+pub fn golden_bytes(model: &RefModel, model_crc: u32, sine: SineKind, k: usize, cases: &[GoldenCase]) -> Result<Vec<u8>> {
+    let c = &model.config;
+    let mut out = Vec::new();
+    push(&mut out, &GoldenPreamble { magic: GOLDEN_MAGIC, version: GOLDEN_VERSION })?;
+    let info = GoldenInfo {
+        model_name: &model.name,
+        model_crc,
+        sine: sine.core_name(),
+        past_len: u8::try_from(c.past_len)?,
+        future_len: u8::try_from(c.future_len)?,
+        k: u8::try_from(k)?,
+        n_cases: u32::try_from(cases.len())?,
+    };
+    push(&mut out, &info)?;
+    for case in cases {
+        if case.past.len() != c.past_len || case.endpoints.len() != k {
+            bail!("golden case shape does not match the model");
+        }
+        let flat = |v: &[[f32; 2]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
+        let (p, e, t) = (flat(&case.past), flat(&case.endpoints), flat(&case.trajectory0));
+        push(&mut out, &GoldenCaseWire { past: &p, seed: case.seed, endpoints: &e, trajectory0: &t })?;
+    }
+    let crc = CRC32.checksum(&out);
+    out.extend(crc.to_le_bytes());
+    gpecnet_core::golden::GoldenSet::parse(&out).map_err(|e| anyhow::anyhow!("golden file rejected by gpecnet-core: {e}"))?;
+    Ok(out)
+}
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
+    use std::io::Write;
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let tmp = dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).unwrap_or("out")));
+    let mut f = std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    f.write_all(bytes)?;
+    f.sync_all()?;
+    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
+    Ok(())
+}

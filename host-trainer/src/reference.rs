@@ -1,0 +1,406 @@
+//! The trainer's **canonical f32 inference path**: the numbers this crate
+//! reports (and writes into model cards and golden files) come from here.
+//!
+//! It is written independently of `gpecnet-core` — its own PRNG, Gaussian,
+//! sines and layer loops — from the specification in `gpecnet_core::prng`
+//! and `gpecnet_core::predictor`, so that the workspace tests comparing the
+//! two (bit for bit, on every shipped blob) check the specification, the
+//! blob export and the embedded reader together, not one piece of code
+//! against itself.
+
+use anyhow::{bail, Result};
+
+/// Activation of one layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Act {
+    /// Affine only.
+    Linear,
+    /// `max(x, 0)`, NaN passes through.
+    Relu,
+    /// `sin(x)` (w0 already folded into the weights).
+    Sine,
+}
+
+/// One dense layer in memory: `W` row-major `[out][in]`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RefLayer {
+    /// Input width.
+    pub in_dim: usize,
+    /// Output width.
+    pub out_dim: usize,
+    /// Activation.
+    pub act: Act,
+    /// Weights, `out_dim × in_dim`, row-major.
+    pub w: Vec<f32>,
+    /// Biases, `out_dim`.
+    pub b: Vec<f32>,
+}
+
+/// Hyper-parameters the inference needs (mirrors the blob's `ModelConfig`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RefConfig {
+    /// Observed steps.
+    pub past_len: usize,
+    /// Predicted steps.
+    pub future_len: usize,
+    /// Feature width.
+    pub fdim: usize,
+    /// Latent width.
+    pub zdim: usize,
+    /// Coordinate multiplier after the origin shift.
+    pub data_scale: f32,
+    /// Latent standard deviation at inference.
+    pub sigma: f32,
+    /// `initial_pos = last observed / initial_pos_divisor`.
+    pub initial_pos_divisor: f32,
+    /// SIREN w0 used in training (already folded into sine layers).
+    pub w0: f32,
+    /// Hidden activation of the model.
+    pub hidden_act: Act,
+}
+
+/// A whole model in memory, exactly what gets exported.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RefModel {
+    /// Model name.
+    pub name: String,
+    /// Hyper-parameters.
+    pub config: RefConfig,
+    /// `2·past_len → fdim`.
+    pub encoder_past: Vec<RefLayer>,
+    /// `fdim + zdim → 2`.
+    pub decoder: Vec<RefLayer>,
+    /// `2 → ddim`, empty for endpoint-only models.
+    pub encoder_dest: Vec<RefLayer>,
+    /// `fdim + ddim + 2 → 2·(future_len − 1)`, empty for endpoint-only models.
+    pub predictor: Vec<RefLayer>,
+}
+
+/// Which sine the SIREN layers use (must match the device's choice).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+pub enum SineKind {
+    /// `libm::sinf`, the reference.
+    Libm,
+    /// The fixed-order single-precision sine (`gpecnet_core::FastSine`).
+    Fast,
+}
+
+impl SineKind {
+    /// The name `gpecnet_core::Sine::NAME` uses.
+    pub fn core_name(self) -> &'static str {
+        match self {
+            SineKind::Libm => "libm",
+            SineKind::Fast => "fast-f32",
+        }
+    }
+}
+
+// ---- the latent sampler, from the specification in gpecnet_core::prng ----
+
+struct Xoshiro([u32; 4]);
+
+impl Xoshiro {
+    fn new(seed: u64) -> Self {
+        let mut x = seed;
+        let mut split = || {
+            x = x.wrapping_add(0x9E3779B97F4A7C15);
+            let mut z = x;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+            z ^ (z >> 31)
+        };
+        let (a, b) = (split(), split());
+        let s = [a as u32, (a >> 32) as u32, b as u32, (b >> 32) as u32];
+        Xoshiro(if s == [0; 4] { [1, 0, 0, 0] } else { s })
+    }
+    fn next(&mut self) -> u32 {
+        let [s0, s1, s2, s3] = self.0;
+        let r = s0.wrapping_add(s3).rotate_left(7).wrapping_add(s0);
+        let t = s1 << 9;
+        let s2 = s2 ^ s0;
+        let s3 = s3 ^ s1;
+        let s1 = s1 ^ s2;
+        let s0 = s0 ^ s3;
+        self.0 = [s0, s1, s2 ^ t, s3.rotate_left(11)];
+        r
+    }
+}
+
+fn round_even(x: f32) -> f32 {
+    if x.abs() < 4_194_304.0 {
+        (x + 12_582_912.0) - 12_582_912.0
+    } else {
+        x
+    }
+}
+
+/// `sin(2π t)`, the spec's degree-11 polynomial after folding to [-1/4, 1/4].
+fn sin_turns(t: f32) -> f32 {
+    if !t.is_finite() {
+        return f32::NAN;
+    }
+    let mut r = t - round_even(t);
+    if r > 0.25 {
+        r = 0.5 - r;
+    } else if r < -0.25 {
+        r = -0.5 - r;
+    }
+    let r2 = r * r;
+    let c = [std::f32::consts::TAU, -41.341_7f32, 81.605_25, -76.705_86, 42.058_693, -15.094_643];
+    r * (c[0] + r2 * (c[1] + r2 * (c[2] + r2 * (c[3] + r2 * (c[4] + r2 * c[5])))))
+}
+
+fn ln(x: f32) -> f32 {
+    if x.is_nan() || x < f32::MIN_POSITIVE || !x.is_finite() {
+        return f32::NAN;
+    }
+    let bits = x.to_bits();
+    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
+    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    if m > std::f32::consts::SQRT_2 {
+        m *= 0.5;
+        e += 1;
+    }
+    let s = (m - 1.0) / (m + 1.0);
+    let s2 = s * s;
+    let a = s * (1.0 + s2 * (0.333_333_34 + s2 * (0.2 + s2 * (0.142_857_15 + s2 * 0.111_111_11))));
+    let ef = e as f32;
+    (ef * 0.693_145_75 + (a + a)) + ef * 1.428_606_8e-6
+}
+
+/// Standard normals by the specified Box–Muller recipe.
+pub struct Normals {
+    rng: Xoshiro,
+    spare: Option<f32>,
+}
+
+impl Normals {
+    /// Sampler for `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self { rng: Xoshiro::new(seed), spare: None }
+    }
+    /// Next N(0, 1).
+    pub fn next_normal(&mut self) -> f32 {
+        if let Some(v) = self.spare.take() {
+            return v;
+        }
+        let u1 = (((self.rng.next() >> 8) + 1) as f32) * (1.0 / 16_777_216.0);
+        let t = ((self.rng.next() >> 8) as f32) * (1.0 / 16_777_216.0);
+        let l = ln(u1);
+        let rho = (-(l + l)).sqrt();
+        self.spare = Some(rho * sin_turns(t));
+        rho * sin_turns(t + 0.25)
+    }
+}
+
+fn sine(kind: SineKind, x: f32) -> f32 {
+    match kind {
+        SineKind::Libm => libm::sinf(x),
+        SineKind::Fast => {
+            let t = x * 0.159_154_94;
+            if t.is_nan() || t.abs() >= 65_536.0 {
+                return sin_turns(t);
+            }
+            let n = round_even(t);
+            sin_turns(((x - n * 6.281_25) - n * 1.935_307_2e-3) * 0.159_154_94)
+        }
+    }
+}
+
+impl RefLayer {
+    /// `y_j = act(b_j + Σ_i W_ji x_i)`, summed left to right. Four rows are
+    /// processed together (independent sums, each in the documented order).
+    pub fn forward_into(&self, x: &[f32], y: &mut Vec<f32>, kind: SineKind) {
+        y.clear();
+        y.extend_from_slice(&self.b);
+        accumulate(&self.w, self.in_dim, 0, x, y);
+        for v in y.iter_mut() {
+            *v = activate(self.act, *v, kind);
+        }
+    }
+}
+
+fn activate(act: Act, v: f32, kind: SineKind) -> f32 {
+    match act {
+        Act::Linear => v,
+        Act::Relu => {
+            if v < 0.0 {
+                0.0
+            } else {
+                v
+            }
+        }
+        Act::Sine => sine(kind, v),
+    }
+}
+
+/// `acc_j += Σ_{i < x.len()} W[j][col0 + i] x_i` for every row `j`.
+fn accumulate(w: &[f32], in_dim: usize, col0: usize, x: &[f32], acc: &mut [f32]) {
+    let n = x.len();
+    let mut rows = acc.chunks_exact_mut(4);
+    let mut j = 0;
+    for a in &mut rows {
+        let r0 = &w[j * in_dim + col0..][..n];
+        let r1 = &w[(j + 1) * in_dim + col0..][..n];
+        let r2 = &w[(j + 2) * in_dim + col0..][..n];
+        let r3 = &w[(j + 3) * in_dim + col0..][..n];
+        let (mut s0, mut s1, mut s2, mut s3) = (a[0], a[1], a[2], a[3]);
+        for i in 0..n {
+            let xi = x[i];
+            s0 += r0[i] * xi;
+            s1 += r1[i] * xi;
+            s2 += r2[i] * xi;
+            s3 += r3[i] * xi;
+        }
+        a.copy_from_slice(&[s0, s1, s2, s3]);
+        j += 4;
+    }
+    for a in rows.into_remainder() {
+        let r = &w[j * in_dim + col0..][..n];
+        let mut s = *a;
+        for i in 0..n {
+            s += r[i] * x[i];
+        }
+        *a = s;
+        j += 1;
+    }
+}
+
+fn run(net: &[RefLayer], x: &[f32], kind: SineKind) -> Vec<f32> {
+    let mut cur = x.to_vec();
+    let mut next = Vec::new();
+    for l in net {
+        l.forward_into(&cur, &mut next, kind);
+        std::mem::swap(&mut cur, &mut next);
+    }
+    cur
+}
+
+/// K predicted samples for one window (caller's units).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefPrediction {
+    /// The K endpoints.
+    pub endpoints: Vec<[f32; 2]>,
+    /// The K trajectories (`future_len` points each, last = endpoint), if asked for.
+    pub trajectories: Vec<Vec<[f32; 2]>>,
+}
+
+impl RefModel {
+    /// Checks the dimensions chain as the blob format requires.
+    pub fn validate(&self) -> Result<()> {
+        let c = &self.config;
+        let chain = |name: &str, net: &[RefLayer], input: usize, output: Option<usize>| -> Result<usize> {
+            let mut w = input;
+            if net.is_empty() {
+                bail!("{name}: no layers");
+            }
+            for (i, l) in net.iter().enumerate() {
+                if l.in_dim != w || l.w.len() != l.in_dim * l.out_dim || l.b.len() != l.out_dim {
+                    bail!("{name} layer {i}: shape {}x{} does not chain from width {w}", l.out_dim, l.in_dim);
+                }
+                if l.w.iter().chain(&l.b).any(|v| !v.is_finite()) {
+                    bail!("{name} layer {i}: non-finite weight");
+                }
+                w = l.out_dim;
+            }
+            if let Some(o) = output {
+                if w != o {
+                    bail!("{name}: output width {w}, expected {o}");
+                }
+            }
+            Ok(w)
+        };
+        chain("encoder_past", &self.encoder_past, 2 * c.past_len, Some(c.fdim))?;
+        chain("decoder", &self.decoder, c.fdim + c.zdim, Some(2))?;
+        if !self.predictor.is_empty() {
+            let ddim = chain("encoder_dest", &self.encoder_dest, 2, None)?;
+            chain("predictor", &self.predictor, c.fdim + ddim + 2, Some(2 * (c.future_len - 1)))?;
+        }
+        Ok(())
+    }
+
+    /// The documented computation (see `gpecnet_core::predictor`), naively:
+    /// a full decoder pass per sample (the core caches the feature columns;
+    /// the two must agree bit for bit).
+    pub fn predict(&self, past: &[[f32; 2]], seed: u64, k: usize, kind: SineKind, trajectories: bool) -> RefPrediction {
+        let c = &self.config;
+        let o = past[0];
+        let x: Vec<f32> = past.iter().flat_map(|p| [(p[0] - o[0]) * c.data_scale, (p[1] - o[1]) * c.data_scale]).collect();
+        let f = run(&self.encoder_past, &x, kind);
+        let mut normals = Normals::new(seed);
+        let last = past[past.len() - 1];
+        let mut out = RefPrediction { endpoints: Vec::with_capacity(k), trajectories: Vec::new() };
+        let mut input = f.clone();
+        for _ in 0..k {
+            input.truncate(c.fdim);
+            for _ in 0..c.zdim {
+                input.push(c.sigma * normals.next_normal());
+            }
+            let d = run(&self.decoder, &input, kind);
+            let e = [d[0] / c.data_scale + o[0], d[1] / c.data_scale + o[1]];
+            out.endpoints.push(e);
+            if trajectories && !self.predictor.is_empty() {
+                let g = run(&self.encoder_dest, &d, kind);
+                let mut pin = f.clone();
+                pin.extend_from_slice(&g);
+                pin.push(last[0] / c.initial_pos_divisor);
+                pin.push(last[1] / c.initial_pos_divisor);
+                let q = run(&self.predictor, &pin, kind);
+                let mut t: Vec<[f32; 2]> = q.chunks(2).map(|p| [p[0] / c.data_scale + o[0], p[1] / c.data_scale + o[1]]).collect();
+                t.push(e);
+                out.trajectories.push(t);
+            }
+        }
+        out
+    }
+
+    /// Multiply-accumulates of all layers.
+    pub fn parameter_count(&self) -> usize {
+        [&self.encoder_past, &self.decoder, &self.encoder_dest, &self.predictor]
+            .iter()
+            .flat_map(|n| n.iter())
+            .map(|l| l.w.len() + l.b.len())
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prng_reference_values() {
+        // Seed 42 outputs from the specification in gpecnet_core::prng.
+        let mut x = Xoshiro::new(42);
+        assert_eq!(x.0, [0x2feb6e95, 0xbdd73226, 0xb266f103, 0x28efe333]);
+        assert_eq!(x.next(), 2643743425);
+        let mut x = Xoshiro([1, 2, 3, 4]);
+        assert_eq!((x.next(), x.next()), (641, 1573767));
+    }
+
+    #[test]
+    fn sines_agree_with_f64() {
+        for i in 0..10_000 {
+            let x = i as f32 * 0.04 - 200.0;
+            let want = (x as f64).sin();
+            assert!((sine(SineKind::Fast, x) as f64 - want).abs() < 4e-7);
+            assert!((sine(SineKind::Libm, x) as f64 - want).abs() < 1e-7);
+        }
+    }
+
+    #[test]
+    fn accumulate_order_is_sequential() {
+        // 5 rows (4 + remainder) against a plain loop, bit for bit.
+        let w: Vec<f32> = (0..35).map(|i| ((i * 37 % 11) as f32 - 5.0) * 0.37).collect();
+        let x: Vec<f32> = (0..7).map(|i| (i as f32 - 3.0) * 1.3e-3 + 1e5).collect();
+        let mut acc = vec![0.1f32; 5];
+        accumulate(&w, 7, 0, &x, &mut acc);
+        for j in 0..5 {
+            let mut s = 0.1f32;
+            for i in 0..7 {
+                s += w[j * 7 + i] * x[i];
+            }
+            assert_eq!(s.to_bits(), acc[j].to_bits());
+        }
+    }
+}
