@@ -302,3 +302,14 @@ fn byte_level_prefix_matches_format_md() {
     assert_eq!(b[20], 3); // zdim varint
     assert_eq!(&b[21..25], &1.86f32.to_le_bytes()); // data_scale
 }
+
+#[test]
+#[ignore = "prints the FORMAT.md example; run with --ignored --nocapture"]
+fn print_format_example() {
+    let b = small_blob();
+    for (i, chunk) in b[..40].chunks(8).enumerate() {
+        let hex: Vec<String> = chunk.iter().map(|x| format!("{x:02x}")).collect();
+        println!("{:04x}: {}", i * 8, hex.join(" "));
+    }
+    println!("len {}", b.len());
+}
