@@ -1,1 +1,879 @@
-fn main() {}
+//! `cargo xtask <command>`: drives the parts of the build the stable
+//! workspace cannot do itself. std only, no dependencies.
+//!
+//! The firmware (firmware/, its own workspace) needs Debian's toolchain
+//! (`/usr/bin/cargo` + `/usr/bin/rustc` 1.96 + rust-src) with
+//! `RUSTC_BOOTSTRAP=1` and `-Zbuild-std=core`, QEMU and defmt-print; the
+//! firmware's host side (firmware/host: unit tests of tracks.rs, the host
+//! golden run) builds with the stable toolchain that runs this xtask.
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{exit, Command, Stdio};
+
+const DEB_CARGO: &str = "/usr/bin/cargo";
+const DEB_RUSTC: &str = "/usr/bin/rustc";
+const TARGET: &str = "thumbv7em-none-eabihf";
+const APT_PKGS: &[&str] = &[
+    "rustc-web",
+    "cargo-web",
+    "rust-web-src",
+    "rust-web-llvm",
+    "lld-22",
+    "qemu-system-arm",
+];
+/// Numeric paths profiled (gpecnet_core::sine::*::NAME).
+const SINES: &[&str] = &["libm", "fast-f32", "micromath"];
+
+const USAGE: &str = "usage: cargo xtask <command>
+  setup              install missing prerequisites (apt: Debian rust toolchain, lld-22, qemu; cargo: defmt-print)
+  build-core-thumb   build gpecnet-core alone for thumbv7em-none-eabihf (-Zbuild-std=core), all feature combos
+  fw-build [ARGS]    build the firmware (release; ARGS go to cargo, e.g. --features force-panic)
+  fw-run [ARGS]      build + run the firmware in QEMU netduinoplus2 (decoded defmt on stdout)
+  qemu               golden verification: firmware in QEMU + the same cases on the host, hashes compared
+  fw-faults          prove the failure paths: force-panic and force-hardfault must exit 1
+  fw-test            host unit tests of the firmware's target-independent modules (tracks.rs, golden.rs)
+  profile            flash/RAM/stack/instruction count per model and numeric path (TCG plugin)
+options for qemu/profile/fw-build/fw-run:
+  --weights DIR      use DIR instead of weights/ (needs <name>.gpec + <name>.golden)
+  --test-blob        generate a synthetic blob + golden (firmware/host make-test-blob) and use it";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn die(msg: &str) -> ! {
+    eprintln!("xtask: error: {msg}");
+    exit(2)
+}
+
+/// Variables the outer (rustup/stable) cargo puts in our environment that
+/// must not reach another toolchain's cargo.
+const LEAKY: &[&str] = &[
+    "RUSTUP_TOOLCHAIN",
+    "RUSTC",
+    "RUSTC_WRAPPER",
+    "RUSTC_WORKSPACE_WRAPPER",
+    "RUSTDOC",
+    "RUSTFLAGS",
+    "CARGO_ENCODED_RUSTFLAGS",
+    "CARGO_BUILD_TARGET",
+    "CARGO_BUILD_RUSTFLAGS",
+    "CARGO_TARGET_DIR",
+    "CARGO_BUILD_TARGET_DIR",
+    "CARGO",
+    "CARGO_MANIFEST_DIR",
+    "CARGO_MANIFEST_PATH",
+    "CARGO_PKG_NAME",
+    "CARGO_PRIMARY_PACKAGE",
+    "RUSTC_BOOTSTRAP",
+];
+
+/// Debian cargo in `dir` (so dir/.cargo/config.toml applies), env cleaned.
+fn deb_cargo(dir: &Path) -> Command {
+    let mut c = Command::new(DEB_CARGO);
+    c.current_dir(dir);
+    for v in LEAKY {
+        c.env_remove(v);
+    }
+    c.env("RUSTC_BOOTSTRAP", "1").env("RUSTC", DEB_RUSTC);
+    c
+}
+
+/// The stable cargo that runs us (for firmware/host), from the repo root so
+/// no firmware/.cargo/config.toml applies.
+fn host_cargo() -> Command {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut c = Command::new(cargo);
+    c.current_dir(root());
+    for v in [
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO_BUILD_TARGET",
+        "CARGO_TARGET_DIR",
+    ] {
+        c.env_remove(v);
+    }
+    c
+}
+
+fn show(c: &Command) -> String {
+    let mut s = String::new();
+    for (k, v) in c.get_envs() {
+        if let Some(v) = v {
+            let _ = write!(s, "{}={} ", k.to_string_lossy(), v.to_string_lossy());
+        }
+    }
+    s += &c.get_program().to_string_lossy();
+    for a in c.get_args() {
+        s.push(' ');
+        s += &a.to_string_lossy();
+    }
+    s
+}
+
+fn status(mut c: Command) -> i32 {
+    eprintln!("xtask: $ {}", show(&c));
+    match c.status() {
+        Ok(s) => s.code().unwrap_or(1),
+        Err(e) => die(&format!("cannot start {:?}: {e}", c.get_program())),
+    }
+}
+
+/// Runs, returns (exit code, stdout, stderr).
+fn output(mut c: Command) -> (i32, String, String) {
+    eprintln!("xtask: $ {}", show(&c));
+    match c.stdin(Stdio::null()).output() {
+        Ok(o) => (
+            o.status.code().unwrap_or(1),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        ),
+        Err(e) => die(&format!("cannot start {:?}: {e}", c.get_program())),
+    }
+}
+
+fn which(tool: &str) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    let mut dirs: Vec<PathBuf> = std::env::split_paths(&path).collect();
+    if let Some(h) = std::env::var_os("CARGO_HOME") {
+        dirs.push(PathBuf::from(h).join("bin"));
+    }
+    if let Some(h) = std::env::var_os("HOME") {
+        dirs.push(PathBuf::from(h).join(".cargo/bin"));
+    }
+    dirs.into_iter().map(|d| d.join(tool)).find(|p| p.is_file())
+}
+
+// ---------------------------------------------------------------- prerequisites
+
+struct Missing {
+    apt: Vec<&'static str>,
+    defmt_print: bool,
+    gcc: bool,
+}
+
+fn rust_src_present() -> bool {
+    let (rc, out, _) = {
+        let mut c = Command::new(DEB_RUSTC);
+        c.args(["--print", "sysroot"]);
+        match c.output() {
+            Ok(o) => (0, String::from_utf8_lossy(&o.stdout).trim().to_string(), ()),
+            Err(_) => (1, String::new(), ()),
+        }
+    };
+    rc == 0
+        && Path::new(&out)
+            .join("lib/rustlib/src/rust/library/core")
+            .is_dir()
+}
+
+fn missing() -> Missing {
+    let mut apt = Vec::new();
+    if !Path::new(DEB_RUSTC).is_file() {
+        apt.push("rustc-web");
+    }
+    if !Path::new(DEB_CARGO).is_file() {
+        apt.push("cargo-web");
+    }
+    if Path::new(DEB_RUSTC).is_file() && !rust_src_present() {
+        apt.push("rust-web-src");
+    }
+    // /usr/bin/rust-lld (rust-web-llvm) is a symlink to lld-22, which nothing depends on.
+    if std::fs::symlink_metadata("/usr/bin/rust-lld").is_err() {
+        apt.push("rust-web-llvm");
+    }
+    if !Path::new("/usr/bin/rust-lld").exists() {
+        apt.push("lld-22");
+    }
+    if which("qemu-system-arm").is_none() {
+        apt.push("qemu-system-arm");
+    }
+    Missing {
+        apt,
+        defmt_print: which("defmt-print").is_none(),
+        gcc: which("gcc").is_none(),
+    }
+}
+
+/// Fails with the install commands if the firmware toolchain is incomplete.
+fn require(qemu: bool) {
+    let m = missing();
+    let apt: Vec<&str> = m
+        .apt
+        .iter()
+        .copied()
+        .filter(|p| qemu || *p != "qemu-system-arm")
+        .collect();
+    let mut msgs = Vec::new();
+    if !apt.is_empty() {
+        msgs.push(format!(
+            "missing Debian packages: {}\n  fix: apt-get update && apt-get install -y --no-install-recommends {}\n  (or: cargo xtask setup)",
+            apt.join(" "),
+            APT_PKGS.join(" ")
+        ));
+    }
+    if qemu && m.defmt_print {
+        msgs.push("defmt-print not found\n  fix: cargo install defmt-print --locked".into());
+    }
+    if !msgs.is_empty() {
+        die(&msgs.join("\n"));
+    }
+}
+
+fn setup() -> i32 {
+    let m = missing();
+    if !m.apt.is_empty() {
+        eprintln!("xtask: installing {}", m.apt.join(" "));
+        let sudo = std::env::var("USER").map_or(true, |u| u != "root") && which("sudo").is_some();
+        let apt = |args: &[&str]| {
+            let mut c = if sudo {
+                Command::new("sudo")
+            } else {
+                Command::new("apt-get")
+            };
+            if sudo {
+                c.arg("apt-get");
+            }
+            c.args(args);
+            c
+        };
+        if status(apt(&["update"])) != 0 {
+            die("apt-get update failed");
+        }
+        let mut args = vec!["install", "-y", "--no-install-recommends"];
+        args.extend(APT_PKGS);
+        if status(apt(&args)) != 0 {
+            die("apt-get install failed");
+        }
+    } else {
+        eprintln!("xtask: Debian toolchain, rust-src, rust-lld (lld-22), qemu-system-arm: present");
+    }
+    if m.defmt_print {
+        let mut c = host_cargo();
+        c.args(["install", "defmt-print", "--locked"]);
+        if status(c) != 0 {
+            die("cargo install defmt-print --locked failed");
+        }
+    } else {
+        eprintln!("xtask: defmt-print: present");
+    }
+    if m.gcc {
+        eprintln!(
+            "xtask: note: gcc missing (only `cargo xtask profile` needs it): apt-get install gcc"
+        );
+    }
+    let m = missing();
+    if m.apt.is_empty() && !m.defmt_print {
+        eprintln!("xtask: setup complete");
+        0
+    } else {
+        1
+    }
+}
+
+// ---------------------------------------------------------------- core for thumb
+
+fn build_core_thumb() -> i32 {
+    require(false);
+    let combos: &[&[&str]] = &[
+        &["--no-default-features"],
+        &["--no-default-features", "--features", "defmt"],
+        &["--no-default-features", "--features", "micromath"],
+        &["--no-default-features", "--features", "defmt,micromath"],
+    ];
+    let target_dir = root().join("target/thumb-core");
+    let mut failed = 0;
+    for combo in combos {
+        // From the repo root: only the root workspace's config applies (no
+        // [unstable] there), so build-std is passed explicitly. Only `core`
+        // is built for the target: any use of std or alloc fails to compile.
+        let mut c = deb_cargo(&root());
+        // --locked: never rewrite the shared root Cargo.lock with Debian's cargo.
+        c.args([
+            "build",
+            "--locked",
+            "--release",
+            "-p",
+            "gpecnet-core",
+            "--lib",
+            "--target",
+            TARGET,
+        ])
+        .args(["-Zbuild-std=core", "--target-dir"])
+        .arg(&target_dir)
+        .args(*combo);
+        let rc = status(c);
+        println!(
+            "build-core-thumb {:<40} {}",
+            combo.join(" "),
+            if rc == 0 { "ok" } else { "FAILED" }
+        );
+        failed += (rc != 0) as i32;
+    }
+    (failed != 0) as i32
+}
+
+// ---------------------------------------------------------------- firmware
+
+struct Opts {
+    weights: Option<PathBuf>,
+    rest: Vec<String>,
+}
+
+fn parse_opts(args: &[String]) -> Opts {
+    let mut o = Opts {
+        weights: None,
+        rest: Vec::new(),
+    };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--weights" => {
+                let d = it
+                    .next()
+                    .unwrap_or_else(|| die("--weights needs a directory"));
+                o.weights = Some(
+                    std::fs::canonicalize(d)
+                        .unwrap_or_else(|e| die(&format!("--weights {d}: {e}"))),
+                );
+            }
+            "--test-blob" => o.weights = Some(make_test_blob()),
+            _ => o.rest.push(a.clone()),
+        }
+    }
+    o
+}
+
+fn make_test_blob() -> PathBuf {
+    let dir = root().join("target/fw-test-weights");
+    let mut c = host_cargo();
+    c.args([
+        "run",
+        "-q",
+        "--release",
+        "--manifest-path",
+        "firmware/host/Cargo.toml",
+        "--bin",
+        "make-test-blob",
+        "--",
+    ])
+    .arg(&dir);
+    if status(c) != 0 {
+        die("make-test-blob failed");
+    }
+    dir
+}
+
+fn weights_dir(o: &Opts) -> PathBuf {
+    o.weights.clone().unwrap_or_else(|| root().join("weights"))
+}
+
+/// Model names with both files, sorted (the firmware's build.rs does the same).
+fn models_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "gpec"))
+                .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(String::from))
+                .filter(|n| dir.join(format!("{n}.golden")).is_file())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+fn require_models(dir: &Path) -> Vec<String> {
+    let m = models_in(dir);
+    if m.is_empty() {
+        die(&format!(
+            "no model in {}: need <name>.gpec (weight blob) + <name>.golden (golden-vector sidecar), \
+             exported by the trainer.\n  To exercise the firmware pipeline without trained weights: cargo xtask <cmd> --test-blob",
+            dir.display()
+        ));
+    }
+    m
+}
+
+fn fw_cargo(o: &Opts) -> Command {
+    let mut c = deb_cargo(&root().join("firmware"));
+    if let Some(w) = &o.weights {
+        c.env("GPECNET_WEIGHTS_DIR", w);
+    }
+    c
+}
+
+fn elf_path() -> PathBuf {
+    root()
+        .join("firmware/target")
+        .join(TARGET)
+        .join("release/gpecnet-firmware")
+}
+
+fn fw_build(o: &Opts, extra: &[&str]) -> i32 {
+    require(false);
+    let mut c = fw_cargo(o);
+    c.args(["build", "--release"]).args(extra).args(&o.rest);
+    status(c)
+}
+
+fn fw_run(o: &Opts) -> i32 {
+    require(true);
+    let mut c = fw_cargo(o);
+    c.args(["run", "--release"]).args(&o.rest);
+    status(c)
+}
+
+fn lines_with<'a>(text: &'a str, prefixes: &[&str]) -> Vec<&'a str> {
+    text.lines()
+        .map(str::trim_end)
+        .filter(|l| prefixes.iter().any(|p| l.starts_with(p)))
+        .collect()
+}
+
+/// Golden verification in QEMU + on the host, compared line by line.
+fn qemu(o: &Opts) -> i32 {
+    require(true);
+    let dir = weights_dir(o);
+    let models = require_models(&dir);
+    eprintln!("xtask: models: {}", models.join(", "));
+    // Same numeric paths on both sides: micromath is compiled in for the xcheck lines.
+    let mut c = fw_cargo(o);
+    c.args(["run", "--release", "--features", "micromath"])
+        .args(&o.rest);
+    let (fw_rc, fw_out, fw_err) = output(c);
+    print!("{fw_out}");
+    if fw_rc != 0 {
+        // build errors / QEMU stderr
+        eprint!(
+            "{}",
+            fw_err
+                .lines()
+                .filter(|l| !l.starts_with("warning"))
+                .collect::<Vec<_>>()
+                .join("\n")
+        );
+        eprintln!();
+    }
+    let mut h = host_cargo();
+    h.args([
+        "run",
+        "-q",
+        "--release",
+        "--manifest-path",
+        "firmware/host/Cargo.toml",
+        "--features",
+        "micromath",
+    ])
+    .args(["--bin", "golden-host", "--"])
+    .arg(&dir);
+    let (host_rc, host_out, host_err) = output(h);
+    eprint!("{host_err}");
+    let keep = ["golden ", "xcheck "];
+    let fl = lines_with(&fw_out, &keep);
+    let hl = lines_with(&host_out, &keep);
+    let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
+        .filter_map(|i| {
+            let (a, b) = (
+                fl.get(i).copied().unwrap_or("<missing>"),
+                hl.get(i).copied().unwrap_or("<missing>"),
+            );
+            (a != b).then_some((i, a, b))
+        })
+        .collect();
+    let goldens = fl
+        .iter()
+        .filter(|l| l.starts_with("golden ") && !l.starts_with("golden summary"))
+        .count();
+    println!("---");
+    println!(
+        "qemu: firmware exit {fw_rc}, host exit {host_rc}; {} firmware lines, {} host lines ({goldens} golden cases), {} differ",
+        fl.len(),
+        hl.len(),
+        differ.len()
+    );
+    for (i, a, b) in differ.iter().take(20) {
+        println!("  line {i}: firmware {a:?} != host {b:?}");
+    }
+    let ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && goldens > 0;
+    println!(
+        "qemu: {}",
+        if ok {
+            "PASS (bit-exact: firmware == sidecar == host)"
+        } else {
+            "FAIL"
+        }
+    );
+    (!ok) as i32
+}
+
+fn fw_faults(o: &Opts) -> i32 {
+    require(true);
+    let mut bad = 0;
+    for f in ["force-panic", "force-hardfault"] {
+        let mut c = fw_cargo(o);
+        c.args(["run", "--release", "--no-default-features", "--features", f]);
+        let (rc, out, _) = output(c);
+        let last = out
+            .lines()
+            .rev()
+            .find(|l| l.contains("panic") || l.contains("HardFault"))
+            .unwrap_or("");
+        println!("fw-faults {f:<16} exit {rc} (want 1)  {}", last.trim());
+        bad += (rc != 1) as i32;
+    }
+    (bad != 0) as i32
+}
+
+fn fw_test() -> i32 {
+    let mut c = host_cargo();
+    c.args(["test", "--manifest-path", "firmware/host/Cargo.toml"]);
+    status(c)
+}
+
+// ---------------------------------------------------------------- ELF
+
+struct Section {
+    name: String,
+    kind: u32,
+    flags: u32,
+    addr: u32,
+    size: u32,
+}
+
+struct Elf {
+    sections: Vec<Section>,
+    symbols: BTreeMap<String, u32>,
+}
+
+fn rd16(b: &[u8], o: usize) -> u16 {
+    u16::from_le_bytes([b[o], b[o + 1]])
+}
+fn rd32(b: &[u8], o: usize) -> u32 {
+    u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+}
+fn cstr(b: &[u8], o: usize) -> String {
+    let end = b[o..]
+        .iter()
+        .position(|&c| c == 0)
+        .map_or(b.len(), |p| o + p);
+    String::from_utf8_lossy(&b[o..end]).into_owned()
+}
+
+/// Minimal ELF32 little-endian reader: section headers and the symbol table.
+fn read_elf(path: &Path) -> Elf {
+    let b = std::fs::read(path).unwrap_or_else(|e| die(&format!("{}: {e}", path.display())));
+    if b.len() < 52 || &b[..4] != b"\x7fELF" || b[4] != 1 || b[5] != 1 {
+        die(&format!("{}: not an ELF32 LE file", path.display()));
+    }
+    let (shoff, shentsize, shnum, shstrndx) = (
+        rd32(&b, 0x20) as usize,
+        rd16(&b, 0x2e) as usize,
+        rd16(&b, 0x30) as usize,
+        rd16(&b, 0x32) as usize,
+    );
+    let sh = |i: usize| shoff + i * shentsize;
+    let stroff = rd32(&b, sh(shstrndx) + 16) as usize;
+    let mut sections = Vec::new();
+    let mut symbols = BTreeMap::new();
+    for i in 0..shnum {
+        let o = sh(i);
+        let s = Section {
+            name: cstr(&b, stroff + rd32(&b, o) as usize),
+            kind: rd32(&b, o + 4),
+            flags: rd32(&b, o + 8),
+            addr: rd32(&b, o + 12),
+            size: rd32(&b, o + 20),
+        };
+        if s.kind == 2 {
+            // SHT_SYMTAB: entries of 16 bytes; names in the linked string table
+            let (off, size, link) = (
+                rd32(&b, o + 16) as usize,
+                s.size as usize,
+                rd32(&b, o + 24) as usize,
+            );
+            let names = rd32(&b, sh(link) + 16) as usize;
+            for e in (off..off + size).step_by(16) {
+                let name = cstr(&b, names + rd32(&b, e) as usize);
+                if !name.is_empty() {
+                    symbols.insert(name, rd32(&b, e + 4));
+                }
+            }
+        }
+        sections.push(s);
+    }
+    Elf { sections, symbols }
+}
+
+impl Elf {
+    /// Flash: allocated sections with file contents (code, rodata, .data's load image).
+    fn flash(&self) -> u32 {
+        const SHF_ALLOC: u32 = 2;
+        self.sections
+            .iter()
+            .filter(|s| s.flags & SHF_ALLOC != 0 && s.kind != 8 && s.size > 0)
+            .map(|s| s.size)
+            .sum()
+    }
+    /// Static RAM: allocated sections placed in SRAM or CCM (.data, .bss, .uninit).
+    fn ram(&self) -> u32 {
+        const SHF_ALLOC: u32 = 2;
+        self.sections
+            .iter()
+            .filter(|s| s.flags & SHF_ALLOC != 0 && (s.addr >> 28 == 2 || s.addr >> 28 == 1))
+            .map(|s| s.size)
+            .sum()
+    }
+    fn section(&self, name: &str) -> u32 {
+        self.sections
+            .iter()
+            .filter(|s| s.name == name)
+            .map(|s| s.size)
+            .sum()
+    }
+}
+
+// ---------------------------------------------------------------- profile
+
+fn plugin() -> PathBuf {
+    let src = root().join("firmware/tools/insn_window.c");
+    let so = root().join("firmware/tools/libinsn_window.so");
+    let stale = |p: &Path| p.metadata().and_then(|m| m.modified()).ok();
+    if stale(&so).is_none() || stale(&so) < stale(&src) {
+        if which("gcc").is_none() {
+            die("gcc is needed to build the QEMU plugin firmware/tools/insn_window.c: apt-get install gcc");
+        }
+        let mut c = Command::new("gcc");
+        c.args(["-O2", "-Wall", "-shared", "-fPIC", "-o"])
+            .arg(&so)
+            .arg(&src);
+        if status(c) != 0 {
+            die("building the QEMU plugin failed");
+        }
+    }
+    so
+}
+
+fn defmt_decode(elf: &Path, raw: &[u8]) -> String {
+    let dp = which("defmt-print")
+        .unwrap_or_else(|| die("defmt-print missing: cargo install defmt-print --locked"));
+    let mut c = Command::new(dp);
+    c.arg("-e")
+        .arg(elf)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let mut child = c
+        .spawn()
+        .unwrap_or_else(|e| die(&format!("defmt-print: {e}")));
+    {
+        use std::io::Write;
+        let _ = child.stdin.take().unwrap().write_all(raw);
+    }
+    let o = child.wait_with_output().unwrap();
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
+    line.split_whitespace()
+        .find_map(|w| w.strip_prefix(key).and_then(|r| r.strip_prefix('=')))
+}
+
+struct ProfRow {
+    model: String,
+    sine: String,
+    flash: u32,
+    text: u32,
+    rodata: u32,
+    ram: u32,
+    stack_total: Option<u32>,
+    stack_predict: Option<u32>,
+    predictor: Option<u32>,
+    insns: Option<u64>,
+    macs: Option<u64>,
+    hash: String,
+}
+
+fn profile(o: &Opts) -> i32 {
+    require(true);
+    let dir = weights_dir(o);
+    let models = require_models(&dir);
+    let so = plugin();
+    let out_dir = root().join("target/fw-profile");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let mut rows = Vec::new();
+    let mut failed = false;
+    for m in &models {
+        for &sine in SINES {
+            let mut c = fw_cargo(o);
+            c.env("GPECNET_MODELS", m).env("GPECNET_SINE", sine);
+            c.args([
+                "build",
+                "--release",
+                "--no-default-features",
+                "--features",
+                "profile,micromath",
+            ]);
+            let (rc, _, err) = output(c);
+            if rc != 0 {
+                eprintln!("{err}");
+                die(&format!("profile build {m}/{sine} failed"));
+            }
+            let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
+            std::fs::copy(elf_path(), &elf_copy).unwrap();
+            let elf = read_elf(&elf_copy);
+            let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
+                (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
+                _ => die("bench_start/bench_end missing or merged in the profile ELF"),
+            };
+            let log = out_dir.join(format!("{m}-{sine}.plugin.log"));
+            let mut q = Command::new("qemu-system-arm");
+            q.args([
+                "-machine",
+                "netduinoplus2",
+                "-nographic",
+                "-monitor",
+                "none",
+                "-serial",
+                "null",
+            ])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .arg("-plugin")
+            .arg(format!("{},start={s:#x},end={e:#x}", so.display()))
+            .args(["-d", "plugin", "-D"])
+            .arg(&log)
+            .arg("-kernel")
+            .arg(&elf_copy);
+            eprintln!("xtask: $ {}", show(&q));
+            let qo = q
+                .stdin(Stdio::null())
+                .output()
+                .unwrap_or_else(|e| die(&format!("qemu-system-arm: {e}")));
+            let text = defmt_decode(&elf_copy, &qo.stdout);
+            let plog = std::fs::read_to_string(&log).unwrap_or_default();
+            let insns = plog.lines().find_map(|l| {
+                l.strip_prefix("window 0 insns ")
+                    .and_then(|n| n.trim().parse::<u64>().ok())
+            });
+            let pline = text
+                .lines()
+                .find(|l| l.contains("profile ") && l.contains("sine="));
+            let stack_total = text
+                .lines()
+                .find_map(|l| l.split("high-water ").nth(1))
+                .and_then(|r| r.split_whitespace().next())
+                .and_then(|n| n.parse().ok());
+            if qo.status.code() != Some(0) || pline.is_none() || insns.is_none() {
+                eprintln!("{text}{plog}");
+                eprintln!(
+                    "xtask: profile run {m}/{sine} failed (exit {:?})",
+                    qo.status.code()
+                );
+                failed = true;
+            }
+            rows.push(ProfRow {
+                model: m.clone(),
+                sine: sine.to_string(),
+                flash: elf.flash(),
+                text: elf.section(".text"),
+                rodata: elf.section(".rodata"),
+                ram: elf.ram(),
+                stack_total,
+                stack_predict: pline
+                    .and_then(|l| field(l, "predict_stack"))
+                    .and_then(|v| v.parse().ok()),
+                predictor: pline
+                    .and_then(|l| field(l, "predictor_size"))
+                    .and_then(|v| v.parse().ok()),
+                insns,
+                macs: pline
+                    .and_then(|l| field(l, "macs"))
+                    .and_then(|v| v.parse().ok()),
+                hash: pline
+                    .and_then(|l| field(l, "hash"))
+                    .unwrap_or("-")
+                    .to_string(),
+            });
+        }
+    }
+    let opt = |v: Option<u64>| v.map_or("-".to_string(), |v| v.to_string());
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "Profile: release (opt-level 3, fat LTO), thumbv7em-none-eabihf, QEMU netduinoplus2 (STM32F405), one prediction K = 20\n"
+    );
+    let _ = writeln!(
+        t,
+        "| model | sine | flash B (.text / .rodata) | static RAM B | stack peak B (whole run / predict call) | Predictor B | instructions (K=20) | MACs (K=20) | insns/MAC | output fnv32 |"
+    );
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|");
+    for r in &rows {
+        let per = match (r.insns, r.macs) {
+            (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
+            _ => "-".into(),
+        };
+        let _ = writeln!(
+            t,
+            "| {} | {} | {} ({} / {}) | {} | {} / {} | {} | {} | {} | {} | {} |",
+            r.model,
+            r.sine,
+            r.flash,
+            r.text,
+            r.rodata,
+            r.ram,
+            opt(r.stack_total.map(|v: u32| v as u64)),
+            opt(r.stack_predict.map(|v: u32| v as u64)),
+            opt(r.predictor.map(|v: u32| v as u64)),
+            opt(r.insns),
+            opt(r.macs),
+            per,
+            r.hash
+        );
+    }
+    let _ = writeln!(
+        t,
+        "\nInstructions are QEMU guest instructions between bench_start and bench_end (TCG plugin \
+         firmware/tools/insn_window.c), not Cortex-M4 cycles; see firmware/README.md to convert. \
+         Stack: whole-run peak (painted at boot) / extra depth of the predict_endpoints call on top of the \
+         Predictor, whose scratch (Predictor B) lives in the caller's frame. MACs from the blob's layer dims \
+         (Model::endpoint_macs)."
+    );
+    print!("{t}");
+    let md = out_dir.join("profile.md");
+    std::fs::write(&md, &t).unwrap();
+    eprintln!("xtask: wrote {}", md.display());
+    failed as i32
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(cmd) = args.first() else {
+        eprintln!("{USAGE}");
+        exit(2)
+    };
+    let o = parse_opts(&args[1..]);
+    let code = match cmd.as_str() {
+        "setup" => setup(),
+        "build-core-thumb" => build_core_thumb(),
+        "fw-build" => fw_build(&o, &[]),
+        "fw-run" => fw_run(&o),
+        "qemu" => qemu(&o),
+        "fw-faults" => fw_faults(&o),
+        "fw-test" => fw_test(),
+        "profile" => profile(&o),
+        "-h" | "--help" | "help" => {
+            println!("{USAGE}");
+            0
+        }
+        other => {
+            eprintln!("xtask: unknown command {other:?}\n{USAGE}");
+            2
+        }
+    };
+    exit(code)
+}
