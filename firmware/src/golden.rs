@@ -12,7 +12,9 @@ use gpecnet_core::golden::{fnv1a, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
 use gpecnet_core::{Model, Predictor};
 
-/// Scratch width of the predictor (widest layer the firmware supports).
+/// Scratch width of the predictor: the widest layer the firmware supports
+/// (`Predictor` holds 5 × SCRATCH f32). 128 fits the `sdd-small`/`quick`
+/// configurations; raise it for wider models (RAM: 20 B per unit).
 pub const SCRATCH: usize = 128;
 /// Maximum endpoints per golden case / prediction.
 pub const MAX_K: usize = 20;
@@ -42,6 +44,8 @@ pub enum Line<'a> {
     },
     /// Something that prevents verification (counts as a failure).
     Error { model: &'a str, what: &'static str },
+    /// The model is wider than [`SCRATCH`] (counts as a failure).
+    TooWide { model: &'a str, needed: u32 },
 }
 
 /// Totals over all models.
@@ -149,6 +153,16 @@ pub fn verify_all(
             out(Line::Error {
                 model: m.name,
                 what: "golden sidecar belongs to another blob (model_crc)",
+            });
+            continue;
+        }
+        if let Err(gpecnet_core::PredictError::ScratchTooSmall { needed, .. }) =
+            Predictor::<LibmSine, SCRATCH>::new(&model)
+        {
+            s.errors += 1;
+            out(Line::TooWide {
+                model: m.name,
+                needed: needed as u32,
             });
             continue;
         }

@@ -18,7 +18,7 @@ mod golden;
 #[cfg(feature = "profile")]
 mod profile;
 mod stack;
-#[cfg_attr(not(feature = "demo"), allow(dead_code))]
+#[allow(dead_code)] // a library-style API for integrators; the demo uses part of it
 mod tracks;
 
 use defmt_semihosting as _; // global defmt logger over semihosting SYS_WRITE
@@ -76,7 +76,8 @@ fn run_golden() -> bool {
         defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
         return false;
     }
-    let s = golden::verify_all(models::MODELS, true, &mut |l| match l {
+    let s = golden::verify_all(models::MODELS, true, &mut |l| {
+        match l {
         Line::Golden {
             model,
             case,
@@ -103,6 +104,13 @@ fn run_golden() -> bool {
             )
         }
         Line::Error { model, what } => defmt::error!("golden {=str}: {=str}", model, what),
+        Line::TooWide { model, needed } => defmt::error!(
+            "golden {=str}: model needs scratch width {=u32} > SCRATCH {=usize} (firmware/src/golden.rs)",
+            model,
+            needed,
+            golden::SCRATCH
+        ),
+    }
     });
     defmt::println!(
         "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",

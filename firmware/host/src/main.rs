@@ -77,7 +77,8 @@ fn main() {
             ),
         })
         .collect();
-    let s = verify_all(&models, true, &mut |l| match l {
+    let s = verify_all(&models, true, &mut |l| {
+        match l {
         Line::Golden {
             model,
             case,
@@ -96,6 +97,11 @@ fn main() {
             hash,
         } => println!("xcheck {model} {sine} {case} {hash:08x}"),
         Line::Error { model, what } => eprintln!("golden {model}: {what}"),
+        Line::TooWide { model, needed } => eprintln!(
+            "golden {model}: model needs scratch width {needed} > SCRATCH {} (firmware/src/golden.rs)",
+            gpecnet_fw_host::golden::SCRATCH
+        ),
+    }
     });
     println!(
         "golden summary: models={} cases={} mismatches={} errors={} xchecks={}",
