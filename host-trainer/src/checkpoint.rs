@@ -1,0 +1,353 @@
+//! Training checkpoints: `<run_dir>/checkpoint.bin`, rewritten atomically after every epoch.
+//!
+//! File layout (little endian):
+//! ```text
+//! 0   8  magic  b"GPECCKPT"
+//! 8   4  format version (u32)
+//! 12  8  payload length (u64)
+//! 20  8  FNV-1a 64 of the payload
+//! 28  .. payload: postcard-encoded [`Checkpoint`]
+//! ```
+//! The write goes to a temporary file in the same directory, is fsynced, then renamed over the
+//! old checkpoint (and the directory is fsynced), so a kill at any moment leaves either the
+//! previous or the new checkpoint, never a torn one. Truncated or corrupted files are reported
+//! as [`CheckpointError`]s, never panics.
+
+use std::fs::{self, File};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::TrainConfig;
+use crate::eval::Metrics;
+use crate::model::Model;
+use crate::optim::AdamState;
+use crate::rng::{Rng, RngState};
+
+/// File name of the checkpoint inside a run directory.
+pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
+const MAGIC: &[u8; 8] = b"GPECCKPT";
+const VERSION: u32 = 1;
+const HEADER: usize = 28;
+
+/// Metrics of one finished epoch.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpochMetrics {
+    /// 1-based epoch number.
+    pub epoch: usize,
+    /// Mean over minibatches of the total loss (scaled units).
+    pub train_loss: f64,
+    /// Mean endpoint reconstruction MSE.
+    pub train_rcl: f64,
+    /// Mean KLD (summed over each batch).
+    pub train_kld: f64,
+    /// Mean intermediate-points MSE.
+    pub train_adl: f64,
+    /// Validation metrics in raw units (pixels for SDD), when validated this epoch.
+    pub val: Option<Metrics>,
+    /// Wall-clock seconds of the epoch (training + validation).
+    pub seconds: f64,
+}
+
+/// The best epoch so far (by validation min FDE) and its weights.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BestModel {
+    /// 1-based epoch.
+    pub epoch: usize,
+    /// Its validation metrics.
+    pub val: Metrics,
+    /// Weights in [`Model::vars`] order.
+    pub weights: Vec<Vec<f32>>,
+}
+
+/// Everything needed to continue a run exactly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// The run's configuration, as TOML.
+    pub config_toml: String,
+    /// Number of finished epochs.
+    pub epochs_done: usize,
+    /// Current weights in [`Model::vars`] order.
+    pub weights: Vec<Vec<f32>>,
+    /// Optimizer state.
+    pub adam: AdamState,
+    /// Training RNG (shuffling + noise) state.
+    pub rng: RngState,
+    /// Best epoch so far.
+    pub best: Option<BestModel>,
+    /// Per-epoch metrics of every finished epoch.
+    pub history: Vec<EpochMetrics>,
+}
+
+/// Why a checkpoint could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// Filesystem error.
+    #[error("checkpoint {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// Not a checkpoint file.
+    #[error("{path} is not a gpecnet checkpoint (bad magic bytes)")]
+    BadMagic {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Written by another format version.
+    #[error("{path}: unsupported checkpoint version {found} (this build reads {VERSION})")]
+    Version {
+        /// The file.
+        path: PathBuf,
+        /// Version in the file.
+        found: u32,
+    },
+    /// Shorter than its header says (e.g. the disk filled up).
+    #[error("{path} is truncated: {got} bytes, expected {expected}")]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Bytes expected.
+        expected: u64,
+        /// Bytes present.
+        got: u64,
+    },
+    /// Payload checksum mismatch.
+    #[error("{path} is corrupt (checksum mismatch)")]
+    Checksum {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Payload did not decode.
+    #[error("{path}: cannot decode checkpoint: {source}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: postcard::Error,
+    },
+    /// The stored config or weights do not fit together.
+    #[error("{path}: inconsistent checkpoint: {msg}")]
+    Inconsistent {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        msg: String,
+    },
+}
+
+/// FNV-1a, 64 bit.
+fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// `p` itself if it is a file path, `p/checkpoint.bin` if it is a directory.
+pub fn checkpoint_path(p: &Path) -> PathBuf {
+    if p.is_dir() {
+        p.join(CHECKPOINT_FILE)
+    } else {
+        p.to_path_buf()
+    }
+}
+
+/// Serialise a checkpoint to bytes (header + payload).
+pub fn to_bytes(ckpt: &Checkpoint) -> Result<Vec<u8>, postcard::Error> {
+    let payload = postcard::to_stdvec(ckpt)?;
+    let mut out = Vec::with_capacity(HEADER + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    Ok(out)
+}
+
+/// Parse bytes written by [`to_bytes`]; `path` is only used in error messages.
+pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Checkpoint, CheckpointError> {
+    let path = path.to_path_buf();
+    if bytes.len() < 8 || &bytes[..8] != MAGIC {
+        if bytes.len() < 8 && MAGIC.starts_with(bytes) {
+            return Err(CheckpointError::Truncated {
+                path,
+                expected: HEADER as u64,
+                got: bytes.len() as u64,
+            });
+        }
+        return Err(CheckpointError::BadMagic { path });
+    }
+    if bytes.len() < HEADER {
+        return Err(CheckpointError::Truncated {
+            path,
+            expected: HEADER as u64,
+            got: bytes.len() as u64,
+        });
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    let version = u32_at(8);
+    if version != VERSION {
+        return Err(CheckpointError::Version {
+            path,
+            found: version,
+        });
+    }
+    let len = u64_at(12);
+    let sum = u64_at(20);
+    let expected = (HEADER as u64).saturating_add(len);
+    if (bytes.len() as u64) < expected {
+        return Err(CheckpointError::Truncated {
+            path,
+            expected,
+            got: bytes.len() as u64,
+        });
+    }
+    let payload = &bytes[HEADER..HEADER + len as usize];
+    if fnv1a64(payload) != sum || bytes.len() as u64 != expected {
+        return Err(CheckpointError::Checksum { path });
+    }
+    postcard::from_bytes(payload).map_err(|source| CheckpointError::Decode { path, source })
+}
+
+/// Write `bytes` to `path` atomically: temp file in the same directory, fsync, rename,
+/// fsync the directory.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
+    {
+        let mut f = File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+    }
+    fs::rename(&tmp, path)?;
+    #[cfg(unix)]
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// Save `ckpt` as `<run_dir>/checkpoint.bin` (atomically).
+pub fn save(run_dir: &Path, ckpt: &Checkpoint) -> Result<(), CheckpointError> {
+    let path = run_dir.join(CHECKPOINT_FILE);
+    let bytes = to_bytes(ckpt).map_err(|source| CheckpointError::Decode {
+        path: path.clone(),
+        source,
+    })?;
+    write_atomic(&path, &bytes).map_err(|source| CheckpointError::Io { path, source })
+}
+
+/// Load a checkpoint from a run directory or a checkpoint file.
+pub fn load(run_dir_or_file: &Path) -> Result<Checkpoint, CheckpointError> {
+    let path = checkpoint_path(run_dir_or_file);
+    let bytes = fs::read(&path).map_err(|source| CheckpointError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    from_bytes(&bytes, &path)
+}
+
+impl Checkpoint {
+    /// Parse the stored config.
+    pub fn config(&self) -> anyhow::Result<TrainConfig> {
+        TrainConfig::from_toml_str(&self.config_toml)
+    }
+
+    /// The training RNG, restored.
+    pub fn rng(&self) -> Rng {
+        Rng::from_state(&self.rng)
+    }
+}
+
+/// Which weights of a run to load.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Which {
+    /// The best epoch by validation min FDE (falls back to the last epoch if never validated).
+    Best,
+    /// The last finished epoch.
+    Last,
+}
+
+/// Load a trained model from a run directory (or checkpoint file): config + model with the
+/// requested weights, plus the epoch those weights come from. For the exporter / evaluator.
+pub fn load_model(
+    run_dir_or_file: &Path,
+    which: Which,
+) -> anyhow::Result<(TrainConfig, Model, usize)> {
+    let ckpt = load(run_dir_or_file)?;
+    let cfg = ckpt.config()?;
+    // Init values are irrelevant: every weight is overwritten below.
+    let model = Model::new(&cfg, &mut Rng::new(0))?;
+    let (weights, epoch) = match (which, &ckpt.best) {
+        (Which::Best, Some(b)) => (&b.weights, b.epoch),
+        _ => (&ckpt.weights, ckpt.epochs_done),
+    };
+    model
+        .set_weights(weights)
+        .map_err(|e| CheckpointError::Inconsistent {
+            path: checkpoint_path(run_dir_or_file),
+            msg: e.to_string(),
+        })?;
+    Ok((cfg, model, epoch))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Checkpoint {
+        Checkpoint {
+            config_toml: TrainConfig::default().to_toml_string().unwrap(),
+            epochs_done: 2,
+            weights: vec![vec![1.0, 2.0], vec![3.0]],
+            adam: AdamState {
+                step: 7,
+                m: vec![vec![0.5, 0.25], vec![0.0]],
+                v: vec![vec![0.1, 0.2], vec![0.3]],
+            },
+            rng: Rng::with_stream(3, 2).state(),
+            best: None,
+            history: vec![],
+        }
+    }
+
+    #[test]
+    fn roundtrip_and_corruption() {
+        let c = sample();
+        let bytes = to_bytes(&c).unwrap();
+        let p = Path::new("x.bin");
+        assert_eq!(from_bytes(&bytes, p).unwrap(), c);
+        for cut in [0, 3, 8, 20, 27, bytes.len() - 1] {
+            let e = from_bytes(&bytes[..cut], p).unwrap_err();
+            assert!(
+                matches!(e, CheckpointError::Truncated { .. }) || cut == 0,
+                "{cut}: {e}"
+            );
+        }
+        let mut bad = bytes.clone();
+        let n = bad.len();
+        bad[n - 2] ^= 0x40;
+        assert!(matches!(
+            from_bytes(&bad, p),
+            Err(CheckpointError::Checksum { .. })
+        ));
+        assert!(matches!(
+            from_bytes(b"hello world, not a checkpoint", p),
+            Err(CheckpointError::BadMagic { .. })
+        ));
+    }
+}

@@ -1,0 +1,278 @@
+//! Training configuration (`configs/*.toml`).
+//!
+//! Every field has a default, equal to PECNet's `config/optimal.yaml` for SDD where PECNet has
+//! the setting (network sizes, `sigma`, `zdim`, `data_scale`, loss weights, learning rate,
+//! epochs, batch size), with the G-PECNet sine activation. A TOML file only needs the fields it
+//! changes; unknown keys are an error (`deny_unknown_fields`) so that typos never silently fall
+//! back to a default.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+
+/// Hidden-layer activation of every MLP.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Activation {
+    /// SIREN: `sin(w0 * (W x + b))` (G-PECNet).
+    Sine,
+    /// `max(0, W x + b)` (the original PECNet).
+    Relu,
+}
+
+/// Which data set to train on.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DatasetSpec {
+    /// Stanford Drone Dataset, TrajNet split, pixels (`"sdd"`): train on `sdd/train` minus the
+    /// validation scenes.
+    Sdd,
+    /// ETH/UCY leave-one-out (`"eth_ucy:<scene>"`, scene in eth|hotel|univ|zara1|zara2):
+    /// train on `<scene>/train`, validate on `<scene>/val`.
+    EthUcy(String),
+}
+
+impl DatasetSpec {
+    /// Parse `"sdd"` or `"eth_ucy:<scene>"`.
+    pub fn parse(s: &str) -> Result<Self> {
+        if s == "sdd" {
+            return Ok(Self::Sdd);
+        }
+        if let Some(scene) = s.strip_prefix("eth_ucy:") {
+            if crate::data::ETH_UCY_SCENES.contains(&scene) {
+                return Ok(Self::EthUcy(scene.to_string()));
+            }
+            bail!(
+                "unknown ETH/UCY scene {scene:?} (expected one of {:?})",
+                crate::data::ETH_UCY_SCENES
+            );
+        }
+        bail!("unknown dataset {s:?}: expected \"sdd\" or \"eth_ucy:<scene>\"")
+    }
+}
+
+/// All hyper-parameters of one training run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// Hidden sizes of the past-trajectory encoder (input `2 * past_length`, output `fdim`).
+    pub enc_past_size: Vec<usize>,
+    /// Hidden sizes of the destination encoder (input 2, output `fdim`).
+    pub enc_dest_size: Vec<usize>,
+    /// Hidden sizes of the latent encoder (input `2 * fdim`, output `2 * zdim` = mu, logvar).
+    pub enc_latent_size: Vec<usize>,
+    /// Hidden sizes of the destination decoder (input `fdim + zdim`, output 2).
+    pub dec_size: Vec<usize>,
+    /// Hidden sizes of the trajectory predictor (input `2 * fdim + 2`, output
+    /// `2 * (future_length - 1)`).
+    pub predictor_hidden_size: Vec<usize>,
+    /// Feature width of the past and destination encodings.
+    pub fdim: usize,
+    /// Latent dimension of the CVAE.
+    pub zdim: usize,
+    /// Standard deviation of the latent at inference (PECNet's truncation trick; 1.3).
+    pub sigma: f32,
+    /// Observed steps (must equal `data::PAST` = 8).
+    pub past_length: usize,
+    /// Predicted steps (must equal `data::FUTURE` = 12).
+    pub future_length: usize,
+    /// Multiplier applied after shifting the first observed point to the origin (1.86).
+    pub data_scale: f32,
+    /// Weight of the KL divergence term.
+    pub kld_reg: f32,
+    /// Weight of the average-displacement (intermediate points) loss.
+    pub adl_reg: f32,
+    /// Adam learning rate.
+    pub learning_rate: f64,
+    /// Number of training epochs (the CLI's `--epochs` overrides it).
+    pub num_epochs: usize,
+    /// Minibatch size (windows, after time-reversal augmentation).
+    pub batch_size: usize,
+    /// Hidden activation: `"sine"` (G-PECNet) or `"relu"` (PECNet).
+    pub activation: Activation,
+    /// SIREN frequency factor `w0` (sine only).
+    pub w0: f32,
+    /// Seed of every random stream (init, shuffling, noise, validation latents).
+    pub seed: u64,
+    /// `"sdd"` or `"eth_ucy:<scene>"`.
+    pub dataset: String,
+    /// SDD scenes held out from `sdd/train` for validation / best-epoch selection.
+    /// (Ignored for ETH/UCY, which has its own `val/` split.)
+    pub val_scenes: Vec<String>,
+    /// Also train on `sdd/train_extra` (`nexus_2`; in TrajNet but not in Y-Net's 30 scenes).
+    pub include_train_extra: bool,
+    /// Append a time-reversed copy of every training window (PECNet's augmentation).
+    pub time_reversal: bool,
+    /// Validate every N epochs (the last epoch is always validated).
+    pub eval_every: usize,
+    /// Number of samples per window for best-of-K validation metrics.
+    pub k: usize,
+    /// Compute threads for candle's CPU matmuls (0 = all available cores). Runs are
+    /// bit-reproducible only for the same thread count, so it is part of the config and is
+    /// restored on `--resume`.
+    pub threads: usize,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            enc_past_size: vec![512, 256],
+            enc_dest_size: vec![8, 16],
+            enc_latent_size: vec![8, 50],
+            dec_size: vec![1024, 512, 1024],
+            predictor_hidden_size: vec![1024, 512, 256],
+            fdim: 16,
+            zdim: 16,
+            sigma: 1.3,
+            past_length: crate::data::PAST,
+            future_length: crate::data::FUTURE,
+            data_scale: 1.86,
+            kld_reg: 1.0,
+            adl_reg: 1.0,
+            learning_rate: 3e-4,
+            num_epochs: 650,
+            batch_size: 512,
+            activation: Activation::Sine,
+            w0: 30.0,
+            seed: 1,
+            dataset: "sdd".to_string(),
+            val_scenes: crate::data::default_sdd_val_scenes(),
+            include_train_extra: false,
+            time_reversal: true,
+            eval_every: 1,
+            k: 20,
+            threads: 0,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Parse a TOML string and validate it.
+    pub fn from_toml_str(s: &str) -> Result<Self> {
+        let cfg: Self = toml::from_str(s).context("invalid training config")?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Read, parse and validate a TOML file.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let s = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read config {}", path.display()))?;
+        Self::from_toml_str(&s).with_context(|| format!("in config {}", path.display()))
+    }
+
+    /// Serialise to TOML (round-trips through [`TrainConfig::from_toml_str`]).
+    pub fn to_toml_string(&self) -> Result<String> {
+        Ok(toml::to_string(self)?)
+    }
+
+    /// The parsed [`TrainConfig::dataset`].
+    pub fn dataset_spec(&self) -> Result<DatasetSpec> {
+        DatasetSpec::parse(&self.dataset)
+    }
+
+    /// Thread count actually used (resolves `threads = 0`).
+    pub fn resolved_threads(&self) -> usize {
+        if self.threads > 0 {
+            self.threads
+        } else {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        }
+    }
+
+    /// Check internal consistency.
+    pub fn validate(&self) -> Result<()> {
+        if self.past_length != crate::data::PAST || self.future_length != crate::data::FUTURE {
+            bail!(
+                "past_length/future_length must be {}/{} (the data windows are fixed)",
+                crate::data::PAST,
+                crate::data::FUTURE
+            );
+        }
+        if self.fdim == 0 || self.zdim == 0 {
+            bail!("fdim and zdim must be positive");
+        }
+        for (name, v) in [
+            ("enc_past_size", &self.enc_past_size),
+            ("enc_dest_size", &self.enc_dest_size),
+            ("enc_latent_size", &self.enc_latent_size),
+            ("dec_size", &self.dec_size),
+            ("predictor_hidden_size", &self.predictor_hidden_size),
+        ] {
+            if v.contains(&0) {
+                bail!("{name} contains a zero-width layer");
+            }
+        }
+        if self.batch_size == 0 || self.k == 0 || self.eval_every == 0 {
+            bail!("batch_size, k and eval_every must be positive");
+        }
+        if [self.data_scale, self.sigma, self.learning_rate as f32]
+            .iter()
+            .any(|v| v.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater))
+        {
+            bail!("data_scale, sigma and learning_rate must be positive");
+        }
+        if self.activation == Activation::Sine
+            && self.w0.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        {
+            bail!("w0 must be positive for the sine activation");
+        }
+        self.dataset_spec()?;
+        Ok(())
+    }
+
+    /// Number of f32 parameters of the four networks that ship to the embedded target
+    /// (past encoder, decoder, destination encoder, predictor; the latent encoder is
+    /// training-only).
+    pub fn embedded_param_count(&self) -> usize {
+        let p2 = 2 * self.past_length;
+        let pred_out = 2 * (self.future_length - 1);
+        mlp_params(p2, &self.enc_past_size, self.fdim)
+            + mlp_params(self.fdim + self.zdim, &self.dec_size, 2)
+            + mlp_params(2, &self.enc_dest_size, self.fdim)
+            + mlp_params(2 * self.fdim + 2, &self.predictor_hidden_size, pred_out)
+    }
+}
+
+/// Parameters (weights + biases) of an MLP `input -> hidden... -> output`.
+pub fn mlp_params(input: usize, hidden: &[usize], output: usize) -> usize {
+    let mut n = 0;
+    let mut prev = input;
+    for &h in hidden.iter().chain(std::iter::once(&output)) {
+        n += prev * h + h;
+        prev = h;
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg_dir() -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("configs")
+    }
+
+    #[test]
+    fn shipped_configs_parse() {
+        for name in ["sdd-paper", "sdd-small", "pecnet-relu", "quick"] {
+            let c = TrainConfig::from_file(&cfg_dir().join(format!("{name}.toml"))).unwrap();
+            let back = TrainConfig::from_toml_str(&c.to_toml_string().unwrap()).unwrap();
+            assert_eq!(c, back, "{name}");
+        }
+    }
+
+    #[test]
+    fn small_config_fits_256k() {
+        let c = TrainConfig::from_file(&cfg_dir().join("sdd-small.toml")).unwrap();
+        let bytes = c.embedded_param_count() * 4;
+        assert!(bytes <= 256 * 1024, "{bytes} bytes");
+    }
+
+    #[test]
+    fn unknown_keys_rejected() {
+        assert!(TrainConfig::from_toml_str("learning_rat = 0.1").is_err());
+        assert!(TrainConfig::from_toml_str("dataset = \"foo\"").is_err());
+        assert!(TrainConfig::from_toml_str("dataset = \"eth_ucy:zara1\"").is_ok());
+    }
+}

@@ -1,0 +1,528 @@
+//! PECNet / G-PECNet (conditional VAE over the endpoint, no social pooling) on candle, CPU.
+//!
+//! Networks (PECNet names and order):
+//! * `encoder_past`: `2 * past_length` (x0, y0, x1, y1, ...) -> `fdim`
+//! * `encoder_dest`: 2 -> `fdim`
+//! * `encoder_latent`: `2 * fdim` -> `2 * zdim` (mu, logvar); training only
+//! * `decoder`: `fdim + zdim` -> 2 (the endpoint)
+//! * `predictor`: `2 * fdim + 2` (features, encoded endpoint, initial_pos) ->
+//!   `2 * (future_length - 1)` (the 11 intermediate points, x/y interleaved)
+//!
+//! Every MLP is `Linear -> act -> ... -> Linear` (activation after every layer but the last),
+//! with `act = sin(w0 * .)` (SIREN, G-PECNet) or ReLU (PECNet). All weights are initialised
+//! from the crate's seeded [`Rng`](crate::rng::Rng); no candle randomness is used.
+
+use candle_core::{DType, Device, Tensor, Var};
+use serde::{Deserialize, Serialize};
+
+use crate::config::{Activation, TrainConfig};
+use crate::data::{Sample, FUTURE, PAST};
+use crate::rng::Rng;
+
+/// Activation of one exported layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Act {
+    /// No activation (the last layer of every network).
+    Linear,
+    /// `max(0, .)`.
+    Relu,
+    /// `sin(.)`, with the SIREN `w0` already folded into the weights.
+    Sine,
+}
+
+/// One dense layer as shipped to the embedded runtime: `y = act(W' x + b')`.
+///
+/// For [`Act::Sine`] layers the SIREN factor is folded in (`W' = w0 * W`, `b' = w0 * b`,
+/// computed in f32), so the layer is exactly `sin(W' x + b')`. Other layers are unchanged.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExportedLayer {
+    /// Input width.
+    pub in_dim: usize,
+    /// Output width.
+    pub out_dim: usize,
+    /// Activation applied after the affine map.
+    pub activation: Act,
+    /// Row-major `[out_dim][in_dim]`.
+    pub weight: Vec<f32>,
+    /// `[out_dim]`.
+    pub bias: Vec<f32>,
+}
+
+/// The four networks the embedded predictor needs (the latent encoder is training-only).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExportedNetworks {
+    /// `2 * PAST` -> `fdim`.
+    pub encoder_past: Vec<ExportedLayer>,
+    /// `fdim + zdim` -> 2.
+    pub decoder: Vec<ExportedLayer>,
+    /// 2 -> `fdim`.
+    pub encoder_dest: Vec<ExportedLayer>,
+    /// `2 * fdim + 2` -> `2 * (FUTURE - 1)`.
+    pub predictor: Vec<ExportedLayer>,
+}
+
+/// One affine layer; weight `[out, in]` (PyTorch layout), bias `[out]`.
+#[derive(Clone, Debug)]
+pub struct Dense {
+    /// `[out, in]`.
+    pub weight: Var,
+    /// `[out]`.
+    pub bias: Var,
+}
+
+/// A multi-layer perceptron with an activation after every layer but the last.
+#[derive(Clone, Debug)]
+pub struct Mlp {
+    layers: Vec<Dense>,
+    activation: Activation,
+    w0: f32,
+}
+
+fn uniform_vec(rng: &mut Rng, n: usize, bound: f32) -> Vec<f32> {
+    (0..n).map(|_| rng.uniform(-bound, bound)).collect()
+}
+
+impl Mlp {
+    /// Build `input -> hidden... -> output` and initialise it from `rng`.
+    ///
+    /// Sine: first layer `W ~ U(-1/n, 1/n)`, later layers `W ~ U(-sqrt(6/n)/w0, sqrt(6/n)/w0)`
+    /// (SIREN); ReLU: `W ~ U(-1/sqrt(n), 1/sqrt(n))` (PyTorch's default). Bias always
+    /// `U(-1/sqrt(n), 1/sqrt(n))`. `n` is the fan-in. Weights are drawn before biases, layer by
+    /// layer, row-major.
+    pub fn new(
+        input: usize,
+        hidden: &[usize],
+        output: usize,
+        activation: Activation,
+        w0: f32,
+        rng: &mut Rng,
+    ) -> candle_core::Result<Self> {
+        let dev = Device::Cpu;
+        let mut layers = Vec::new();
+        let mut prev = input;
+        for (i, &out) in hidden.iter().chain(std::iter::once(&output)).enumerate() {
+            let n = prev as f32;
+            let wb = match activation {
+                Activation::Sine if i == 0 => 1.0 / n,
+                Activation::Sine => (6.0 / n).sqrt() / w0,
+                Activation::Relu => 1.0 / n.sqrt(),
+            };
+            let w = uniform_vec(rng, out * prev, wb);
+            let b = uniform_vec(rng, out, 1.0 / n.sqrt());
+            layers.push(Dense {
+                weight: Var::from_vec(w, (out, prev), &dev)?,
+                bias: Var::from_vec(b, out, &dev)?,
+            });
+            prev = out;
+        }
+        Ok(Self {
+            layers,
+            activation,
+            w0,
+        })
+    }
+
+    /// `x`: `[batch, in]` -> `[batch, out]`.
+    pub fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
+        let mut h = x.clone();
+        let last = self.layers.len() - 1;
+        for (i, l) in self.layers.iter().enumerate() {
+            h = h
+                .matmul(&l.weight.as_tensor().t()?)?
+                .broadcast_add(l.bias.as_tensor())?;
+            if i < last {
+                h = match self.activation {
+                    Activation::Sine => h.affine(f64::from(self.w0), 0.0)?.sin()?,
+                    Activation::Relu => h.relu()?,
+                };
+            }
+        }
+        Ok(h)
+    }
+
+    /// Parameters in order `w0, b0, w1, b1, ...`.
+    pub fn vars(&self) -> Vec<Var> {
+        self.layers
+            .iter()
+            .flat_map(|l| [l.weight.clone(), l.bias.clone()])
+            .collect()
+    }
+
+    /// The layers.
+    pub fn layers(&self) -> &[Dense] {
+        &self.layers
+    }
+
+    /// Export with `w0` folded into sine layers (see [`ExportedLayer`]).
+    pub fn export(&self) -> candle_core::Result<Vec<ExportedLayer>> {
+        let last = self.layers.len() - 1;
+        let mut out = Vec::with_capacity(self.layers.len());
+        for (i, l) in self.layers.iter().enumerate() {
+            let (out_dim, in_dim) = l.weight.as_tensor().dims2()?;
+            let mut weight = l.weight.as_tensor().flatten_all()?.to_vec1::<f32>()?;
+            let mut bias = l.bias.as_tensor().to_vec1::<f32>()?;
+            let activation = if i == last {
+                Act::Linear
+            } else {
+                match self.activation {
+                    Activation::Relu => Act::Relu,
+                    Activation::Sine => {
+                        weight.iter_mut().for_each(|x| *x *= self.w0);
+                        bias.iter_mut().for_each(|x| *x *= self.w0);
+                        Act::Sine
+                    }
+                }
+            };
+            out.push(ExportedLayer {
+                in_dim,
+                out_dim,
+                activation,
+                weight,
+                bias,
+            });
+        }
+        Ok(out)
+    }
+}
+
+/// A minibatch in model space (see [`crate::data::normalize`]).
+#[derive(Clone, Debug)]
+pub struct Batch {
+    /// `[B, 2 * PAST]`, x/y interleaved.
+    pub obs: Tensor,
+    /// `[B, 2]`: the endpoint (future step 12).
+    pub dest: Tensor,
+    /// `[B, 2 * (FUTURE - 1)]`: future steps 1..=11, x/y interleaved.
+    pub future: Tensor,
+    /// `[B, 2]`: raw last observed position / 1000.
+    pub initial_pos: Tensor,
+}
+
+impl Batch {
+    /// Stack samples into tensors.
+    pub fn from_samples<'a, I>(samples: I) -> candle_core::Result<Self>
+    where
+        I: IntoIterator<Item = &'a Sample>,
+    {
+        let (mut obs, mut dest, mut fut, mut init): (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut n = 0;
+        for s in samples {
+            obs.extend(s.obs.iter().flatten());
+            dest.extend(s.future[FUTURE - 1]);
+            fut.extend(s.future[..FUTURE - 1].iter().flatten());
+            init.extend(s.initial_pos);
+            n += 1;
+        }
+        let dev = Device::Cpu;
+        Ok(Self {
+            obs: Tensor::from_vec(obs, (n, 2 * PAST), &dev)?,
+            dest: Tensor::from_vec(dest, (n, 2), &dev)?,
+            future: Tensor::from_vec(fut, (n, 2 * (FUTURE - 1)), &dev)?,
+            initial_pos: Tensor::from_vec(init, (n, 2), &dev)?,
+        })
+    }
+
+    /// Batch size.
+    pub fn len(&self) -> usize {
+        self.obs.dims()[0]
+    }
+
+    /// `true` for an empty batch.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// The training loss and its parts (parts as plain numbers, for logging).
+#[derive(Debug)]
+pub struct Loss {
+    /// `rcl + kld_reg * kld + adl_reg * adl` (differentiable scalar).
+    pub total: Tensor,
+    /// Endpoint reconstruction MSE (mean over elements).
+    pub rcl: f32,
+    /// KL divergence, summed over the batch (PECNet's convention).
+    pub kld: f32,
+    /// Intermediate-points MSE (mean over elements).
+    pub adl: f32,
+}
+
+/// Outputs of the training-mode forward pass.
+#[derive(Debug)]
+pub struct TrainForward {
+    /// `[B, 2]`.
+    pub dest_recon: Tensor,
+    /// `[B, zdim]`.
+    pub mu: Tensor,
+    /// `[B, zdim]`.
+    pub logvar: Tensor,
+    /// `[B, 2 * (FUTURE - 1)]`.
+    pub pred_future: Tensor,
+}
+
+/// PECNet without social pooling, with sine or ReLU MLPs.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// Past-trajectory encoder.
+    pub encoder_past: Mlp,
+    /// Endpoint encoder.
+    pub encoder_dest: Mlp,
+    /// Latent encoder (training only).
+    pub encoder_latent: Mlp,
+    /// Endpoint decoder.
+    pub decoder: Mlp,
+    /// Intermediate-points predictor.
+    pub predictor: Mlp,
+    zdim: usize,
+    kld_reg: f32,
+    adl_reg: f32,
+}
+
+impl Model {
+    /// Build and initialise from `rng` (networks in PECNet's constructor order).
+    pub fn new(cfg: &TrainConfig, rng: &mut Rng) -> candle_core::Result<Self> {
+        let (a, w0) = (cfg.activation, cfg.w0);
+        let encoder_past = Mlp::new(2 * PAST, &cfg.enc_past_size, cfg.fdim, a, w0, rng)?;
+        let encoder_dest = Mlp::new(2, &cfg.enc_dest_size, cfg.fdim, a, w0, rng)?;
+        let encoder_latent =
+            Mlp::new(2 * cfg.fdim, &cfg.enc_latent_size, 2 * cfg.zdim, a, w0, rng)?;
+        let decoder = Mlp::new(cfg.fdim + cfg.zdim, &cfg.dec_size, 2, a, w0, rng)?;
+        let predictor = Mlp::new(
+            2 * cfg.fdim + 2,
+            &cfg.predictor_hidden_size,
+            2 * (FUTURE - 1),
+            a,
+            w0,
+            rng,
+        )?;
+        Ok(Self {
+            encoder_past,
+            encoder_dest,
+            encoder_latent,
+            decoder,
+            predictor,
+            zdim: cfg.zdim,
+            kld_reg: cfg.kld_reg,
+            adl_reg: cfg.adl_reg,
+        })
+    }
+
+    /// Latent dimension.
+    pub fn zdim(&self) -> usize {
+        self.zdim
+    }
+
+    /// All trainable parameters, in a fixed order (the checkpoint / optimizer order).
+    pub fn vars(&self) -> Vec<Var> {
+        [
+            &self.encoder_past,
+            &self.encoder_dest,
+            &self.encoder_latent,
+            &self.decoder,
+            &self.predictor,
+        ]
+        .iter()
+        .flat_map(|m| m.vars())
+        .collect()
+    }
+
+    /// Number of scalar parameters.
+    pub fn param_count(&self) -> usize {
+        self.vars().iter().map(|v| v.elem_count()).sum()
+    }
+
+    /// Copy of every parameter, flattened, in [`Model::vars`] order.
+    pub fn weights(&self) -> candle_core::Result<Vec<Vec<f32>>> {
+        self.vars()
+            .iter()
+            .map(|v| v.as_tensor().flatten_all()?.to_vec1::<f32>())
+            .collect()
+    }
+
+    /// Overwrite every parameter (inverse of [`Model::weights`]).
+    pub fn set_weights(&self, weights: &[Vec<f32>]) -> candle_core::Result<()> {
+        let vars = self.vars();
+        if vars.len() != weights.len() {
+            candle_core::bail!(
+                "weight count mismatch: model has {} tensors, got {}",
+                vars.len(),
+                weights.len()
+            );
+        }
+        for (v, w) in vars.iter().zip(weights) {
+            if v.elem_count() != w.len() {
+                candle_core::bail!(
+                    "weight shape mismatch: {:?} vs {} values",
+                    v.shape(),
+                    w.len()
+                );
+            }
+            v.set(&Tensor::from_slice(w, v.shape(), &Device::Cpu)?)?;
+        }
+        Ok(())
+    }
+
+    /// Training forward pass; `eps ~ N(0, 1)` of shape `[B, zdim]` (from the caller's RNG).
+    pub fn forward_train(&self, batch: &Batch, eps: &Tensor) -> candle_core::Result<TrainForward> {
+        let features = self.encoder_past.forward(&batch.obs)?;
+        let dest_features = self.encoder_dest.forward(&batch.dest)?;
+        let latent = self
+            .encoder_latent
+            .forward(&Tensor::cat(&[&features, &dest_features], 1)?)?;
+        let mu = latent.narrow(1, 0, self.zdim)?;
+        let logvar = latent.narrow(1, self.zdim, self.zdim)?;
+        let std = logvar.affine(0.5, 0.0)?.exp()?;
+        let z = (&mu + std.mul(eps)?)?;
+        let dest_recon = self.decoder.forward(&Tensor::cat(&[&features, &z], 1)?)?;
+        let pred_future = self.predict_future(&features, &dest_recon, &batch.initial_pos)?;
+        Ok(TrainForward {
+            dest_recon,
+            mu,
+            logvar,
+            pred_future,
+        })
+    }
+
+    /// PECNet's loss: `MSE(dest, dest_recon) + kld_reg * KLD + adl_reg * MSE(future, pred)`.
+    pub fn loss(&self, batch: &Batch, eps: &Tensor) -> candle_core::Result<Loss> {
+        let f = self.forward_train(batch, eps)?;
+        let rcl = (&batch.dest - &f.dest_recon)?.sqr()?.mean_all()?;
+        let adl = (&batch.future - &f.pred_future)?.sqr()?.mean_all()?;
+        // -0.5 * sum(1 + logvar - mu^2 - exp(logvar))
+        let kld_terms = ((f.logvar.affine(1.0, 1.0)? - f.mu.sqr()?)? - f.logvar.exp()?)?;
+        let kld = kld_terms.sum_all()?.affine(-0.5, 0.0)?;
+        let total = ((&rcl + kld.affine(f64::from(self.kld_reg), 0.0)?)?
+            + adl.affine(f64::from(self.adl_reg), 0.0)?)?;
+        Ok(Loss {
+            total,
+            rcl: rcl.to_scalar::<f32>()?,
+            kld: kld.to_scalar::<f32>()?,
+            adl: adl.to_scalar::<f32>()?,
+        })
+    }
+
+    /// Past features `[B, fdim]` from `obs` `[B, 2 * PAST]`.
+    pub fn encode_past(&self, obs: &Tensor) -> candle_core::Result<Tensor> {
+        self.encoder_past.forward(obs)
+    }
+
+    /// Endpoint `[B, 2]` from past features and a latent `z` `[B, zdim]`.
+    pub fn decode_dest(&self, features: &Tensor, z: &Tensor) -> candle_core::Result<Tensor> {
+        self.decoder.forward(&Tensor::cat(&[features, z], 1)?)
+    }
+
+    /// The 11 intermediate points `[B, 22]` given features, an endpoint and `initial_pos`.
+    pub fn predict_future(
+        &self,
+        features: &Tensor,
+        dest: &Tensor,
+        initial_pos: &Tensor,
+    ) -> candle_core::Result<Tensor> {
+        let dest_features = self.encoder_dest.forward(dest)?;
+        self.predictor
+            .forward(&Tensor::cat(&[features, &dest_features, initial_pos], 1)?)
+    }
+
+    /// Inference: full 12-step futures in model space, `[B, FUTURE, 2]`, for latents `z`
+    /// `[B, zdim]` (PECNet draws `z ~ N(0, sigma^2)`): 11 predicted points + the endpoint.
+    pub fn sample_future(
+        &self,
+        obs: &Tensor,
+        initial_pos: &Tensor,
+        z: &Tensor,
+    ) -> candle_core::Result<Tensor> {
+        let features = self.encode_past(obs)?;
+        let dest = self.decode_dest(&features, z)?;
+        let inter = self.predict_future(&features, &dest, initial_pos)?;
+        let b = obs.dims()[0];
+        Tensor::cat(&[&inter, &dest], 1)?.reshape((b, FUTURE, 2))
+    }
+
+    /// The embedded networks with `w0` folded in (see [`ExportedLayer`]).
+    pub fn export_networks(&self) -> candle_core::Result<ExportedNetworks> {
+        Ok(ExportedNetworks {
+            encoder_past: self.encoder_past.export()?,
+            decoder: self.decoder.export()?,
+            encoder_dest: self.encoder_dest.export()?,
+            predictor: self.predictor.export()?,
+        })
+    }
+}
+
+/// `DType` of every tensor in the model.
+pub const DTYPE: DType = DType::F32;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny() -> TrainConfig {
+        TrainConfig {
+            enc_past_size: vec![8],
+            enc_dest_size: vec![4],
+            enc_latent_size: vec![8],
+            dec_size: vec![8],
+            predictor_hidden_size: vec![8],
+            fdim: 4,
+            zdim: 3,
+            ..TrainConfig::default()
+        }
+    }
+
+    #[test]
+    fn export_folds_w0_and_matches_forward() {
+        let cfg = tiny();
+        let m = Model::new(&cfg, &mut Rng::new(3)).unwrap();
+        let ex = m.export_networks().unwrap();
+        assert_eq!(ex.encoder_past[0].activation, Act::Sine);
+        assert_eq!(ex.encoder_past.last().unwrap().activation, Act::Linear);
+        let x: Vec<f32> = (0..16).map(|i| i as f32 * 0.37 - 2.0).collect();
+        // Reference forward of the exported layers in f64.
+        let mut h: Vec<f64> = x.iter().map(|&v| v as f64).collect();
+        for l in &ex.encoder_past {
+            let mut y = vec![0.0f64; l.out_dim];
+            for (o, yo) in y.iter_mut().enumerate() {
+                let mut s = l.bias[o] as f64;
+                for (i, hi) in h.iter().enumerate() {
+                    s += l.weight[o * l.in_dim + i] as f64 * hi;
+                }
+                *yo = match l.activation {
+                    Act::Sine => s.sin(),
+                    Act::Relu => s.max(0.0),
+                    Act::Linear => s,
+                };
+            }
+            h = y;
+        }
+        let t = Tensor::from_vec(x, (1, 16), &Device::Cpu).unwrap();
+        let got = m
+            .encode_past(&t)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        for (a, b) in got.iter().zip(&h) {
+            assert!((*a as f64 - b).abs() < 1e-3, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn init_is_seeded() {
+        let cfg = tiny();
+        let a = Model::new(&cfg, &mut Rng::new(5))
+            .unwrap()
+            .weights()
+            .unwrap();
+        let b = Model::new(&cfg, &mut Rng::new(5))
+            .unwrap()
+            .weights()
+            .unwrap();
+        let c = Model::new(&cfg, &mut Rng::new(6))
+            .unwrap()
+            .weights()
+            .unwrap();
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+    }
+}

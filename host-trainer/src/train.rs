@@ -1,0 +1,618 @@
+//! The training loop (`gpecnet train`).
+//!
+//! * Data: SDD `train` minus the validation scenes (or ETH/UCY `<scene>/train`), every window
+//!   plus its time-reversed copy (PECNet), normalised with [`data::normalize`].
+//! * Each epoch: seeded shuffle, minibatches of `batch_size`, Adam on PECNet's loss, then
+//!   (every `eval_every` epochs and at the last) best-of-K validation in raw units with latents
+//!   `z ~ N(0, sigma^2)` drawn from a validation RNG re-seeded identically every time, so
+//!   epochs are compared on the same draws. The best epoch is chosen by validation min FDE;
+//!   the test set is never read.
+//! * After every epoch: `checkpoint.bin` (atomic), `metrics.csv`, `metrics.jsonl`,
+//!   `curves.svg` in the run directory.
+//!
+//! Determinism: all randomness comes from [`crate::rng`]; candle's CPU matmul thread count is
+//! pinned from `TrainConfig::threads` via `RAYON_NUM_THREADS` (read by candle for every
+//! matmul) before the first tensor operation. Two runs with the same config, data and thread
+//! count produce bit-identical weights, and `--resume` continues bit-exactly.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use candle_core::{Device, Tensor};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::checkpoint::{self, BestModel, Checkpoint, EpochMetrics};
+use crate::config::{DatasetSpec, TrainConfig};
+use crate::data::{self, Sample, Unit, Window, FUTURE, PAST};
+use crate::eval::{Metrics, MetricsAccumulator, Prediction};
+use crate::model::{Batch, Model};
+use crate::optim::{Adam, AdamParams};
+use crate::rng::{streams, Rng};
+
+/// Windows evaluated per validation forward pass (times K rows).
+const VAL_CHUNK: usize = 512;
+
+/// Pin candle's CPU matmul parallelism to `n` threads (see the module docs). Must be called
+/// before the first tensor operation of the process to also size rayon's global pool.
+pub fn set_num_threads(n: usize) {
+    let n = n.max(1).to_string();
+    if std::env::var("RAYON_NUM_THREADS").ok().as_deref() != Some(n.as_str()) {
+        std::env::set_var("RAYON_NUM_THREADS", n);
+    }
+}
+
+/// Training and validation data, ready for the loop.
+#[derive(Clone, Debug)]
+pub struct PreparedData {
+    /// Normalised training samples (with time-reversed copies when enabled).
+    pub train: Vec<Sample>,
+    /// Raw validation windows.
+    pub val: Vec<Window>,
+    /// Unit of the raw coordinates.
+    pub unit: Unit,
+}
+
+/// Load and prepare the data a config asks for. Never touches the test split.
+pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData> {
+    let (train, val) = match cfg.dataset_spec()? {
+        DatasetSpec::Sdd => {
+            let all = data::load_sdd(data_root, data::SddSplit::Train)?;
+            for s in &cfg.val_scenes {
+                if !all.windows.iter().any(|w| &w.scene == s) {
+                    bail!("validation scene {s:?} is not in {}", all.name);
+                }
+            }
+            let (mut train, val) = data::split_by_scene(all, &cfg.val_scenes);
+            if cfg.include_train_extra {
+                let extra = data::load_sdd(data_root, data::SddSplit::TrainExtra)?;
+                train.windows.extend(extra.windows);
+            }
+            (train, val)
+        }
+        DatasetSpec::EthUcy(scene) => (
+            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Train)?,
+            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Val)?,
+        ),
+    };
+    if train.is_empty() || val.is_empty() {
+        bail!(
+            "empty split: {} training and {} validation windows",
+            train.len(),
+            val.len()
+        );
+    }
+    let unit = train.unit;
+    let train = if cfg.time_reversal {
+        train.with_time_reversed()
+    } else {
+        train
+    };
+    Ok(PreparedData {
+        train: train
+            .windows
+            .iter()
+            .map(|w| data::normalize(w, cfg.data_scale))
+            .collect(),
+        val: val.windows,
+        unit,
+    })
+}
+
+/// Mean training loss parts of one epoch.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrainLoss {
+    /// Total loss.
+    pub total: f64,
+    /// Endpoint MSE.
+    pub rcl: f64,
+    /// KLD.
+    pub kld: f64,
+    /// Intermediate-points MSE.
+    pub adl: f64,
+}
+
+/// Model + optimizer + RNG + history: the whole mutable state of a run.
+pub struct Trainer {
+    cfg: TrainConfig,
+    data: PreparedData,
+    model: Model,
+    adam: Adam,
+    rng: Rng,
+    epochs_done: usize,
+    history: Vec<EpochMetrics>,
+    best: Option<BestModel>,
+}
+
+impl Trainer {
+    /// Fresh run: weights from the INIT stream, shuffling/noise from the TRAIN stream.
+    pub fn new(cfg: TrainConfig, data: PreparedData) -> Result<Self> {
+        cfg.validate()?;
+        set_num_threads(cfg.resolved_threads());
+        let model = Model::new(&cfg, &mut Rng::with_stream(cfg.seed, streams::INIT))?;
+        let adam = Adam::new(model.vars(), AdamParams::with_lr(cfg.learning_rate));
+        let rng = Rng::with_stream(cfg.seed, streams::TRAIN);
+        Ok(Self {
+            cfg,
+            data,
+            model,
+            adam,
+            rng,
+            epochs_done: 0,
+            history: Vec::new(),
+            best: None,
+        })
+    }
+
+    /// Continue from a checkpoint (its config must be the one `data` was prepared with).
+    pub fn from_checkpoint(ckpt: Checkpoint, data: PreparedData) -> Result<Self> {
+        let cfg = ckpt.config()?;
+        set_num_threads(cfg.resolved_threads());
+        let model = Model::new(&cfg, &mut Rng::new(0))?;
+        model
+            .set_weights(&ckpt.weights)
+            .context("checkpoint weights do not match its config")?;
+        let adam = Adam::from_state(
+            model.vars(),
+            AdamParams::with_lr(cfg.learning_rate),
+            ckpt.adam.clone(),
+        )
+        .context("checkpoint optimizer state does not match its config")?;
+        Ok(Self {
+            rng: ckpt.rng(),
+            cfg,
+            data,
+            model,
+            adam,
+            epochs_done: ckpt.epochs_done,
+            history: ckpt.history,
+            best: ckpt.best,
+        })
+    }
+
+    /// The config.
+    pub fn config(&self) -> &TrainConfig {
+        &self.cfg
+    }
+
+    /// Override the total number of epochs (`--epochs`).
+    pub fn set_num_epochs(&mut self, n: usize) {
+        self.cfg.num_epochs = n;
+    }
+
+    /// The model (current weights).
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Finished epochs.
+    pub fn epochs_done(&self) -> usize {
+        self.epochs_done
+    }
+
+    /// Per-epoch metrics so far.
+    pub fn history(&self) -> &[EpochMetrics] {
+        &self.history
+    }
+
+    /// Best epoch so far.
+    pub fn best(&self) -> Option<&BestModel> {
+        self.best.as_ref()
+    }
+
+    /// The prepared data.
+    pub fn data(&self) -> &PreparedData {
+        &self.data
+    }
+
+    /// Number of minibatches per epoch.
+    pub fn batches_per_epoch(&self) -> usize {
+        self.data.train.len().div_ceil(self.cfg.batch_size)
+    }
+
+    /// One pass over the shuffled training set. Does not advance `epochs_done`
+    /// (see [`Trainer::run_epoch`]).
+    pub fn train_epoch(&mut self, bar: Option<&ProgressBar>) -> Result<TrainLoss> {
+        let mut order: Vec<u32> = (0..self.data.train.len() as u32).collect();
+        self.rng.shuffle(&mut order);
+        let zdim = self.model.zdim();
+        let mut acc = TrainLoss::default();
+        let mut nb = 0usize;
+        for chunk in order.chunks(self.cfg.batch_size) {
+            let batch = Batch::from_samples(chunk.iter().map(|&i| &self.data.train[i as usize]))?;
+            let eps = self.rng.normal_vec(chunk.len() * zdim, 1.0);
+            let eps = Tensor::from_vec(eps, (chunk.len(), zdim), &Device::Cpu)?;
+            let loss = self.model.loss(&batch, &eps)?;
+            self.adam.backward_step(&loss.total)?;
+            let total = loss.total.to_scalar::<f32>()?;
+            if !total.is_finite() {
+                bail!(
+                    "training diverged: loss is {total} at epoch {}",
+                    self.epochs_done + 1
+                );
+            }
+            acc.total += f64::from(total);
+            acc.rcl += f64::from(loss.rcl);
+            acc.kld += f64::from(loss.kld);
+            acc.adl += f64::from(loss.adl);
+            nb += 1;
+            if let Some(b) = bar {
+                b.inc(1);
+            }
+        }
+        let n = nb.max(1) as f64;
+        Ok(TrainLoss {
+            total: acc.total / n,
+            rcl: acc.rcl / n,
+            kld: acc.kld / n,
+            adl: acc.adl / n,
+        })
+    }
+
+    /// Best-of-K validation of the current weights, in raw units.
+    pub fn validate(&self) -> Result<Metrics> {
+        validate_model(&self.model, &self.cfg, &self.data.val)
+    }
+
+    /// Train one epoch, validate when due, update best / history.
+    pub fn run_epoch(&mut self, bar: Option<&ProgressBar>) -> Result<EpochMetrics> {
+        let t0 = Instant::now();
+        let loss = self.train_epoch(bar)?;
+        self.epochs_done += 1;
+        let epoch = self.epochs_done;
+        let due = epoch.is_multiple_of(self.cfg.eval_every) || epoch >= self.cfg.num_epochs;
+        let val = if due { Some(self.validate()?) } else { None };
+        if let Some(v) = val {
+            if self.best.as_ref().is_none_or(|b| v.min_fde < b.val.min_fde) {
+                self.best = Some(BestModel {
+                    epoch,
+                    val: v,
+                    weights: self.model.weights()?,
+                });
+            }
+        }
+        let m = EpochMetrics {
+            epoch,
+            train_loss: loss.total,
+            train_rcl: loss.rcl,
+            train_kld: loss.kld,
+            train_adl: loss.adl,
+            val,
+            seconds: t0.elapsed().as_secs_f64(),
+        };
+        self.history.push(m.clone());
+        Ok(m)
+    }
+
+    /// Snapshot of the complete state.
+    pub fn checkpoint(&self) -> Result<Checkpoint> {
+        Ok(Checkpoint {
+            config_toml: self.cfg.to_toml_string()?,
+            epochs_done: self.epochs_done,
+            weights: self.model.weights()?,
+            adam: self.adam.state().clone(),
+            rng: self.rng.state(),
+            best: self.best.clone(),
+            history: self.history.clone(),
+        })
+    }
+}
+
+/// Best-of-K validation of `model` on raw `windows`: K = `cfg.k` futures per window with
+/// `z ~ N(0, sigma^2)` from a fresh VALIDATION-stream RNG (identical draws every call),
+/// mapped back to raw units (`p / data_scale + p0`).
+pub fn validate_model(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> Result<Metrics> {
+    let mut rng = Rng::with_stream(cfg.seed, streams::VALIDATION);
+    let k = cfg.k;
+    let zdim = model.zdim();
+    let mut acc = MetricsAccumulator::new();
+    for chunk in windows.chunks(VAL_CHUNK) {
+        let samples: Vec<Sample> = chunk
+            .iter()
+            .map(|w| data::normalize(w, cfg.data_scale))
+            .collect();
+        let rows = chunk.len() * k;
+        let mut obs: Vec<f32> = Vec::with_capacity(rows * 2 * PAST);
+        let mut init: Vec<f32> = Vec::with_capacity(rows * 2);
+        for s in &samples {
+            for _ in 0..k {
+                obs.extend(s.obs.iter().flatten());
+                init.extend(s.initial_pos);
+            }
+        }
+        let obs = Tensor::from_vec(obs, (rows, 2 * PAST), &Device::Cpu)?;
+        let init = Tensor::from_vec(init, (rows, 2), &Device::Cpu)?;
+        let z = Tensor::from_vec(
+            rng.normal_vec(rows * zdim, cfg.sigma),
+            (rows, zdim),
+            &Device::Cpu,
+        )?;
+        let fut = model
+            .sample_future(&obs, &init, &z)?
+            .flatten_all()?
+            .to_vec1::<f32>()?;
+        for (i, w) in chunk.iter().enumerate() {
+            let trajectories = (0..k)
+                .map(|j| {
+                    let base = (i * k + j) * FUTURE * 2;
+                    let mut t = [[0.0f32; 2]; FUTURE];
+                    for (s, p) in t.iter_mut().enumerate() {
+                        let q = [fut[base + 2 * s], fut[base + 2 * s + 1]];
+                        *p = data::denormalize_point(q, w.pos[0], cfg.data_scale);
+                    }
+                    t
+                })
+                .collect();
+            acc.add(w, &Prediction { trajectories })?;
+        }
+    }
+    Ok(acc.finish())
+}
+
+/// Options of one `gpecnet train` invocation.
+#[derive(Clone, Debug)]
+pub struct TrainOptions {
+    /// Data root (`shared/data`).
+    pub data_root: PathBuf,
+    /// Run directory (checkpoint, metrics, curves).
+    pub run_dir: PathBuf,
+    /// Override `num_epochs` (total epochs of the run, also when resuming).
+    pub epochs: Option<usize>,
+    /// No progress bars / per-epoch lines.
+    pub quiet: bool,
+    /// Stop (as if killed) after this many epochs of this invocation; for tests.
+    pub stop_after: Option<usize>,
+}
+
+/// Result of a training invocation.
+#[derive(Clone, Debug)]
+pub struct TrainSummary {
+    /// Finished epochs of the run (in total).
+    pub epochs_done: usize,
+    /// Validation metrics of the last validated epoch.
+    pub last_val: Option<Metrics>,
+    /// Best epoch and its validation metrics.
+    pub best: Option<(usize, Metrics)>,
+    /// The run directory.
+    pub run_dir: PathBuf,
+    /// Unit of the metrics.
+    pub unit: Unit,
+}
+
+/// Start a new run in `opts.run_dir` (refuses to overwrite an existing checkpoint).
+pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> {
+    let mut cfg = cfg;
+    if let Some(n) = opts.epochs {
+        cfg.num_epochs = n;
+    }
+    cfg.validate()?;
+    let ckpt_path = opts.run_dir.join(checkpoint::CHECKPOINT_FILE);
+    if ckpt_path.exists() {
+        bail!(
+            "{} already exists: continue it with `gpecnet train --resume --out {}` or pick another --out",
+            ckpt_path.display(),
+            opts.run_dir.display()
+        );
+    }
+    std::fs::create_dir_all(&opts.run_dir)
+        .with_context(|| format!("cannot create {}", opts.run_dir.display()))?;
+    std::fs::write(opts.run_dir.join("config.toml"), cfg.to_toml_string()?)?;
+    set_num_threads(cfg.resolved_threads());
+    let data = prepare_data(&cfg, &opts.data_root)?;
+    let trainer = Trainer::new(cfg, data)?;
+    run_loop(trainer, opts)
+}
+
+/// Continue the run in `opts.run_dir` from its checkpoint.
+pub fn train_resume(opts: &TrainOptions) -> Result<TrainSummary> {
+    let ckpt = checkpoint::load(&opts.run_dir)?;
+    let cfg = ckpt.config()?;
+    set_num_threads(cfg.resolved_threads());
+    let data = prepare_data(&cfg, &opts.data_root)?;
+    let mut trainer = Trainer::from_checkpoint(ckpt, data)?;
+    if let Some(n) = opts.epochs {
+        trainer.set_num_epochs(n);
+    }
+    run_loop(trainer, opts)
+}
+
+fn bar_style(template: &str) -> ProgressStyle {
+    ProgressStyle::with_template(template)
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ")
+}
+
+fn run_loop(mut trainer: Trainer, opts: &TrainOptions) -> Result<TrainSummary> {
+    let total = trainer.config().num_epochs;
+    let show = !opts.quiet && std::io::stderr().is_terminal();
+    let mp = MultiProgress::with_draw_target(if show {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    });
+    let ebar = mp.add(ProgressBar::new(total as u64));
+    ebar.set_style(bar_style(
+        "epochs  [{elapsed_precise}] {bar:30} {pos}/{len} ETA {eta_precise} {msg}",
+    ));
+    ebar.set_position(trainer.epochs_done() as u64);
+    ebar.reset_eta();
+    let bbar = mp.add(ProgressBar::new(trainer.batches_per_epoch() as u64));
+    bbar.set_style(bar_style("batches {bar:30} {pos}/{len} ETA {eta}"));
+    let unit = trainer.data().unit;
+    let mut ran = 0usize;
+    while trainer.epochs_done() < total {
+        if opts.stop_after.is_some_and(|n| ran >= n) {
+            break;
+        }
+        bbar.reset();
+        let m = trainer.run_epoch(Some(&bbar))?;
+        ran += 1;
+        checkpoint::save(&opts.run_dir, &trainer.checkpoint()?)?;
+        write_metrics(&opts.run_dir, trainer.history())?;
+        if let Err(e) = plot_curves(&opts.run_dir.join("curves.svg"), trainer.history(), unit) {
+            mp.suspend(|| eprintln!("warning: could not plot curves: {e}"));
+        }
+        let line = epoch_line(&m, unit);
+        ebar.set_message(
+            m.val
+                .map(|v| format!("val minFDE {:.2} {unit}", v.min_fde))
+                .unwrap_or_default(),
+        );
+        ebar.inc(1);
+        if show {
+            let _ = mp.println(line);
+        } else if !opts.quiet {
+            eprintln!("{line}");
+        }
+    }
+    bbar.finish_and_clear();
+    ebar.finish();
+    Ok(TrainSummary {
+        epochs_done: trainer.epochs_done(),
+        last_val: trainer.history().iter().rev().find_map(|m| m.val),
+        best: trainer.best().map(|b| (b.epoch, b.val)),
+        run_dir: opts.run_dir.clone(),
+        unit,
+    })
+}
+
+fn epoch_line(m: &EpochMetrics, unit: Unit) -> String {
+    let mut s = format!(
+        "epoch {:4}  loss {:.4} (rcl {:.4} kld {:.4} adl {:.4})  {:.1}s",
+        m.epoch, m.train_loss, m.train_rcl, m.train_kld, m.train_adl, m.seconds
+    );
+    if let Some(v) = m.val {
+        s += &format!(
+            "  val minADE {:.2} minFDE {:.2} {unit} (K={})",
+            v.min_ade, v.min_fde, v.k
+        );
+    }
+    s
+}
+
+/// Write `metrics.csv` and `metrics.jsonl` (whole history, atomically).
+pub fn write_metrics(run_dir: &Path, history: &[EpochMetrics]) -> Result<()> {
+    let mut csv = String::from(
+        "epoch,train_loss,train_rcl,train_kld,train_adl,val_min_ade,val_min_fde,val_ade_k1,val_fde_k1,val_mean_ade,val_mean_fde,seconds\n",
+    );
+    let mut jsonl = String::new();
+    for m in history {
+        let v =
+            |f: fn(&Metrics) -> f64| m.val.as_ref().map(|x| f(x).to_string()).unwrap_or_default();
+        csv += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{:.3}\n",
+            m.epoch,
+            m.train_loss,
+            m.train_rcl,
+            m.train_kld,
+            m.train_adl,
+            v(|x| x.min_ade),
+            v(|x| x.min_fde),
+            v(|x| x.ade_k1),
+            v(|x| x.fde_k1),
+            v(|x| x.mean_ade),
+            v(|x| x.mean_fde),
+            m.seconds
+        );
+        jsonl += &serde_json::to_string(m)?;
+        jsonl.push('\n');
+    }
+    checkpoint::write_atomic(&run_dir.join("metrics.csv"), csv.as_bytes())?;
+    checkpoint::write_atomic(&run_dir.join("metrics.jsonl"), jsonl.as_bytes())?;
+    Ok(())
+}
+
+/// Plot training loss parts (log scale) and validation min ADE/FDE to an SVG file.
+/// Uses plotters' SVG backend without any font feature (no fontconfig needed).
+pub fn plot_curves(path: &Path, history: &[EpochMetrics], unit: Unit) -> Result<()> {
+    use plotters::prelude::*;
+    if history.is_empty() {
+        return Ok(());
+    }
+    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("{e}");
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1100, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (left, right) = root.split_horizontally(550);
+        let xmax = history.last().map_or(1, |m| m.epoch).max(2) as f64;
+        let xmin = history.first().map_or(1, |m| m.epoch) as f64;
+
+        type Series = (&'static str, fn(&EpochMetrics) -> f64, RGBColor);
+        let series: [Series; 3] = [
+            ("total", |m| m.train_loss, BLACK),
+            ("rcl (endpoint MSE)", |m| m.train_rcl, BLUE),
+            ("adl (path MSE)", |m| m.train_adl, RED),
+        ];
+        let vals: Vec<f64> = history
+            .iter()
+            .flat_map(|m| series.iter().map(move |s| s.1(m)))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        let lo = vals.iter().cloned().fold(f64::INFINITY, f64::min).max(1e-9);
+        let hi = vals.iter().cloned().fold(0.0, f64::max).max(lo * 10.0);
+        let mut c = ChartBuilder::on(&left)
+            .caption("training loss", ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(xmin..xmax, (lo * 0.8..hi * 1.25).log_scale())
+            .map_err(|e| err(&e))?;
+        c.configure_mesh()
+            .x_desc("epoch")
+            .draw()
+            .map_err(|e| err(&e))?;
+        for (name, f, color) in series {
+            c.draw_series(LineSeries::new(
+                history.iter().map(|m| (m.epoch as f64, f(m).max(lo))),
+                color,
+            ))
+            .map_err(|e| err(&e))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(&e))?;
+
+        let pts: Vec<(f64, f64, f64)> = history
+            .iter()
+            .filter_map(|m| m.val.map(|v| (m.epoch as f64, v.min_ade, v.min_fde)))
+            .collect();
+        if !pts.is_empty() {
+            let ymax = pts.iter().map(|p| p.2.max(p.1)).fold(0.0, f64::max) * 1.1;
+            let mut c = ChartBuilder::on(&right)
+                .caption(format!("validation best-of-K ({unit})"), ("sans-serif", 18))
+                .margin(10)
+                .x_label_area_size(35)
+                .y_label_area_size(50)
+                .build_cartesian_2d(xmin..xmax, 0.0..ymax.max(1e-6))
+                .map_err(|e| err(&e))?;
+            c.configure_mesh()
+                .x_desc("epoch")
+                .draw()
+                .map_err(|e| err(&e))?;
+            c.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), BLUE))
+                .map_err(|e| err(&e))?
+                .label("minADE")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+            c.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.2)), RED))
+                .map_err(|e| err(&e))?
+                .label("minFDE")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+            c.configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()
+                .map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    let mut bytes = Vec::new();
+    bytes.write_all(svg.as_bytes())?;
+    checkpoint::write_atomic(path, &bytes)?;
+    Ok(())
+}
