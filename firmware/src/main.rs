@@ -14,6 +14,7 @@
 #[cfg(feature = "demo")]
 mod demo;
 mod fatal;
+#[cfg_attr(not(feature = "golden"), allow(dead_code))] // profile/demo use only its constants
 mod golden;
 #[cfg(feature = "profile")]
 mod profile;
