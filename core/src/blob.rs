@@ -10,6 +10,8 @@
 //! Network × 4  (encoder_past, decoder, encoder_dest, predictor), each:
 //!     n_layers: u8, then n_layers × LayerWire { in_dim: u16, out_dim: u16,
 //!         activation: Activation, weights: &[u8], bias: &[u8] }
+//!     (or, for NumericKind::Int16Q15, LayerWireQ { in_dim, out_dim, activation,
+//!         in_exp: i8, out_exp: i8, weights: &[u8], bias: &[u8], shifts: &[u8] })
 //! crc32: 4 bytes, little endian, CRC-32/ISO-HDLC of every preceding byte
 //! ```
 //!
@@ -45,6 +47,10 @@ pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 pub enum NumericKind {
     /// IEEE-754 binary32, little endian, 4 bytes per value.
     F32,
+    /// Fixed point (`crate::fixed`): int16 weights with a power-of-two scale
+    /// per output channel, int32 biases, Q-format 16-bit activations, pure
+    /// integer inference. Layers are [`LayerWireQ`] instead of [`LayerWire`].
+    Int16Q15,
 }
 
 /// A layer's activation.
@@ -118,6 +124,33 @@ pub struct LayerWire<'a> {
     pub bias: &'a [u8],
 }
 
+/// One fixed-point layer on the wire ([`NumericKind::Int16Q15`]); see
+/// `weights/FORMAT.md` and [`crate::fixed`] for the arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LayerWireQ<'a> {
+    /// Input width.
+    pub in_dim: u16,
+    /// Output width.
+    pub out_dim: u16,
+    /// Activation after the affine map.
+    pub activation: Activation,
+    /// The input vector holds `x_i · 2^in_exp` (i16 range).
+    pub in_exp: i8,
+    /// The output vector holds `y_j · 2^out_exp`; 15 for `Sine` layers.
+    pub out_exp: i8,
+    /// `out_dim × in_dim` i16 LE, row-major.
+    pub weights: &'a [u8],
+    /// `out_dim` i32 LE, in accumulator units.
+    pub bias: &'a [u8],
+    /// `out_dim` i8: the per-channel requantisation shift.
+    pub shifts: &'a [u8],
+}
+
+/// Smallest exponent a fixed-point activation vector may use.
+pub const MIN_EXP: i8 = -8;
+/// Largest exponent a fixed-point activation vector may use.
+pub const MAX_EXP: i8 = 30;
+
 /// Which network a layer belongs to (used in errors).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -163,6 +196,8 @@ pub enum BlobError {
     ExceedsCapacity,
     /// A weight, bias or hyper-parameter is NaN or infinite.
     NonFinite(NetworkId),
+    /// A fixed-point exponent or shift is out of range or does not chain.
+    BadScale(NetworkId),
 }
 
 impl core::fmt::Display for BlobError {
@@ -193,6 +228,7 @@ impl core::fmt::Display for BlobError {
                 f.write_str("model exceeds this build's compile-time capacity")
             }
             BlobError::NonFinite(n) => write!(f, "non-finite value in {n:?}"),
+            BlobError::BadScale(n) => write!(f, "fixed-point scales of {n:?} are inconsistent"),
         }
     }
 }
@@ -220,6 +256,9 @@ pub struct Layer<'a> {
     activation: Activation,
     weights: &'a [u8],
     bias: &'a [u8],
+    shifts: &'a [u8],
+    in_exp: i8,
+    out_exp: i8,
 }
 
 impl<'a> Layer<'a> {
@@ -250,6 +289,42 @@ impl<'a> Layer<'a> {
     pub fn row_bytes(&self, j: usize) -> &'a [u8] {
         let n = self.in_dim * 4;
         self.weights.get(j * n..j * n + n).unwrap_or(&[])
+    }
+    /// Fixed point: input exponent (0 for f32 layers).
+    pub fn in_exp(&self) -> i8 {
+        self.in_exp
+    }
+    /// Fixed point: output exponent (0 for f32 layers).
+    pub fn out_exp(&self) -> i8 {
+        self.out_exp
+    }
+    /// Fixed point: `W[j][i]` as i16, or 0 when out of range (never panics).
+    #[inline]
+    pub fn weight_q(&self, j: usize, i: usize) -> i16 {
+        let k = (j * self.in_dim + i) * 2;
+        match self.weights.get(k..k + 2) {
+            Some(&[a, b]) => i16::from_le_bytes([a, b]),
+            _ => 0,
+        }
+    }
+    /// Fixed point: row `j` of `W` as raw i16 LE bytes (empty when out of range).
+    #[inline]
+    pub fn row_bytes_q(&self, j: usize) -> &'a [u8] {
+        let n = self.in_dim * 2;
+        self.weights.get(j * n..j * n + n).unwrap_or(&[])
+    }
+    /// Fixed point: `b[j]` as i32 accumulator units, or 0 when out of range.
+    #[inline]
+    pub fn bias_q(&self, j: usize) -> i32 {
+        match self.bias.get(j * 4..j * 4 + 4) {
+            Some(&[a, b, c, d]) => i32::from_le_bytes([a, b, c, d]),
+            _ => 0,
+        }
+    }
+    /// Fixed point: requantisation shift of channel `j`, or 0 when out of range.
+    #[inline]
+    pub fn shift(&self, j: usize) -> i8 {
+        self.shifts.get(j).map_or(0, |&s| s as i8)
     }
     /// Multiply-accumulates of this layer.
     pub fn macs(&self) -> usize {
@@ -453,13 +528,33 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
             return Err(BlobError::ExceedsCapacity);
         }
         for slot in net.layers.iter_mut().take(n as usize) {
-            let w: LayerWire = take(&mut cur)?;
-            *slot = Some(Layer {
-                in_dim: w.in_dim as usize,
-                out_dim: w.out_dim as usize,
-                activation: w.activation,
-                weights: w.weights,
-                bias: w.bias,
+            *slot = Some(match info.numeric {
+                NumericKind::F32 => {
+                    let w: LayerWire = take(&mut cur)?;
+                    Layer {
+                        in_dim: w.in_dim as usize,
+                        out_dim: w.out_dim as usize,
+                        activation: w.activation,
+                        weights: w.weights,
+                        bias: w.bias,
+                        shifts: &[],
+                        in_exp: 0,
+                        out_exp: 0,
+                    }
+                }
+                NumericKind::Int16Q15 => {
+                    let w: LayerWireQ = take(&mut cur)?;
+                    Layer {
+                        in_dim: w.in_dim as usize,
+                        out_dim: w.out_dim as usize,
+                        activation: w.activation,
+                        weights: w.weights,
+                        bias: w.bias,
+                        shifts: w.shifts,
+                        in_exp: w.in_exp,
+                        out_exp: w.out_exp,
+                    }
+                }
             });
         }
         net.len = n as usize;
@@ -497,23 +592,85 @@ fn validate(m: &Model<'_>) -> Result<(), BlobError> {
         return Err(BlobError::ExceedsCapacity);
     }
     let (fdim, zdim) = (c.fdim as usize, c.zdim as usize);
+    let q = m.numeric;
     check_network(
         &m.encoder_past,
         NetworkId::EncoderPast,
         2 * c.past_len as usize,
         fdim,
+        q,
     )?;
-    check_network(&m.decoder, NetworkId::Decoder, fdim + zdim, 2)?;
+    check_network(&m.decoder, NetworkId::Decoder, fdim + zdim, 2, q)?;
     match (m.encoder_dest.is_empty(), m.predictor.is_empty()) {
         (true, true) => {}
         (false, false) => {
             let ddim = m.encoder_dest.out_dim();
-            check_network(&m.encoder_dest, NetworkId::EncoderDest, 2, ddim)?;
+            check_network(&m.encoder_dest, NetworkId::EncoderDest, 2, ddim, q)?;
             let out = 2 * (c.future_len as usize - 1);
-            check_network(&m.predictor, NetworkId::Predictor, fdim + ddim + 2, out)?;
+            check_network(&m.predictor, NetworkId::Predictor, fdim + ddim + 2, out, q)?;
         }
         (true, false) => return Err(BlobError::ShapeMismatch(NetworkId::EncoderDest)),
         (false, true) => return Err(BlobError::ShapeMismatch(NetworkId::Predictor)),
+    }
+    if q == NumericKind::Int16Q15 {
+        check_boundary_exps(m)?;
+    }
+    Ok(())
+}
+
+/// Exponent of a network's input (first layer) and output (last layer).
+fn net_exps(net: &Network<'_>) -> (i8, i8) {
+    (
+        net.layers().next().map_or(0, |l| l.in_exp),
+        net.layers().last().map_or(0, |l| l.out_exp),
+    )
+}
+
+/// Fixed point: the vectors handed between networks share one exponent
+/// (features = decoder input = encoder_dest output = predictor input;
+/// decoder output = encoder_dest input), so no rescaling happens between them.
+fn check_boundary_exps(m: &Model<'_>) -> Result<(), BlobError> {
+    let (_, f) = net_exps(&m.encoder_past);
+    let (d_in, d_out) = net_exps(&m.decoder);
+    if d_in != f {
+        return Err(BlobError::BadScale(NetworkId::Decoder));
+    }
+    if !m.predictor.is_empty() {
+        let (g_in, g_out) = net_exps(&m.encoder_dest);
+        if g_in != d_out || g_out != f {
+            return Err(BlobError::BadScale(NetworkId::EncoderDest));
+        }
+        if net_exps(&m.predictor).0 != f {
+            return Err(BlobError::BadScale(NetworkId::Predictor));
+        }
+    }
+    Ok(())
+}
+
+/// Fixed point: exponents in range and chaining, shifts in range, `Sine`
+/// layers output Q15.
+fn check_scales(net: &Network<'_>, id: NetworkId) -> Result<(), BlobError> {
+    let bad = Err(BlobError::BadScale(id));
+    let mut prev: Option<i8> = None;
+    for l in net.layers() {
+        let exps_ok =
+            (MIN_EXP..=MAX_EXP).contains(&l.in_exp) && (MIN_EXP..=MAX_EXP).contains(&l.out_exp);
+        if !exps_ok || prev.is_some_and(|p| p != l.in_exp) {
+            return bad;
+        }
+        let range = match l.activation {
+            Activation::Sine => {
+                if l.out_exp != 15 {
+                    return bad;
+                }
+                crate::fixed::SINE_SHIFTS
+            }
+            Activation::Linear | Activation::Relu => crate::fixed::AFFINE_SHIFTS,
+        };
+        if !l.shifts.iter().all(|&s| range.contains(&(s as i8))) {
+            return bad;
+        }
+        prev = Some(l.out_exp);
     }
     Ok(())
 }
@@ -523,6 +680,7 @@ fn check_network(
     id: NetworkId,
     input: usize,
     output: usize,
+    numeric: NumericKind,
 ) -> Result<(), BlobError> {
     if net.is_empty() || net.in_dim() != input || net.out_dim() != output || output == 0 {
         return Err(BlobError::ShapeMismatch(id));
@@ -532,12 +690,28 @@ fn check_network(
         if l.in_dim != width || l.out_dim == 0 {
             return Err(BlobError::ShapeMismatch(id));
         }
+        let wsize = match numeric {
+            NumericKind::F32 => 4,
+            NumericKind::Int16Q15 => 2,
+        };
         let n = l
             .in_dim
             .checked_mul(l.out_dim)
-            .and_then(|n| n.checked_mul(4));
-        if n != Some(l.weights.len()) || l.bias.len() != l.out_dim * 4 {
+            .and_then(|n| n.checked_mul(wsize));
+        let shifts_len = match numeric {
+            NumericKind::F32 => 0,
+            NumericKind::Int16Q15 => l.out_dim,
+        };
+        if n != Some(l.weights.len())
+            || l.bias.len() != l.out_dim * 4
+            || l.shifts.len() != shifts_len
+        {
             return Err(BlobError::ShapeMismatch(id));
+        }
+        if numeric == NumericKind::Int16Q15 {
+            // Every i16 / i32 bit pattern is a valid value.
+            width = l.out_dim;
+            continue;
         }
         let all_finite = l
             .weights
@@ -551,6 +725,9 @@ fn check_network(
             return Err(BlobError::NonFinite(id));
         }
         width = l.out_dim;
+    }
+    if numeric == NumericKind::Int16Q15 {
+        check_scales(net, id)?;
     }
     Ok(())
 }

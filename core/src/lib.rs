@@ -54,6 +54,7 @@
 #![allow(clippy::indexing_slicing)]
 
 pub mod blob;
+pub mod fixed;
 pub mod golden;
 pub mod math;
 pub mod predictor;
@@ -61,6 +62,7 @@ pub mod prng;
 pub mod sine;
 
 pub use blob::{Activation, BlobError, Model, ModelConfig, NumericKind};
+pub use fixed::FixedPredictor;
 pub use predictor::{PredictError, Predictor, Trajectory};
 pub use sine::{FastSine, LibmSine, Sine};
 
