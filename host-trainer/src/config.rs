@@ -92,6 +92,12 @@ pub struct TrainConfig {
     pub activation: Activation,
     /// SIREN frequency factor `w0` (sine only).
     pub w0: f32,
+    /// Coordinate scale of the networks (model units, i.e. after `data_scale`):
+    /// the past and destination encoders see coordinates divided by it and the
+    /// decoder and predictor outputs are multiplied by it. Folded into the
+    /// first/last layers at export. SIREN needs O(1) inputs; 100 suits SDD
+    /// pixels, about 2 suits ETH/UCY metres. 1 reproduces PECNet exactly.
+    pub coord_scale: f32,
     /// Seed of every random stream (init, shuffling, noise, validation latents).
     pub seed: u64,
     /// `"sdd"` or `"eth_ucy:<scene>"`.
@@ -134,6 +140,7 @@ impl Default for TrainConfig {
             batch_size: 512,
             activation: Activation::Sine,
             w0: 30.0,
+            coord_scale: 100.0,
             seed: 1,
             dataset: "sdd".to_string(),
             val_scenes: crate::data::default_sdd_val_scenes(),
@@ -191,6 +198,9 @@ impl TrainConfig {
         }
         if self.fdim == 0 || self.zdim == 0 {
             bail!("fdim and zdim must be positive");
+        }
+        if !(self.coord_scale.is_finite() && self.coord_scale > 0.0) {
+            bail!("coord_scale must be a positive number, got {}", self.coord_scale);
         }
         for (name, v) in [
             ("enc_past_size", &self.enc_past_size),

@@ -25,6 +25,99 @@ enum Command {
     /// curves.svg and config.toml into the run directory. The best epoch is chosen on the
     /// validation scenes (never the test set).
     Train(TrainArgs),
+    /// Export a run's best-validation model to weights/: blob, golden vectors, model card.
+    ///
+    /// Evaluates the exported blob on the SDD test set through gpecnet-core (and checks the
+    /// trainer's reference path gives the same bits) and writes <name>.gpec, <name>.golden,
+    /// <name>.json and <name>.md.
+    Export(ExportArgs),
+    /// Evaluate a shipped blob on the SDD test set through gpecnet-core; print ADE/FDE and draw.
+    ///
+    /// This is what runs on the drone, on the real test set: best-of-K and K = 1 errors in
+    /// pixels, the constant-velocity baseline, whether the model card is reproduced exactly,
+    /// and an SVG of predicted vs. true trajectories.
+    Eval(EvalArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct ExportArgs {
+    /// Run directory (or checkpoint file) written by `gpecnet train`.
+    #[arg(long, value_name = "DIR")]
+    run: PathBuf,
+    /// Model name: the file stem in weights/ (letters, digits, '-', '_').
+    #[arg(long)]
+    name: String,
+    /// Output folder.
+    #[arg(long, value_name = "DIR", default_value = "weights")]
+    out: PathBuf,
+    /// Data root holding sdd/ (see shared/data/README.md).
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Sine of the reported numbers and golden vectors (the device must use the same).
+    #[arg(long, value_enum, default_value = "libm")]
+    sine: gpecnet_trainer::reference::SineKind,
+    /// Samples per window.
+    #[arg(long, default_value_t = 20)]
+    k: usize,
+    /// Latent seed of test window i is SEED + i.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+#[derive(clap::Args, Debug)]
+struct EvalArgs {
+    /// The blob to evaluate.
+    #[arg(long, value_name = "FILE", default_value = "weights/sdd-small.gpec")]
+    blob: PathBuf,
+    /// Data root holding sdd/ (see shared/data/README.md).
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Sine to run (default: the one the blob's golden file names, else libm).
+    #[arg(long, value_enum)]
+    sine: Option<gpecnet_trainer::reference::SineKind>,
+    /// Samples per window (best-of-K).
+    #[arg(long, default_value_t = 20)]
+    k: usize,
+    /// Latent seed of test window i is SEED + i.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Where to draw predictions (SVG).
+    #[arg(long, value_name = "FILE", default_value = "out/predictions.svg")]
+    draw: PathBuf,
+    /// Number of test windows to draw.
+    #[arg(long, default_value_t = 16)]
+    n_draw: usize,
+}
+
+fn cmd_export(a: ExportArgs) -> Result<()> {
+    let card = gpecnet_trainer::ship::ship(&a.run, &a.name, &a.out, &a.data, a.sine, a.k, a.seed)?;
+    let m = card.test;
+    println!("exported {} (epoch {}, {} parameters, {} bytes) to {}", card.name, card.epoch, card.parameters, card.blob_bytes, a.out.display());
+    println!("SDD test through gpecnet-core: minADE {:.3} px  minFDE {:.3} px (K={})  ADE/FDE K=1 {:.3}/{:.3} px", m.min_ade, m.min_fde, m.k, m.ade_k1, m.fde_k1);
+    Ok(())
+}
+
+fn cmd_eval(a: EvalArgs) -> Result<()> {
+    let r = gpecnet_trainer::ship::eval_blob(&a.blob, &a.data, a.sine, a.k, a.seed, Some(&a.draw), a.n_draw)?;
+    let (m, cv) = (&r.metrics, &r.constant_velocity);
+    println!("model {} on the SDD test set ({} windows), through gpecnet-core, pixels", r.name, m.n);
+    println!("{:<34} {:>9} {:>9}", "", "ADE", "FDE");
+    println!("{:<34} {:>9.3} {:>9.3}", format!("best of K = {}", m.k), m.min_ade, m.min_fde);
+    println!("{:<34} {:>9.3} {:>9.3}", "K = 1 (first sample)", m.ade_k1, m.fde_k1);
+    println!("{:<34} {:>9.3} {:>9.3}", format!("mean over the {} samples", m.k), m.mean_ade, m.mean_fde);
+    println!("{:<34} {:>9.3} {:>9.3}", "constant velocity (K = 1)", cv.ade_k1, cv.fde_k1);
+    match r.matches_card {
+        Some(true) => println!("model card: reproduced exactly"),
+        Some(false) => println!("model card: NOT reproduced (different K, seed, sine or weights?)"),
+        None => println!("model card: none next to the blob"),
+    }
+    if let Some(p) = r.svg {
+        println!("drew predictions to {}", p.display());
+    }
+    if r.matches_card == Some(false) && a.k == 20 && a.seed == 0 && a.sine.is_none() {
+        anyhow::bail!("the shipped numbers were not reproduced");
+    }
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
@@ -94,5 +187,7 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
 fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Train(a) => cmd_train(a),
+        Command::Export(a) => cmd_export(a),
+        Command::Eval(a) => cmd_eval(a),
     }
 }

@@ -76,6 +76,10 @@ pub struct Mlp {
     layers: Vec<Dense>,
     activation: Activation,
     w0: f32,
+    /// Inputs are multiplied by `1 / in_scale` before the first layer.
+    in_scale: f32,
+    /// Outputs are multiplied by `out_scale` after the last layer.
+    out_scale: f32,
 }
 
 fn uniform_vec(rng: &mut Rng, n: usize, bound: f32) -> Vec<f32> {
@@ -119,12 +123,29 @@ impl Mlp {
             layers,
             activation,
             w0,
+            in_scale: 1.0,
+            out_scale: 1.0,
         })
+    }
+
+    /// Sets fixed input/output scales: the network sees `x / in_scale` and
+    /// returns `out_scale · y`. They keep SIREN's first layer in its intended
+    /// O(1) input range (PECNet's coordinates reach hundreds) and are folded
+    /// into the first and last layers at export, so the shipped blob needs no
+    /// extra step.
+    pub fn with_scales(mut self, in_scale: f32, out_scale: f32) -> Self {
+        self.in_scale = in_scale;
+        self.out_scale = out_scale;
+        self
     }
 
     /// `x`: `[batch, in]` -> `[batch, out]`.
     pub fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
-        let mut h = x.clone();
+        let mut h = if self.in_scale == 1.0 {
+            x.clone()
+        } else {
+            x.affine(f64::from(1.0 / self.in_scale), 0.0)?
+        };
         let last = self.layers.len() - 1;
         for (i, l) in self.layers.iter().enumerate() {
             h = h
@@ -136,6 +157,9 @@ impl Mlp {
                     Activation::Relu => h.relu()?,
                 };
             }
+        }
+        if self.out_scale != 1.0 {
+            h = h.affine(f64::from(self.out_scale), 0.0)?;
         }
         Ok(h)
     }
@@ -161,6 +185,14 @@ impl Mlp {
             let (out_dim, in_dim) = l.weight.as_tensor().dims2()?;
             let mut weight = l.weight.as_tensor().flatten_all()?.to_vec1::<f32>()?;
             let mut bias = l.bias.as_tensor().to_vec1::<f32>()?;
+            if i == 0 && self.in_scale != 1.0 {
+                let inv = 1.0 / self.in_scale;
+                weight.iter_mut().for_each(|x| *x *= inv);
+            }
+            if i == last && self.out_scale != 1.0 {
+                weight.iter_mut().for_each(|x| *x *= self.out_scale);
+                bias.iter_mut().for_each(|x| *x *= self.out_scale);
+            }
             let activation = if i == last {
                 Act::Linear
             } else {
@@ -282,11 +314,15 @@ impl Model {
     /// Build and initialise from `rng` (networks in PECNet's constructor order).
     pub fn new(cfg: &TrainConfig, rng: &mut Rng) -> candle_core::Result<Self> {
         let (a, w0) = (cfg.activation, cfg.w0);
-        let encoder_past = Mlp::new(2 * PAST, &cfg.enc_past_size, cfg.fdim, a, w0, rng)?;
-        let encoder_dest = Mlp::new(2, &cfg.enc_dest_size, cfg.fdim, a, w0, rng)?;
+        let cs = cfg.coord_scale;
+        let encoder_past =
+            Mlp::new(2 * PAST, &cfg.enc_past_size, cfg.fdim, a, w0, rng)?.with_scales(cs, 1.0);
+        let encoder_dest =
+            Mlp::new(2, &cfg.enc_dest_size, cfg.fdim, a, w0, rng)?.with_scales(cs, 1.0);
         let encoder_latent =
             Mlp::new(2 * cfg.fdim, &cfg.enc_latent_size, 2 * cfg.zdim, a, w0, rng)?;
-        let decoder = Mlp::new(cfg.fdim + cfg.zdim, &cfg.dec_size, 2, a, w0, rng)?;
+        let decoder =
+            Mlp::new(cfg.fdim + cfg.zdim, &cfg.dec_size, 2, a, w0, rng)?.with_scales(1.0, cs);
         let predictor = Mlp::new(
             2 * cfg.fdim + 2,
             &cfg.predictor_hidden_size,
@@ -294,7 +330,7 @@ impl Model {
             a,
             w0,
             rng,
-        )?;
+        )?.with_scales(1.0, cs);
         Ok(Self {
             encoder_past,
             encoder_dest,
