@@ -14,3 +14,4 @@ pub mod draw;
 pub mod ship;
 pub mod synth;
 pub mod synth;
+pub mod quantize;

@@ -1,0 +1,711 @@
+//! Post-training quantization to the fixed-point blob kind
+//! (`NumericKind::Int16Q15`, `weights/FORMAT.md`), the trainer's own integer
+//! reference inference, and `gpecnet quantize`.
+//!
+//! * **Calibration**: the f32 model runs on SDD *training* windows (each with
+//!   K latent samples drawn by the specified sampler); the largest magnitude
+//!   of every network input, every non-sine layer output and every vector
+//!   handed between networks is recorded. A vector with maximum `M` gets the
+//!   exponent `floor(log2(32767 / (M · MARGIN)))` (clamped to −8..=30);
+//!   shared vectors take the smallest exponent of their parts.
+//! * **Weights**: int16 with a power-of-two scale per output channel, as
+//!   large as the row's largest weight, the bias (i32 accumulator units) and
+//!   the shift range allow. Sine layers are divided by 2π first, so their
+//!   pre-activation is a phase in turns (full circle 2^32).
+//! * **Integer reference** ([`QModel::predict`]): written from the
+//!   specification in `gpecnet_core::fixed`, independently of it (own table,
+//!   own rounding, a full decoder pass per sample); the workspace tests
+//!   compare the two bit for bit.
+
+use anyhow::{anyhow, bail, Context, Result};
+use gpecnet_core::blob::{
+    LayerWireQ, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC,
+};
+use gpecnet_core::golden::{
+    GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::core_eval::linear_fill;
+use crate::data::{Dataset, Window, FUTURE, PAST};
+use crate::eval::{Metrics, MetricsAccumulator, Prediction};
+use crate::reference::{Act, Normals, RefConfig, RefLayer, RefModel};
+
+/// Headroom over the calibrated maximum of each activation vector.
+pub const MARGIN: f64 = 1.5;
+/// The name golden files and cards use for the fixed-point sine.
+pub const SINE_NAME: &str = "q15-table";
+const MIN_EXP: i32 = -8;
+const MAX_EXP: i32 = 30;
+
+/// One quantized layer (mirrors `LayerWireQ`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QLayer {
+    /// Input width.
+    pub in_dim: usize,
+    /// Output width.
+    pub out_dim: usize,
+    /// Activation.
+    pub act: Act,
+    /// Input exponent.
+    pub in_exp: i8,
+    /// Output exponent (15 for sine layers).
+    pub out_exp: i8,
+    /// `out_dim × in_dim` weights, row-major.
+    pub w: Vec<i16>,
+    /// Biases in accumulator units.
+    pub b: Vec<i32>,
+    /// Per-channel shifts.
+    pub s: Vec<i8>,
+}
+
+/// A quantized model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QModel {
+    /// Model name.
+    pub name: String,
+    /// Hyper-parameters (as in the f32 model).
+    pub config: RefConfig,
+    /// Past encoder.
+    pub encoder_past: Vec<QLayer>,
+    /// Decoder.
+    pub decoder: Vec<QLayer>,
+    /// Endpoint encoder (empty for endpoint-only models).
+    pub encoder_dest: Vec<QLayer>,
+    /// Trajectory predictor (empty for endpoint-only models).
+    pub predictor: Vec<QLayer>,
+}
+
+// ---------------------------------------------------------------- calibration
+
+/// Largest magnitudes seen while running the f32 model (f64 arithmetic).
+#[derive(Clone, Debug, Default)]
+pub struct Calibration {
+    /// encoder_past input.
+    pub input: f64,
+    /// Per network (enc, dec, dest, pred), per layer: max |output|.
+    pub layers: [Vec<f64>; 4],
+    /// The latent (`sigma · N(0, 1)`).
+    pub z: f64,
+    /// `initial_pos`.
+    pub init: f64,
+    /// Windows used.
+    pub windows: usize,
+}
+
+fn run_f64(net: &[RefLayer], x: &[f64], maxes: &mut [f64]) -> Vec<f64> {
+    let mut cur = x.to_vec();
+    for (l, m) in net.iter().zip(maxes.iter_mut()) {
+        let mut y = Vec::with_capacity(l.out_dim);
+        for j in 0..l.out_dim {
+            let mut s = l.b[j] as f64;
+            for (w, x) in l.w[j * l.in_dim..(j + 1) * l.in_dim].iter().zip(&cur) {
+                s += *w as f64 * x;
+            }
+            let v = match l.act {
+                Act::Linear => s,
+                Act::Relu => s.max(0.0),
+                Act::Sine => s.sin(),
+            };
+            *m = m.max(v.abs());
+            y.push(v);
+        }
+        cur = y;
+    }
+    cur
+}
+
+/// Runs `model` on `windows` with `k` latent samples each (window `i` uses seed `i`).
+pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration {
+    let c = &model.config;
+    let nets = [
+        &model.encoder_past,
+        &model.decoder,
+        &model.encoder_dest,
+        &model.predictor,
+    ];
+    let mut cal = Calibration {
+        layers: nets.map(|n| vec![0.0; n.len()]),
+        ..Default::default()
+    };
+    for (wi, w) in windows.iter().enumerate() {
+        let past = w.obs();
+        let o = past[0];
+        let x: Vec<f64> = past
+            .iter()
+            .flat_map(|p| {
+                [
+                    ((p[0] - o[0]) * c.data_scale) as f64,
+                    ((p[1] - o[1]) * c.data_scale) as f64,
+                ]
+            })
+            .collect();
+        cal.input = x.iter().fold(cal.input, |m, v| m.max(v.abs()));
+        let f = run_f64(&model.encoder_past, &x, &mut cal.layers[0]);
+        let mut normals = Normals::new(wi as u64);
+        let last = past[PAST - 1];
+        for _ in 0..k {
+            let mut input = f.clone();
+            for _ in 0..c.zdim {
+                let z = c.sigma * normals.next_normal();
+                cal.z = cal.z.max(z.abs() as f64);
+                input.push(z as f64);
+            }
+            let d = run_f64(&model.decoder, &input, &mut cal.layers[1]);
+            if !model.predictor.is_empty() {
+                let g = run_f64(&model.encoder_dest, &d, &mut cal.layers[2]);
+                let mut pin = f.clone();
+                pin.extend(g);
+                for v in last {
+                    let ip = (v / c.initial_pos_divisor) as f64;
+                    cal.init = cal.init.max(ip.abs());
+                    pin.push(ip);
+                }
+                run_f64(&model.predictor, &pin, &mut cal.layers[3]);
+            }
+        }
+        cal.windows += 1;
+    }
+    cal
+}
+
+fn exp_for(max: f64) -> i32 {
+    if max.is_nan() || max <= 0.0 {
+        return MAX_EXP;
+    }
+    ((32767.0 / (max * MARGIN)).log2().floor() as i32).clamp(MIN_EXP, MAX_EXP)
+}
+
+fn quantize_layer(l: &RefLayer, in_exp: i32, out_exp: i32) -> QLayer {
+    let (fold, target, s_lo) = match l.act {
+        Act::Sine => (1.0 / std::f64::consts::TAU, 32, -31),
+        _ => (1.0, out_exp, 0),
+    };
+    let mut q = QLayer {
+        in_dim: l.in_dim,
+        out_dim: l.out_dim,
+        act: l.act,
+        in_exp: in_exp as i8,
+        out_exp: if l.act == Act::Sine {
+            15
+        } else {
+            out_exp as i8
+        },
+        w: Vec::with_capacity(l.w.len()),
+        b: Vec::with_capacity(l.out_dim),
+        s: Vec::with_capacity(l.out_dim),
+    };
+    for j in 0..l.out_dim {
+        let row: Vec<f64> = l.w[j * l.in_dim..(j + 1) * l.in_dim]
+            .iter()
+            .map(|&v| v as f64 * fold)
+            .collect();
+        let b = l.b[j] as f64 * fold;
+        let wmax = row.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let mut ew = 62 + target - in_exp; // largest shift allowed
+        if wmax > 0.0 {
+            ew = ew.min((32767.0 / wmax).log2().floor() as i32);
+        }
+        if b != 0.0 {
+            ew = ew.min((2_147_483_647.0 / b.abs()).log2().floor() as i32 - in_exp);
+        }
+        ew = ew.max(s_lo + target - in_exp); // smallest shift allowed (values saturate below)
+        let sw = (ew as f64).exp2();
+        q.w.extend(
+            row.iter()
+                .map(|v| (v * sw).round().clamp(-32768.0, 32767.0) as i16),
+        );
+        q.b.push(
+            (b * ((ew + in_exp) as f64).exp2())
+                .round()
+                .clamp(-2_147_483_648.0, 2_147_483_647.0) as i32,
+        );
+        q.s.push((ew + in_exp - target) as i8);
+    }
+    q
+}
+
+/// Quantizes one network: input exponent `e_in`, output exponent `e_out`,
+/// hidden non-sine layers from their calibrated maxima.
+fn quantize_net(net: &[RefLayer], maxes: &[f64], e_in: i32, e_out: i32) -> Vec<QLayer> {
+    let mut e = e_in;
+    net.iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let out = if i + 1 == net.len() {
+                e_out
+            } else if l.act == Act::Sine {
+                15
+            } else {
+                exp_for(maxes[i])
+            };
+            let q = quantize_layer(l, e, out);
+            e = q.out_exp as i32;
+            q
+        })
+        .collect()
+}
+
+/// Post-training quantization of `model` with calibration `cal`.
+pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QModel> {
+    model.validate()?;
+    let last_max = |n: usize| cal.layers[n].last().copied().unwrap_or(0.0);
+    for net in [
+        &model.encoder_past,
+        &model.decoder,
+        &model.encoder_dest,
+        &model.predictor,
+    ] {
+        if net.last().is_some_and(|l| l.act == Act::Sine) {
+            bail!("a network ending in a sine layer is not supported by the fixed-point kind");
+        }
+    }
+    let e_in = exp_for(cal.input);
+    let mut e_f = exp_for(last_max(0)).min(exp_for(cal.z));
+    let e_d = exp_for(last_max(1));
+    let has_pred = !model.predictor.is_empty();
+    if has_pred {
+        e_f = e_f.min(exp_for(last_max(2))).min(exp_for(cal.init));
+    }
+    let e_q = exp_for(last_max(3));
+    Ok(QModel {
+        name: name.to_string(),
+        config: model.config.clone(),
+        encoder_past: quantize_net(&model.encoder_past, &cal.layers[0], e_in, e_f),
+        decoder: quantize_net(&model.decoder, &cal.layers[1], e_f, e_d),
+        encoder_dest: if has_pred {
+            quantize_net(&model.encoder_dest, &cal.layers[2], e_d, e_f)
+        } else {
+            vec![]
+        },
+        predictor: if has_pred {
+            quantize_net(&model.predictor, &cal.layers[3], e_f, e_q)
+        } else {
+            vec![]
+        },
+    })
+}
+
+// ------------------------------------------------------- integer reference
+
+/// The quarter-wave table, `round(32768 · sin(π/2 · i / 256))`, computed here in f64.
+fn table() -> &'static [i64; 257] {
+    static T: std::sync::OnceLock<[i64; 257]> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        std::array::from_fn(|i| {
+            (32768.0 * (std::f64::consts::FRAC_PI_2 * i as f64 / 256.0).sin()).round() as i64
+        })
+    })
+}
+
+/// `sin(2π · phase / 2^32)` in Q15 from the specification.
+pub fn sin_q15_ref(phase: u32) -> i64 {
+    let t = table();
+    let q = phase / (1 << 30);
+    let off = phase % (1 << 30);
+    let p = if q % 2 == 1 { (1u32 << 30) - off } else { off };
+    let i = (p / (1 << 22)) as usize;
+    let frac = ((p % (1 << 22)) / 64) as i64;
+    let a = t[i];
+    let b = if i < 256 { t[i + 1] } else { t[256] };
+    let v = a + ((b - a) * frac + 32768).div_euclid(65536);
+    if q >= 2 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// Rounds half up at `s` fractional bits (`floor((a + 2^(s−1)) / 2^s)`).
+fn round_shift(a: i64, s: i32) -> i64 {
+    if s <= 0 {
+        a
+    } else {
+        (a + (1i64 << (s - 1))).div_euclid(1i64 << s)
+    }
+}
+
+/// `clamp(round_ties_even(x · 2^e), −32768, 32767)` with f32 arithmetic.
+pub fn quantize_value(x: f32, e: i8) -> i64 {
+    let v = x * (e as f32).exp2();
+    let r = if v.abs() < 4_194_304.0 {
+        (v + 12_582_912.0) - 12_582_912.0
+    } else {
+        v
+    };
+    if r.is_nan() {
+        0
+    } else {
+        r.clamp(-32768.0, 32767.0) as i64
+    }
+}
+
+impl QLayer {
+    fn forward(&self, x: &[i64]) -> Vec<i64> {
+        (0..self.out_dim)
+            .map(|j| {
+                let row = &self.w[j * self.in_dim..(j + 1) * self.in_dim];
+                let acc: i64 =
+                    self.b[j] as i64 + row.iter().zip(x).map(|(&w, &v)| w as i64 * v).sum::<i64>();
+                let s = self.s[j] as i32;
+                match self.act {
+                    Act::Linear => round_shift(acc, s).clamp(-32768, 32767),
+                    Act::Relu => round_shift(acc, s).clamp(0, 32767),
+                    Act::Sine => {
+                        let phase = if s >= 0 {
+                            round_shift(acc, s).rem_euclid(1 << 32)
+                        } else {
+                            (acc.rem_euclid(1 << 32) << -s).rem_euclid(1 << 32)
+                        };
+                        sin_q15_ref(phase as u32)
+                    }
+                }
+            })
+            .collect()
+    }
+}
+
+fn run_q(net: &[QLayer], x: &[i64]) -> Vec<i64> {
+    net.iter().fold(x.to_vec(), |cur, l| l.forward(&cur))
+}
+
+fn deq(v: i64, e: i8) -> f32 {
+    v as f32 * (-(e as f32)).exp2()
+}
+
+impl QModel {
+    /// Endpoints (and trajectories) by the integer specification, naively.
+    pub fn predict(
+        &self,
+        past: &[[f32; 2]],
+        seed: u64,
+        k: usize,
+    ) -> (Vec<[f32; 2]>, Vec<Vec<[f32; 2]>>) {
+        let c = &self.config;
+        let e_in = self.encoder_past[0].in_exp;
+        let e_f = self.decoder[0].in_exp;
+        let e_d = self.decoder.last().map_or(0, |l| l.out_exp);
+        let o = past[0];
+        let x: Vec<i64> = past
+            .iter()
+            .flat_map(|p| {
+                [
+                    quantize_value((p[0] - o[0]) * c.data_scale, e_in),
+                    quantize_value((p[1] - o[1]) * c.data_scale, e_in),
+                ]
+            })
+            .collect();
+        let f = run_q(&self.encoder_past, &x);
+        let mut normals = Normals::new(seed);
+        let last = past[past.len() - 1];
+        let (mut ends, mut trajs) = (Vec::with_capacity(k), Vec::new());
+        for _ in 0..k {
+            let mut input = f.clone();
+            for _ in 0..c.zdim {
+                input.push(quantize_value(c.sigma * normals.next_normal(), e_f));
+            }
+            let d = run_q(&self.decoder, &input);
+            let e = [
+                deq(d[0], e_d) / c.data_scale + o[0],
+                deq(d[1], e_d) / c.data_scale + o[1],
+            ];
+            ends.push(e);
+            if !self.predictor.is_empty() {
+                let mut pin = f.clone();
+                pin.extend(run_q(&self.encoder_dest, &d));
+                pin.push(quantize_value(last[0] / c.initial_pos_divisor, e_f));
+                pin.push(quantize_value(last[1] / c.initial_pos_divisor, e_f));
+                let q = run_q(&self.predictor, &pin);
+                let e_q = self.predictor.last().map_or(0, |l| l.out_exp);
+                let mut t: Vec<[f32; 2]> = q
+                    .chunks(2)
+                    .map(|p| {
+                        [
+                            deq(p[0], e_q) / c.data_scale + o[0],
+                            deq(p[1], e_q) / c.data_scale + o[1],
+                        ]
+                    })
+                    .collect();
+                t.push(e);
+                trajs.push(t);
+            }
+        }
+        (ends, trajs)
+    }
+
+    /// Weights and biases.
+    pub fn parameter_count(&self) -> usize {
+        [
+            &self.encoder_past,
+            &self.decoder,
+            &self.encoder_dest,
+            &self.predictor,
+        ]
+        .iter()
+        .flat_map(|n| n.iter())
+        .map(|l| l.w.len() + l.b.len())
+        .sum()
+    }
+}
+
+// ------------------------------------------------------------------ export
+
+fn push<T: Serialize>(out: &mut Vec<u8>, v: &T) -> Result<()> {
+    out.extend(postcard::to_stdvec(v).context("postcard encoding")?);
+    Ok(())
+}
+
+fn act_wire(a: Act) -> gpecnet_core::Activation {
+    match a {
+        Act::Linear => gpecnet_core::Activation::Linear,
+        Act::Relu => gpecnet_core::Activation::Relu,
+        Act::Sine => gpecnet_core::Activation::Sine,
+    }
+}
+
+/// Serialises a fixed-point blob (checked by `gpecnet-core`'s reader).
+pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
+    let c = &m.config;
+    let config = ModelConfig {
+        past_len: u8::try_from(c.past_len)?,
+        future_len: u8::try_from(c.future_len)?,
+        fdim: u16::try_from(c.fdim)?,
+        zdim: u16::try_from(c.zdim)?,
+        data_scale: c.data_scale,
+        sigma: c.sigma,
+        initial_pos_divisor: c.initial_pos_divisor,
+        w0: c.w0,
+        hidden_activation: act_wire(c.hidden_act),
+    };
+    let mut out = Vec::new();
+    push(
+        &mut out,
+        &Preamble {
+            magic: MAGIC,
+            version: FORMAT_VERSION,
+        },
+    )?;
+    push(
+        &mut out,
+        &ModelInfo {
+            numeric: NumericKind::Int16Q15,
+            name: &m.name,
+            config,
+        },
+    )?;
+    for net in [&m.encoder_past, &m.decoder, &m.encoder_dest, &m.predictor] {
+        push(&mut out, &u8::try_from(net.len())?)?;
+        for l in net {
+            let w: Vec<u8> = l.w.iter().flat_map(|v| v.to_le_bytes()).collect();
+            let b: Vec<u8> = l.b.iter().flat_map(|v| v.to_le_bytes()).collect();
+            let s: Vec<u8> = l.s.iter().map(|&v| v as u8).collect();
+            push(
+                &mut out,
+                &LayerWireQ {
+                    in_dim: u16::try_from(l.in_dim)?,
+                    out_dim: u16::try_from(l.out_dim)?,
+                    activation: act_wire(l.act),
+                    in_exp: l.in_exp,
+                    out_exp: l.out_exp,
+                    weights: &w,
+                    bias: &b,
+                    shifts: &s,
+                },
+            )?;
+        }
+    }
+    let crc = CRC32.checksum(&out);
+    out.extend(crc.to_le_bytes());
+    gpecnet_core::Model::from_blob(&out)
+        .map_err(|e| anyhow!("fixed-point blob rejected by gpecnet-core: {e}"))?;
+    Ok(out)
+}
+
+/// Golden cases of a fixed-point model from the integer reference (sine name [`SINE_NAME`]).
+pub fn qgolden_bytes(
+    m: &QModel,
+    model_crc: u32,
+    k: usize,
+    inputs: &[(Vec<[f32; 2]>, u64)],
+) -> Result<Vec<u8>> {
+    let c = &m.config;
+    let mut out = Vec::new();
+    push(
+        &mut out,
+        &GoldenPreamble {
+            magic: GOLDEN_MAGIC,
+            version: GOLDEN_VERSION,
+        },
+    )?;
+    let info = GoldenInfo {
+        model_name: &m.name,
+        model_crc,
+        sine: SINE_NAME,
+        past_len: u8::try_from(c.past_len)?,
+        future_len: u8::try_from(c.future_len)?,
+        k: u8::try_from(k)?,
+        n_cases: u32::try_from(inputs.len())?,
+    };
+    push(&mut out, &info)?;
+    let flat =
+        |v: &[[f32; 2]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
+    for (past, seed) in inputs {
+        let (ends, trajs) = m.predict(past, *seed, k);
+        let t0 = trajs.first().cloned().unwrap_or_default();
+        let (p, e, t) = (flat(past), flat(&ends), flat(&t0));
+        push(
+            &mut out,
+            &GoldenCaseWire {
+                past: &p,
+                seed: *seed,
+                endpoints: &e,
+                trajectory0: &t,
+            },
+        )?;
+    }
+    let crc = CRC32.checksum(&out);
+    out.extend(crc.to_le_bytes());
+    gpecnet_core::golden::GoldenSet::parse(&out)
+        .map_err(|e| anyhow!("golden file rejected by gpecnet-core: {e}"))?;
+    Ok(out)
+}
+
+// -------------------------------------------------------------- evaluation
+
+const HOST_WIDTH: usize = 1024;
+const HOST_MAX_K: usize = 64;
+
+fn to_fixed(t: &[[f32; 2]]) -> [[f32; 2]; FUTURE] {
+    let mut out = [[0.0; 2]; FUTURE];
+    for (o, p) in out.iter_mut().zip(t) {
+        *o = *p;
+    }
+    out
+}
+
+/// K samples for one window through `gpecnet_core::FixedPredictor`.
+pub fn predict_core_fixed(
+    model: &gpecnet_core::Model<'_>,
+    w: &Window,
+    seed: u64,
+    k: usize,
+) -> Result<Prediction> {
+    if k == 0 || k > HOST_MAX_K {
+        bail!("k must be 1..={HOST_MAX_K}");
+    }
+    let mut p = Box::new(
+        gpecnet_core::FixedPredictor::<HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
+    );
+    let past = w.obs();
+    let trajectories = if model.has_predictor() {
+        p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
+            .map_err(|e| anyhow!("{e}"))?
+            .iter()
+            .map(|t| to_fixed(t))
+            .collect()
+    } else {
+        p.predict_endpoints::<HOST_MAX_K>(&past, seed, k)
+            .map_err(|e| anyhow!("{e}"))?
+            .iter()
+            .map(|e| linear_fill(past[PAST - 1], *e))
+            .collect()
+    };
+    Ok(Prediction { trajectories })
+}
+
+/// K samples for one window through the integer reference.
+pub fn predict_reference_fixed(m: &QModel, w: &Window, seed: u64, k: usize) -> Prediction {
+    let past = w.obs();
+    let (ends, trajs) = m.predict(&past, seed, k);
+    let trajectories = if m.predictor.is_empty() {
+        ends.iter()
+            .map(|e| linear_fill(past[PAST - 1], *e))
+            .collect()
+    } else {
+        trajs.iter().map(|t| to_fixed(t)).collect()
+    };
+    Prediction { trajectories }
+}
+
+fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(n.max(1));
+    let chunk = n.div_ceil(threads);
+    std::thread::scope(|s| {
+        let hs: Vec<_> = (0..threads)
+            .map(|t| {
+                let f = &f;
+                s.spawn(move || {
+                    (t * chunk..((t + 1) * chunk).min(n))
+                        .map(f)
+                        .collect::<Result<Vec<T>>>()
+                })
+            })
+            .collect();
+        let mut out = Vec::with_capacity(n);
+        for h in hs {
+            out.extend(h.join().map_err(|_| anyhow!("worker panicked"))??);
+        }
+        Ok(out)
+    })
+}
+
+fn metrics(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
+    let mut acc = MetricsAccumulator::new();
+    for (w, p) in ds.windows.iter().zip(preds) {
+        acc.add(w, p)
+            .map_err(|e| anyhow!("{}#{}: {e:?}", w.scene, w.ped_id))?;
+    }
+    Ok(acc.finish())
+}
+
+/// Evaluates a fixed-point blob through `gpecnet-core` (window `i` uses seed `base_seed + i`).
+pub fn evaluate_core_fixed(
+    blob: &[u8],
+    ds: &Dataset,
+    k: usize,
+    base_seed: u64,
+) -> Result<(Metrics, Vec<Prediction>)> {
+    let model = gpecnet_core::Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
+    let preds = parallel_map(ds.windows.len(), |i| {
+        predict_core_fixed(&model, &ds.windows[i], base_seed.wrapping_add(i as u64), k)
+    })?;
+    Ok((metrics(ds, &preds)?, preds))
+}
+
+/// Evaluates the integer reference on every window of `ds`.
+pub fn evaluate_reference_fixed(
+    m: &QModel,
+    ds: &Dataset,
+    k: usize,
+    base_seed: u64,
+) -> Result<(Metrics, Vec<Prediction>)> {
+    let preds = parallel_map(ds.windows.len(), |i| {
+        Ok(predict_reference_fixed(
+            m,
+            &ds.windows[i],
+            base_seed.wrapping_add(i as u64),
+            k,
+        ))
+    })?;
+    Ok((metrics(ds, &preds)?, preds))
+}
+
+/// Calibrates on (every `stride`-th window of) `train` and quantizes.
+pub fn quantize_with_data(
+    model: &RefModel,
+    train: &Dataset,
+    stride: usize,
+    k: usize,
+    name: &str,
+) -> Result<QModel> {
+    let windows: Vec<Window> = train
+        .windows
+        .iter()
+        .step_by(stride.max(1))
+        .cloned()
+        .collect();
+    let cal = calibrate(model, &windows, k);
+    quantize(model, &cal, name)
+}

@@ -1,0 +1,95 @@
+//! `gpecnet_core::FixedPredictor` against the trainer's independent integer
+//! reference (`gpecnet_trainer::quantize`), bit for bit, on the whole SDD test set.
+
+use gpecnet_core::Model;
+use gpecnet_tests::{data_root, random_siren};
+use gpecnet_trainer::core_eval::evaluate_core;
+use gpecnet_trainer::data::{load_sdd, SddSplit};
+use gpecnet_trainer::export::blob_bytes;
+use gpecnet_trainer::quantize::{
+    evaluate_core_fixed, evaluate_reference_fixed, qblob_bytes, qgolden_bytes, quantize_with_data,
+    sin_q15_ref,
+};
+use gpecnet_trainer::reference::SineKind;
+
+#[test]
+fn trainer_sine_equals_core_sine() {
+    for p in (0..=u32::MAX).step_by(4099).chain([
+        0,
+        63,
+        1 << 30,
+        (1 << 30) + 63,
+        1 << 31,
+        3 << 30,
+        u32::MAX,
+    ]) {
+        assert_eq!(
+            sin_q15_ref(p),
+            gpecnet_core::fixed::sin_q15(p) as i64,
+            "phase {p:#x}"
+        );
+    }
+}
+
+#[test]
+fn random_siren_fixed_matches_on_sdd_test_set() {
+    let train = load_sdd(&data_root(), SddSplit::Train)
+        .expect("SDD train set (see ../shared/data/README.md)");
+    let test = load_sdd(&data_root(), SddSplit::Test).expect("SDD test set");
+    let m = random_siren("bitexact-q", &[64, 32], &[128, 64], &[8, 16], &[128, 64], 7);
+    let q = quantize_with_data(&m, &train, 50, 4, "bitexact-q").unwrap();
+    let blob = qblob_bytes(&q).unwrap();
+    let core = Model::from_blob(&blob).unwrap();
+    assert_eq!(core.parameter_count(), m.parameter_count());
+    let (mc, pc) = evaluate_core_fixed(&blob, &test, 20, 0).unwrap();
+    let (mr, pr) = evaluate_reference_fixed(&q, &test, 20, 0).unwrap();
+    assert_eq!(pc.len(), 2829);
+    let mut mismatches = 0usize;
+    for (a, b) in pc.iter().zip(&pr) {
+        for (ta, tb) in a.trajectories.iter().zip(&b.trajectories) {
+            for (p, r) in ta.iter().zip(tb) {
+                mismatches += usize::from(
+                    p[0].to_bits() != r[0].to_bits() || p[1].to_bits() != r[1].to_bits(),
+                );
+            }
+        }
+    }
+    assert_eq!(mismatches, 0, "{mismatches} points differ");
+    assert_eq!(mc, mr);
+    // The fixed path tracks the f32 model it came from.
+    let (mf, _) = evaluate_core(&blob_bytes(&m).unwrap(), SineKind::Libm, &test, 20, 0).unwrap();
+    eprintln!(
+        "random SIREN, SDD test, K=20: f32 minFDE {:.3} px, fixed {:.3} px",
+        mf.min_fde, mc.min_fde
+    );
+    assert!(
+        (mf.min_fde - mc.min_fde).abs() < 0.5,
+        "f32 {mf:?}\nfixed {mc:?}"
+    );
+
+    // Golden replay through core.
+    let inputs: Vec<(Vec<[f32; 2]>, u64)> = test
+        .windows
+        .iter()
+        .step_by(97)
+        .enumerate()
+        .map(|(i, w)| (w.obs().to_vec(), i as u64))
+        .collect();
+    let golden = qgolden_bytes(&q, core.crc(), 20, &inputs).unwrap();
+    let set = gpecnet_core::golden::GoldenSet::parse(&golden).unwrap();
+    assert_eq!(set.info().sine, "q15-table");
+    let mut p = Box::new(gpecnet_core::FixedPredictor::<256>::new(&core).unwrap());
+    for c in set.cases() {
+        let e = p.predict_endpoints::<20>(&c.past, c.seed, 20).unwrap();
+        for (i, e) in e.iter().enumerate() {
+            assert_eq!([e[0].to_bits(), e[1].to_bits()], c.endpoint_bits(i));
+        }
+        let t = p.predict_trajectories::<1>(&c.past, c.seed, 1).unwrap();
+        for (i, pt) in t[0].iter().enumerate() {
+            assert_eq!(
+                Some([pt[0].to_bits(), pt[1].to_bits()]),
+                c.trajectory0_bits(i)
+            );
+        }
+    }
+}
