@@ -13,5 +13,4 @@ pub mod core_eval;
 pub mod draw;
 pub mod ship;
 pub mod synth;
-pub mod synth;
 pub mod quantize;
