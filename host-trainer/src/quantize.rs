@@ -709,3 +709,221 @@ pub fn quantize_with_data(
     let cal = calibrate(model, &windows, k);
     quantize(model, &cal, name)
 }
+
+// ------------------------------------------------------- gpecnet quantize
+
+/// The machine-readable card of a fixed-point blob (`weights/<name>-q.json`);
+/// the workspace tests re-evaluate the blob and require these exact numbers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QuantCard {
+    /// Model name (file stem).
+    pub name: String,
+    /// File name of the f32 source blob.
+    pub source: String,
+    /// CRC-32 of the f32 source blob.
+    pub source_crc: u32,
+    /// Size of the f32 source blob in bytes.
+    pub source_bytes: usize,
+    /// CRC-32 of the fixed-point blob.
+    pub blob_crc: u32,
+    /// Size of the fixed-point blob in bytes.
+    pub blob_bytes: usize,
+    /// Parameters.
+    pub parameters: usize,
+    /// Sine of the f32 numbers (`libm` / `fast-f32`).
+    pub source_sine: String,
+    /// Samples per window.
+    pub k: usize,
+    /// Window `i` of the test set uses latent seed `base_seed + i`.
+    pub base_seed: u64,
+    /// SDD training windows used for calibration.
+    pub calibration_windows: usize,
+    /// f32 source through `gpecnet_core::Predictor` on SDD test (pixels).
+    pub test_f32: Metrics,
+    /// Fixed point through `gpecnet_core::FixedPredictor` on SDD test (pixels).
+    pub test_fixed: Metrics,
+    /// `FixedPredictor` scratch bytes at the smallest width the model allows.
+    pub scratch_bytes: usize,
+}
+
+/// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`).
+pub const GOLDEN_STRIDE: usize = 10;
+
+/// `gpecnet quantize`: quantizes the f32 blob `src` (calibrating on every
+/// `cal_stride`-th SDD training window, `cal_k` latent samples each) and
+/// writes `<out>.gpec/.golden/.json/.md`, the numbers computed through
+/// `gpecnet-core` and cross-checked bit for bit against the integer reference.
+pub fn quantize_blob(
+    src: &std::path::Path,
+    out: &std::path::Path,
+    data_root: &std::path::Path,
+    k: usize,
+    base_seed: u64,
+    cal_stride: usize,
+    cal_k: usize,
+) -> Result<QuantCard> {
+    use crate::data::{load_sdd, SddSplit};
+    let name = out
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .ok_or_else(|| anyhow!("--out needs a file name"))?
+        .to_string();
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+    {
+        bail!("model name {name:?}: use letters, digits, '-' and '_'");
+    }
+    let src_bytes = std::fs::read(src).with_context(|| format!("reading {}", src.display()))?;
+    let src_model = gpecnet_core::Model::from_blob(&src_bytes)
+        .map_err(|e| anyhow!("{}: {e}", src.display()))?;
+    if src_model.numeric() != NumericKind::F32 {
+        bail!("{} is not an f32 blob", src.display());
+    }
+    let model = crate::export::read_blob(&src_bytes)?;
+    let train = load_sdd(data_root, SddSplit::Train)?;
+    let cal_windows: Vec<Window> = train
+        .windows
+        .iter()
+        .step_by(cal_stride.max(1))
+        .cloned()
+        .collect();
+    eprintln!(
+        "calibrating on {} SDD training windows (K = {cal_k}) ...",
+        cal_windows.len()
+    );
+    let cal = calibrate(&model, &cal_windows, cal_k);
+    let q = quantize(&model, &cal, &name)?;
+    let blob = qblob_bytes(&q)?;
+    let core = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow!("{e}"))?;
+    let test = load_sdd(data_root, SddSplit::Test)?;
+    let sine = crate::ship::sine_of_blob(src).unwrap_or(crate::reference::SineKind::Libm);
+    eprintln!(
+        "evaluating f32 and fixed point on {} SDD test windows (K = {k}) ...",
+        test.windows.len()
+    );
+    let (test_f32, _) = crate::core_eval::evaluate_core(&src_bytes, sine, &test, k, base_seed)?;
+    let (test_fixed, pc) = evaluate_core_fixed(&blob, &test, k, base_seed)?;
+    let (ref_fixed, pr) = evaluate_reference_fixed(&q, &test, k, base_seed)?;
+    if test_fixed != ref_fixed
+        || pc
+            .iter()
+            .zip(&pr)
+            .any(|(a, b)| a.trajectories != b.trajectories)
+    {
+        bail!("gpecnet-core's fixed path and the integer reference disagree");
+    }
+    let inputs: Vec<(Vec<[f32; 2]>, u64)> = test
+        .windows
+        .iter()
+        .enumerate()
+        .step_by(GOLDEN_STRIDE)
+        .map(|(i, w)| (w.obs().to_vec(), base_seed.wrapping_add(i as u64)))
+        .collect();
+    let golden = qgolden_bytes(&q, core.crc(), k, &inputs)?;
+    let c = core.config();
+    let width = core.max_width().max(c.fdim as usize + c.zdim as usize);
+    let card = QuantCard {
+        name: name.clone(),
+        source: src
+            .file_name()
+            .and_then(|s| s.to_str())
+            .unwrap_or("")
+            .to_string(),
+        source_crc: src_model.crc(),
+        source_bytes: src_bytes.len(),
+        blob_crc: core.crc(),
+        blob_bytes: blob.len(),
+        parameters: q.parameter_count(),
+        source_sine: sine.core_name().to_string(),
+        k,
+        base_seed,
+        calibration_windows: cal.windows,
+        test_f32,
+        test_fixed,
+        scratch_bytes: 24 * width,
+    };
+    let dir = out.parent().unwrap_or(std::path::Path::new("."));
+    let path = |ext: &str| dir.join(format!("{name}.{ext}"));
+    crate::export::write_atomic(&path("gpec"), &blob)?;
+    crate::export::write_atomic(&path("golden"), &golden)?;
+    crate::export::write_atomic(
+        &path("json"),
+        serde_json::to_string_pretty(&card)?.as_bytes(),
+    )?;
+    crate::export::write_atomic(&path("md"), quant_card_md(&card, &q).as_bytes())?;
+    Ok(card)
+}
+
+fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
+    let (f, x) = (&c.test_f32, &c.test_fixed);
+    let exps: Vec<String> = [
+        ("encoder_past", &q.encoder_past),
+        ("decoder", &q.decoder),
+        ("encoder_dest", &q.encoder_dest),
+        ("predictor", &q.predictor),
+    ]
+    .iter()
+    .filter(|(_, n)| !n.is_empty())
+    .map(|(name, n)| {
+        format!(
+            "{name}: {}",
+            n.iter()
+                .map(|l| format!("{}→{}", l.in_exp, l.out_exp))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+    .collect();
+    format!(
+        "# Model card: `{name}` (fixed point)\n\n\
+Post-training quantization of `weights/{src}` to the `Int16Q15` blob kind (`weights/FORMAT.md`): int16 weights with a \
+power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit accumulators, integer table sine \
+(`q15-table`, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::FixedPredictor`).\n\n\
+| | |\n|---|---|\n\
+| blob | `weights/{name}.gpec`, {bytes} bytes (f32 source: {sbytes} bytes), CRC-32 `{crc:#010x}` |\n\
+| source | `{src}`, CRC-32 `{scrc:#010x}`, numbers with sine `{ssine}` |\n\
+| parameters | {params} |\n\
+| calibration | {cal} SDD training windows, margin {margin} |\n\
+| exponents (in→out per layer) | {exps} |\n\
+| `FixedPredictor` scratch at minimum width | {scratch} bytes |\n\
+| produced by | `gpecnet quantize --blob weights/{src} --out weights/{name}.gpec` |\n\n\
+## SDD test set ({n} windows, pixels), both through `gpecnet-core`\n\n\
+Latent seed of window `i` = {seed} + i.\n\n\
+| metric | f32 source | fixed point | difference |\n|---|---|---|---|\n\
+| minADE, best of K = {k} | {fa:.3} | {xa:.3} | {da:+.3} |\n\
+| minFDE, best of K = {k} | {ff:.3} | {xf:.3} | {df:+.3} |\n\
+| ADE, K = 1 | {fa1:.3} | {xa1:.3} | {da1:+.3} |\n\
+| FDE, K = 1 | {ff1:.3} | {xf1:.3} | {df1:+.3} |\n\n\
+## Data licence\n\n\
+Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
+        name = c.name,
+        src = c.source,
+        bytes = c.blob_bytes,
+        sbytes = c.source_bytes,
+        crc = c.blob_crc,
+        scrc = c.source_crc,
+        ssine = c.source_sine,
+        params = c.parameters,
+        cal = c.calibration_windows,
+        margin = MARGIN,
+        exps = exps.join("; "),
+        scratch = c.scratch_bytes,
+        n = x.n,
+        seed = c.base_seed,
+        k = c.k,
+        fa = f.min_ade,
+        xa = x.min_ade,
+        da = x.min_ade - f.min_ade,
+        ff = f.min_fde,
+        xf = x.min_fde,
+        df = x.min_fde - f.min_fde,
+        fa1 = f.ade_k1,
+        xa1 = x.ade_k1,
+        da1 = x.ade_k1 - f.ade_k1,
+        ff1 = f.fde_k1,
+        xf1 = x.fde_k1,
+        df1 = x.fde_k1 - f.fde_k1,
+    )
+}
