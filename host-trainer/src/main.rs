@@ -37,6 +37,50 @@ enum Command {
     /// pixels, the constant-velocity baseline, whether the model card is reproduced exactly,
     /// and an SVG of predicted vs. true trajectories.
     Eval(EvalArgs),
+    /// Quantize an f32 blob to the fixed-point kind (Int16Q15); writes <out>.gpec, .golden,
+    /// .json and .md with f32 vs fixed ADE/FDE on the SDD test set through gpecnet-core.
+    Quantize(QuantizeArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct QuantizeArgs {
+    /// The f32 source blob.
+    #[arg(long, value_name = "FILE")]
+    blob: PathBuf,
+    /// The fixed-point blob to write (its stem is the model name).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// Data root holding sdd/ (see shared/data/README.md).
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Samples per window.
+    #[arg(long, default_value_t = 20)]
+    k: usize,
+    /// Latent seed of test window i is SEED + i.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Calibrate on every N-th SDD training window.
+    #[arg(long, default_value_t = 4)]
+    cal_stride: usize,
+}
+
+fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
+    let c = gpecnet_trainer::quantize::quantize_blob(
+        &a.blob,
+        &a.out,
+        &a.data,
+        a.k,
+        a.seed,
+        a.cal_stride,
+        8,
+    )?;
+    let (f, x) = (&c.test_f32, &c.test_fixed);
+    println!(
+        "{}: {} bytes; SDD test K={}: minADE/minFDE f32 {:.3}/{:.3} px, fixed {:.3}/{:.3} px",
+        c.name, c.blob_bytes, c.k, f.min_ade, f.min_fde, x.min_ade, x.min_fde
+    );
+    println!("K=1: FDE f32 {:.3} px, fixed {:.3} px", f.fde_k1, x.fde_k1);
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
@@ -189,5 +233,6 @@ fn main() -> Result<()> {
         Command::Train(a) => cmd_train(a),
         Command::Export(a) => cmd_export(a),
         Command::Eval(a) => cmd_eval(a),
+        Command::Quantize(a) => cmd_quantize(a),
     }
 }
