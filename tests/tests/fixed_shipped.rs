@@ -1,0 +1,114 @@
+//! Every shipped fixed-point blob (`weights/*-q.gpec`, `NumericKind::Int16Q15`):
+//! its golden vectors replay bit for bit through `gpecnet_core::FixedPredictor`,
+//! and re-evaluating the SDD test set through `gpecnet-core` reproduces its card.
+
+use gpecnet_core::blob::NumericKind;
+use gpecnet_core::golden::GoldenSet;
+use gpecnet_core::{FixedPredictor, Model};
+use gpecnet_tests::{data_root, shipped_blobs};
+use gpecnet_trainer::data::{load_sdd, SddSplit};
+use gpecnet_trainer::quantize::{evaluate_core_fixed, QuantCard};
+
+fn fixed_blobs() -> Vec<std::path::PathBuf> {
+    shipped_blobs()
+        .into_iter()
+        .filter(|p| {
+            let b = std::fs::read(p).unwrap();
+            Model::from_blob(&b).is_ok_and(|m| m.numeric() == NumericKind::Int16Q15)
+        })
+        .collect()
+}
+
+#[test]
+fn fixed_blobs_are_named_q_and_complete() {
+    for b in fixed_blobs() {
+        let stem = b.file_stem().unwrap().to_str().unwrap().to_string();
+        assert!(
+            stem.ends_with("-q"),
+            "{}: fixed-point blobs are named <name>-q",
+            b.display()
+        );
+        for ext in ["golden", "json", "md"] {
+            assert!(
+                b.with_extension(ext).exists(),
+                "{} has no .{ext}",
+                b.display()
+            );
+        }
+    }
+}
+
+#[test]
+fn fixed_golden_vectors_replay_bit_exact() {
+    for path in fixed_blobs() {
+        let blob = std::fs::read(&path).unwrap();
+        let model = Model::from_blob(&blob).unwrap();
+        let gbytes = std::fs::read(path.with_extension("golden")).unwrap();
+        let golden = GoldenSet::parse(&gbytes).unwrap();
+        assert_eq!(golden.info().model_crc, model.crc(), "{}", path.display());
+        assert_eq!(golden.info().sine, "q15-table");
+        let mut p = Box::new(FixedPredictor::<1024>::new(&model).unwrap());
+        let mut bad = 0usize;
+        for case in golden.cases() {
+            let ends = p
+                .predict_endpoints::<64>(&case.past, case.seed, case.k())
+                .unwrap();
+            for (i, e) in ends.iter().enumerate() {
+                bad += usize::from(e.map(f32::to_bits) != case.endpoint_bits(i));
+            }
+            if case.trajectory0_len() > 0 {
+                let t = p
+                    .predict_trajectories::<1>(&case.past, case.seed, 1)
+                    .unwrap();
+                for (j, pt) in t[0].iter().enumerate() {
+                    bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));
+                }
+            }
+        }
+        assert_eq!(
+            bad,
+            0,
+            "{}: {bad} values differ from the trainer's",
+            path.display()
+        );
+    }
+}
+
+#[test]
+fn fixed_cards_are_reproduced() {
+    let blobs = fixed_blobs();
+    if blobs.is_empty() {
+        return;
+    }
+    let test = load_sdd(&data_root(), SddSplit::Test).expect("SDD test set");
+    for path in blobs {
+        let blob = std::fs::read(&path).unwrap();
+        let card: QuantCard =
+            serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
+        assert_eq!(card.blob_crc, Model::from_blob(&blob).unwrap().crc());
+        let (m, _) = evaluate_core_fixed(&blob, &test, card.k, card.base_seed).unwrap();
+        // JSON keeps f64 to within an ulp or so (serde_json without `float_roundtrip`).
+        let c = &card.test_fixed;
+        assert_eq!((m.n, m.k), (c.n, c.k));
+        for (a, b) in [
+            (m.min_ade, c.min_ade),
+            (m.min_fde, c.min_fde),
+            (m.ade_k1, c.ade_k1),
+            (m.fde_k1, c.fde_k1),
+            (m.mean_ade, c.mean_ade),
+            (m.mean_fde, c.mean_fde),
+        ] {
+            assert!(
+                (a - b).abs() <= 1e-12 * a.abs().max(1.0),
+                "{}: {m:?} vs card {c:?}",
+                path.display()
+            );
+        }
+        // Acceptance: at most 0.5 px FDE (best of K) lost against the f32 source.
+        assert!(
+            card.test_fixed.min_fde - card.test_f32.min_fde <= 0.5,
+            "{}: {card:?}",
+            path.display()
+        );
+    }
+}
