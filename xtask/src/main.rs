@@ -26,6 +26,9 @@ const APT_PKGS: &[&str] = &[
 const SINES: &[&str] = &["libm", "fast-f32", "micromath"];
 
 const USAGE: &str = "usage: cargo xtask <command>
+  demo               the main job from scratch: setup, then the shipped embedded model (weights/sdd-small)
+                     on the SDD test set through gpecnet-core (ADE/FDE + out/predictions.svg), then the
+                     same model on the STM32F405 in QEMU, bit-exact with the host
   setup              install missing prerequisites (apt: Debian rust toolchain, lld-22, qemu; cargo: defmt-print)
   build-core-thumb   build gpecnet-core alone for thumbv7em-none-eabihf (-Zbuild-std=core), all feature combos
   fw-build [ARGS]    build the firmware (release; ARGS go to cargo, e.g. --features force-panic)
@@ -850,6 +853,22 @@ fn profile(o: &Opts) -> i32 {
     failed as i32
 }
 
+/// The README's one command: set up, evaluate on the host through gpecnet-core, verify on target.
+fn demo(o: &Opts) -> i32 {
+    let rc = setup();
+    if rc != 0 {
+        return rc;
+    }
+    let mut c = host_cargo();
+    c.args(["run", "--release", "-q", "-p", "gpecnet-trainer", "--", "eval"]);
+    c.args(["--blob", "weights/sdd-small.gpec", "--draw", "out/predictions.svg"]);
+    let rc = status(c);
+    if rc != 0 {
+        return rc;
+    }
+    qemu(o)
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(cmd) = args.first() else {
@@ -859,6 +878,7 @@ fn main() {
     let o = parse_opts(&args[1..]);
     let code = match cmd.as_str() {
         "setup" => setup(),
+        "demo" => demo(&o),
         "build-core-thumb" => build_core_thumb(),
         "fw-build" => fw_build(&o, &[]),
         "fw-run" => fw_run(&o),
