@@ -9,7 +9,7 @@
 //! | [`LibmSine`] (reference) | correctly rounded in practice (musl `sinf`) | ~1,400 instructions: evaluates in f64, which the M4F emulates | yes (pure software) |
 //! | [`FastSine`] | < 4e-7 absolute for \|x\| ≤ 200 (measured by `sine::tests`) | ~20 single-precision FPU instructions | yes (fixed evaluation order, f32 only) |
 //! | `MicromathSine` (feature `micromath`) | ~1e-3 absolute (micromath's approximation) | ~30 instructions | yes for the same micromath version |
-| [`crate::fixed::sin_q15`] (fixed-point blobs only; phase in turns, u32) | 3.10e-5 absolute (1.02 Q15 LSB) over all 2^26 distinct inputs (`core/tests/fixed_sine.rs`) | integer only, no FPU; not yet profiled with `cargo xtask profile` | yes (integer) |
+//! | [`crate::fixed::sin_q15`] (fixed-point blobs only; phase in turns, u32) | 3.10e-5 absolute (1.02 Q15 LSB) over all 2^26 distinct inputs (`core/tests/fixed_sine.rs`) | integer only, no FPU; not yet profiled with `cargo xtask profile` | yes (integer) |
 //!
 //! ```
 //! use gpecnet_core::sine::{FastSine, LibmSine, Sine};
