@@ -40,6 +40,16 @@ enum Command {
     /// Quantize an f32 blob to the fixed-point kind (Int16Q15); writes <out>.gpec, .golden,
     /// .json and .md with f32 vs fixed ADE/FDE on the SDD test set through gpecnet-core.
     Quantize(QuantizeArgs),
+    /// AbScore (and areal-scaled AbScore) statistics, per-trajectory CSV and distribution plots
+    /// for SDD train and test; with --max-abscore, the outlier filter's effect.
+    Abscore(AbscoreArgs),
+    /// Classify SDD train/test trajectories into the paper's 7 types; unique-points histogram.
+    Classify(ClassifyArgs),
+    /// Build the fixed-order synthetic pool (Newtonian + HMM + policy-gradient agents) with SDD
+    /// train's type shares; the first k % of it is the augmentation.
+    Synth(SynthArgs),
+    /// Train the policy-gradient agent in the HMM playground; learning curve and episodes SVG.
+    RlTrain(RlTrainArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -228,11 +238,101 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
     Ok(())
 }
 
+#[derive(clap::Args, Debug)]
+struct AbscoreArgs {
+    /// Data root holding sdd/ (see shared/data/README.md).
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Output directory (abscore.md, abscore.csv, abscore_hist.svg, abscore_scaled_hist.svg).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Outlier filter: report how many trajectories have AbScore above this value.
+    #[arg(long, value_name = "X")]
+    max_abscore: Option<f64>,
+    /// Filter on the areal-scaled AbScore instead of the unscaled one.
+    #[arg(long)]
+    scaled: bool,
+}
+
+fn cmd_abscore(a: AbscoreArgs) -> Result<()> {
+    use gpecnet_trainer::synth::abscore::Which;
+    let which = if a.scaled { Which::Scaled } else { Which::Unscaled };
+    print!("{}", gpecnet_trainer::synth::cli::run_abscore(&a.data, &a.out, a.max_abscore, which)?);
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+struct ClassifyArgs {
+    /// Data root holding sdd/.
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Output directory (classify.md, types.svg, unique_points.svg, type_examples.svg).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+}
+
+fn cmd_classify(a: ClassifyArgs) -> Result<()> {
+    print!("{}", gpecnet_trainer::synth::cli::run_classify(&a.data, &a.out)?);
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+struct SynthArgs {
+    /// Data root holding sdd/ (SDD train's type shares are matched).
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Pool size.
+    #[arg(long, default_value_t = 18000)]
+    n: usize,
+    /// Seed (policy training and pool order).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Episodes for the policy-gradient agents used in the pool.
+    #[arg(long, default_value_t = 3200)]
+    rl_episodes: usize,
+    /// Output CSV (index,type,source,x0,y0,...); pictures and tables go next to it.
+    #[arg(long, value_name = "CSV")]
+    out: PathBuf,
+}
+
+fn cmd_synth(a: SynthArgs) -> Result<()> {
+    print!("{}", gpecnet_trainer::synth::cli::run_synth(&a.data, a.n, a.seed, a.rl_episodes, &a.out)?);
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+struct RlTrainArgs {
+    /// Number of training episodes.
+    #[arg(long, default_value_t = 3200)]
+    episodes: usize,
+    /// Episodes per REINFORCE update.
+    #[arg(long, default_value_t = 16)]
+    batch: usize,
+    /// Adam learning rate.
+    #[arg(long, default_value_t = 3e-3)]
+    lr: f64,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output directory (rl_train.md, rl_curve.csv, rl_curve_*.svg, rl_episodes.svg, policy.json).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+}
+
+fn cmd_rl_train(a: RlTrainArgs) -> Result<()> {
+    print!("{}", gpecnet_trainer::synth::cli::run_rl_train(a.episodes, a.batch, a.lr, a.seed, &a.out)?.0);
+    Ok(())
+}
+
 fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Train(a) => cmd_train(a),
         Command::Export(a) => cmd_export(a),
         Command::Eval(a) => cmd_eval(a),
         Command::Quantize(a) => cmd_quantize(a),
+        Command::Abscore(a) => cmd_abscore(a),
+        Command::Classify(a) => cmd_classify(a),
+        Command::Synth(a) => cmd_synth(a),
+        Command::RlTrain(a) => cmd_rl_train(a),
     }
 }

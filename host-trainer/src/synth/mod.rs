@@ -16,6 +16,7 @@
 pub mod abscore;
 pub mod agent;
 pub mod classify;
+pub mod cli;
 pub mod hmm;
 pub mod newtonian;
 pub mod plot;
