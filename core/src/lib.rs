@@ -37,7 +37,7 @@
 //!
 //! ## Features
 //! - `defmt`: `defmt::Format` on public types, for logging on a device.
-//! - `micromath`: [`sine::MicromathSine`].
+//! - `micromath`: `sine::MicromathSine`, micromath's approximate sine.
 //!
 //! ## Resource use
 //! `Model` is a ~500-byte view. `Predictor<S, W>` holds `20·W` bytes of

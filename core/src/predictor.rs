@@ -77,6 +77,8 @@ pub enum PredictError {
     NonFiniteOutput,
     /// Trajectories were asked of a model without a predictor network.
     NoPredictor,
+    /// The model is not an f32 model (use [`crate::fixed::FixedPredictor`] for fixed point).
+    NotF32,
 }
 
 impl core::fmt::Display for PredictError {
@@ -97,6 +99,7 @@ impl core::fmt::Display for PredictError {
             PredictError::NonFiniteInput => f.write_str("non-finite input coordinate"),
             PredictError::NonFiniteOutput => f.write_str("model output is not finite"),
             PredictError::NoPredictor => f.write_str("model has no trajectory predictor"),
+            PredictError::NotF32 => f.write_str("model is not an f32 model (use the fixed-point predictor)"),
         }
     }
 }
@@ -183,8 +186,11 @@ pub struct Predictor<'m, 'a, S: Sine, const W: usize> {
 }
 
 impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
-    /// A predictor for `model`; fails if the model is wider than `W`.
+    /// A predictor for `model`; fails if it is not an f32 model or is wider than `W`.
     pub fn new(model: &'m Model<'a>) -> Result<Self, PredictError> {
+        if model.numeric() != crate::blob::NumericKind::F32 {
+            return Err(PredictError::NotF32);
+        }
         let c = model.config();
         let needed = model.max_width().max(c.fdim as usize + c.zdim as usize);
         if needed > W {

@@ -76,6 +76,9 @@ pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
 /// Reads a blob back into memory (through `gpecnet-core`'s validating reader).
 pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
     let m = gpecnet_core::Model::from_blob(bytes).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if m.numeric() != gpecnet_core::NumericKind::F32 {
+        bail!("{} is a fixed-point blob; this reads f32 blobs", m.name());
+    }
     let c = m.config();
     let net = |n: &gpecnet_core::blob::Network<'_>| -> Vec<RefLayer> {
         n.layers()

@@ -233,11 +233,27 @@ pub fn sine_of_blob(blob_path: &Path) -> Option<SineKind> {
 pub fn eval_blob(blob_path: &Path, data_root: &Path, sine: Option<SineKind>, k: usize, base_seed: u64, svg: Option<&Path>, n_draw: usize) -> Result<EvalReport> {
     let blob = std::fs::read(blob_path).with_context(|| format!("reading {}", blob_path.display()))?;
     let model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
-    let sine = sine.or_else(|| sine_of_blob(blob_path)).unwrap_or(SineKind::Libm);
     let test = load_sdd(data_root, SddSplit::Test)?;
-    let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
-    let card: Option<ModelCard> = std::fs::read(blob_path.with_extension("json")).ok().and_then(|b| serde_json::from_slice(&b).ok());
-    let matches_card = card.map(|c| c.blob_crc == model.crc() && c.k == k && c.base_seed == base_seed && c.sine == sine && c.test == metrics);
+    let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json")).ok().and_then(|b| serde_json::from_slice(&b).ok());
+    let (metrics, preds, matches_card) = if model.numeric() == gpecnet_core::NumericKind::F32 {
+        let sine = sine.or_else(|| sine_of_blob(blob_path)).unwrap_or(SineKind::Libm);
+        let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
+        let card: Option<ModelCard> = card.and_then(|v| serde_json::from_value(v).ok());
+        let matches = card.map(|c| c.blob_crc == model.crc() && c.k == k && c.base_seed == base_seed && c.sine == sine && c.test == metrics);
+        (metrics, preds, matches)
+    } else {
+        if sine.is_some() {
+            bail!("--sine applies to f32 blobs; {} is fixed point (integer table sine)", blob_path.display());
+        }
+        let (metrics, preds) = crate::quantize::evaluate_core_fixed(&blob, &test, k, base_seed)?;
+        let matches = card.map(|c| {
+            let want: Option<Metrics> = c.get("test_fixed").and_then(|t| serde_json::from_value(t.clone()).ok());
+            c.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
+                && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
+                && want == Some(metrics)
+        });
+        (metrics, preds, matches)
+    };
     let svg = match svg {
         Some(path) => {
             let stride = (test.windows.len() / n_draw.max(1)).max(1);

@@ -3,7 +3,7 @@
 //! whole SDD test set through `gpecnet-core` reproduces its model card exactly.
 
 use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::{FastSine, LibmSine, Model, Predictor, Sine};
+use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine};
 use gpecnet_tests::{data_root, shipped_blobs};
 use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
@@ -16,7 +16,7 @@ fn f32_blobs() -> Vec<std::path::PathBuf> {
         .into_iter()
         .filter(|p| {
             let b = std::fs::read(p).unwrap();
-            Model::from_blob(&b).is_ok()
+            Model::from_blob(&b).is_ok_and(|m| m.numeric() == NumericKind::F32)
         })
         .collect()
 }
