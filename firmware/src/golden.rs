@@ -3,14 +3,22 @@
 //! so `cargo xtask qemu` can compare the two runs line by line.
 //!
 //! Lines (the firmware prints them with defmt, decoded by defmt-print):
+//!   model <model> <numeric> <sine> <n>  before a model's cases: f32|int16q15, the sidecar's sine
 //!   golden <model> <case> <fnv32>      one per golden case, sidecar's sine, bit-compared
 //!   xcheck <model> <sine> <case> <fnv32> the same inputs through the other sine
 //!                                      paths (no expected values; host vs target only)
 //! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
+//!
+//! The predictor follows the blob's numeric kind (`Model::numeric()`):
+//! `F32` → `Predictor<S, SCRATCH>` with the sine the sidecar names (and
+//! `xcheck` lines for the other compiled-in sines); `Int16Q15` →
+//! `FixedPredictor<SCRATCH>`, whose sidecar must name `q15-table` (the fixed
+//! path has one numeric path, so no `xcheck` lines).
 
-use gpecnet_core::golden::{fnv1a, GoldenSet};
+use gpecnet_core::golden::{fnv1a, GoldenCase, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
-use gpecnet_core::{Model, Predictor};
+use gpecnet_core::{fixed, FixedPredictor, Model, NumericKind, PredictError, Predictor};
+use heapless::Vec;
 
 /// Scratch width of the predictor: the widest layer the firmware supports
 /// (`Predictor` holds 5 × SCRATCH f32). 128 fits the `sdd-small`/`quick`
@@ -28,6 +36,13 @@ pub struct EmbeddedModel {
 
 /// A result line.
 pub enum Line<'a> {
+    /// `model <model> <numeric> <sine> <cases>`: before a model's cases.
+    Model {
+        model: &'a str,
+        numeric: &'static str,
+        sine: &'a str,
+        cases: u32,
+    },
     /// `golden <model> <case> <hash>` (+ whether it matched the sidecar).
     Golden {
         model: &'a str,
@@ -85,23 +100,18 @@ macro_rules! with_sine {
     };
 }
 
-/// Output fingerprint + bit-equality with the sidecar, for each case, sine `S`.
-fn cases_with<S: Sine>(
-    model: &Model<'_>,
+/// Endpoints of one prediction.
+type Ends = Vec<[f32; 2], MAX_K>;
+
+/// Output fingerprint + bit-equality with the sidecar, for each case, of `predict`.
+fn check_cases(
     set: &GoldenSet<'_>,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
+    predict: &mut dyn FnMut(&GoldenCase<'_>) -> Result<Ends, PredictError>,
 ) {
-    let mut p = match Predictor::<S, SCRATCH>::new(model) {
-        Ok(p) => p,
-        Err(_) => {
-            emit(u32::MAX, Err(()));
-            return;
-        }
-    };
     for (i, case) in set.cases().enumerate() {
         let k = case.k();
-        let r = p.predict_endpoints::<MAX_K>(&case.past, case.seed, k);
-        let r = match r {
+        let r = match predict(&case) {
             Ok(ends) => {
                 let hash = fnv1a(ends.iter().flat_map(|e| [e[0].to_bits(), e[1].to_bits()]));
                 let ok = ends.len() == k
@@ -114,6 +124,52 @@ fn cases_with<S: Sine>(
             Err(_) => Err(()),
         };
         emit(i as u32, r);
+    }
+}
+
+/// The f32 path with sine `S`.
+fn cases_with<S: Sine>(
+    model: &Model<'_>,
+    set: &GoldenSet<'_>,
+    emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
+) {
+    let Ok(mut p) = Predictor::<S, SCRATCH>::new(model) else {
+        emit(u32::MAX, Err(()));
+        return;
+    };
+    check_cases(set, emit, &mut |c| {
+        p.predict_endpoints::<MAX_K>(&c.past, c.seed, c.k())
+    });
+}
+
+/// The fixed-point path (`Int16Q15` blobs).
+fn cases_fixed(
+    model: &Model<'_>,
+    set: &GoldenSet<'_>,
+    emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
+) {
+    let Ok(mut p) = FixedPredictor::<SCRATCH>::new(model) else {
+        emit(u32::MAX, Err(()));
+        return;
+    };
+    check_cases(set, emit, &mut |c| {
+        p.predict_endpoints::<MAX_K>(&c.past, c.seed, c.k())
+    });
+}
+
+/// Scratch width `model` needs beyond [`SCRATCH`], if any.
+fn too_wide(model: &Model<'_>) -> Option<usize> {
+    let r = match model.numeric() {
+        NumericKind::F32 => Predictor::<LibmSine, SCRATCH>::new(model)
+            .err()
+            .map(gpecnet_core::Error::Predict),
+        NumericKind::Int16Q15 => FixedPredictor::<SCRATCH>::new(model).err(),
+    };
+    match r {
+        Some(gpecnet_core::Error::Predict(PredictError::ScratchTooSmall { needed, .. })) => {
+            Some(needed)
+        }
+        _ => None,
     }
 }
 
@@ -156,9 +212,7 @@ pub fn verify_all(
             });
             continue;
         }
-        if let Err(gpecnet_core::PredictError::ScratchTooSmall { needed, .. }) =
-            Predictor::<LibmSine, SCRATCH>::new(&model)
-        {
+        if let Some(needed) = too_wide(&model) {
             s.errors += 1;
             out(Line::TooWide {
                 model: m.name,
@@ -167,6 +221,15 @@ pub fn verify_all(
             continue;
         }
         let sine = set.info().sine;
+        out(Line::Model {
+            model: m.name,
+            numeric: match model.numeric() {
+                NumericKind::F32 => "f32",
+                NumericKind::Int16Q15 => "int16q15",
+            },
+            sine,
+            cases: set.info().n_cases,
+        });
         let mut emit = |case: u32, r: Result<(u32, bool), ()>| match r {
             Ok((hash, ok)) => {
                 s.cases += 1;
@@ -186,6 +249,18 @@ pub fn verify_all(
                 });
             }
         };
+        if model.numeric() == NumericKind::Int16Q15 {
+            if sine != fixed::SINE_NAME {
+                s.errors += 1;
+                out(Line::Error {
+                    model: m.name,
+                    what: "fixed-point blob, but the sidecar's sine is not q15-table",
+                });
+                continue;
+            }
+            cases_fixed(&model, &set, &mut emit);
+            continue;
+        }
         if with_sine!(sine, cases_with(&model, &set, &mut emit)).is_none() {
             s.errors += 1;
             out(Line::Error {

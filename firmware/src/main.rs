@@ -79,6 +79,18 @@ fn run_golden() -> bool {
     }
     let s = golden::verify_all(models::MODELS, true, &mut |l| {
         match l {
+        Line::Model {
+            model,
+            numeric,
+            sine,
+            cases,
+        } => defmt::println!(
+            "model {=str} {=str} {=str} {=u32}",
+            model,
+            numeric,
+            sine,
+            cases
+        ),
         Line::Golden {
             model,
             case,

@@ -440,17 +440,21 @@ fn lines_with<'a>(text: &'a str, prefixes: &[&str]) -> Vec<&'a str> {
 }
 
 /// Golden verification in QEMU + on the host, compared line by line.
+/// Full logs go to target/fw-qemu/{firmware,host}.log; stdout gets one line
+/// per model, the firmware's own summary lines, errors and the verdict.
 fn qemu(o: &Opts) -> i32 {
     require(true);
     let dir = weights_dir(o);
     let models = require_models(&dir);
     eprintln!("xtask: models: {}", models.join(", "));
+    let log_dir = root().join("target/fw-qemu");
+    std::fs::create_dir_all(&log_dir).unwrap();
     // Same numeric paths on both sides: micromath is compiled in for the xcheck lines.
     let mut c = fw_cargo(o);
     c.args(["run", "--release", "--features", "micromath"])
         .args(&o.rest);
     let (fw_rc, fw_out, fw_err) = output(c);
-    print!("{fw_out}");
+    let _ = std::fs::write(log_dir.join("firmware.log"), &fw_out);
     if fw_rc != 0 {
         // build errors / QEMU stderr
         eprint!(
@@ -476,8 +480,27 @@ fn qemu(o: &Opts) -> i32 {
     .args(["--bin", "golden-host", "--"])
     .arg(&dir);
     let (host_rc, host_out, host_err) = output(h);
+    let _ = std::fs::write(log_dir.join("host.log"), format!("{host_out}{host_err}"));
     eprint!("{host_err}");
-    let keep = ["golden ", "xcheck "];
+    // The firmware's summary lines and everything it reports as an error.
+    for l in fw_out.lines().map(str::trim_end).filter(|l| {
+        [
+            "boot:",
+            "golden summary",
+            "demo:",
+            "stack:",
+            "result:",
+            "ERROR",
+            "WARN",
+        ]
+        .iter()
+        .any(|p| l.starts_with(p))
+            || l.contains("panicked")
+            || l.contains("HardFault")
+    }) {
+        println!("firmware| {l}");
+    }
+    let keep = ["model ", "golden ", "xcheck "];
     let fl = lines_with(&fw_out, &keep);
     let hl = lines_with(&host_out, &keep);
     let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
@@ -489,13 +512,38 @@ fn qemu(o: &Opts) -> i32 {
             (a != b).then_some((i, a, b))
         })
         .collect();
-    let goldens = fl
-        .iter()
-        .filter(|l| l.starts_with("golden ") && !l.starts_with("golden summary"))
-        .count();
-    println!("---");
+    let count = |prefix: &str| {
+        fl.iter()
+            .filter(|l| l.starts_with(prefix) && l.len() > prefix.len())
+            .count()
+    };
+    // Every shipped model must have been verified, each with all its cases.
+    let mut missing_models = 0;
+    for m in &models {
+        let head = fl
+            .iter()
+            .find(|l| l.split_whitespace().nth(1) == Some(m.as_str()) && l.starts_with("model "));
+        let golden = count(&format!("golden {m} "));
+        let xcheck = count(&format!("xcheck {m} "));
+        let (numeric, sine, n) = head
+            .map(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                (
+                    w.get(2).copied().unwrap_or("?"),
+                    w.get(3).copied().unwrap_or("?"),
+                    w.get(4).and_then(|v| v.parse::<usize>().ok()).unwrap_or(0),
+                )
+            })
+            .unwrap_or(("?", "?", 0));
+        let ok = head.is_some() && n > 0 && golden == n;
+        missing_models += (!ok) as usize;
+        println!(
+            "qemu: {m:<16} {numeric:<8} sine {sine:<10} {golden}/{n} golden cases, {xcheck} xcheck lines{}",
+            if ok { "" } else { "  <- NOT VERIFIED" }
+        );
+    }
     println!(
-        "qemu: firmware exit {fw_rc}, host exit {host_rc}; {} firmware lines, {} host lines ({goldens} golden cases), {} differ",
+        "qemu: firmware exit {fw_rc}, host exit {host_rc}; {} firmware lines, {} host lines, {} differ (logs: target/fw-qemu/)",
         fl.len(),
         hl.len(),
         differ.len()
@@ -503,11 +551,11 @@ fn qemu(o: &Opts) -> i32 {
     for (i, a, b) in differ.iter().take(20) {
         println!("  line {i}: firmware {a:?} != host {b:?}");
     }
-    let ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && goldens > 0;
+    let ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && missing_models == 0;
     println!(
         "qemu: {}",
         if ok {
-            "PASS (bit-exact: firmware == sidecar == host)"
+            "PASS (bit-exact: firmware == sidecar == host, every model)"
         } else {
             "FAIL"
         }
@@ -860,8 +908,21 @@ fn demo(o: &Opts) -> i32 {
         return rc;
     }
     let mut c = host_cargo();
-    c.args(["run", "--release", "-q", "-p", "gpecnet-trainer", "--", "eval"]);
-    c.args(["--blob", "weights/sdd-small.gpec", "--draw", "out/predictions.svg"]);
+    c.args([
+        "run",
+        "--release",
+        "-q",
+        "-p",
+        "gpecnet-trainer",
+        "--",
+        "eval",
+    ]);
+    c.args([
+        "--blob",
+        "weights/sdd-small.gpec",
+        "--draw",
+        "out/predictions.svg",
+    ]);
     let rc = status(c);
     if rc != 0 {
         return rc;

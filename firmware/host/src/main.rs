@@ -79,6 +79,12 @@ fn main() {
         .collect();
     let s = verify_all(&models, true, &mut |l| {
         match l {
+        Line::Model {
+            model,
+            numeric,
+            sine,
+            cases,
+        } => println!("model {model} {numeric} {sine} {cases}"),
         Line::Golden {
             model,
             case,
