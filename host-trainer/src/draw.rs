@@ -16,12 +16,12 @@ const PANEL: f32 = 260.0;
 pub fn predictions_svg(title: &str, unit: &str, items: &[(&Window, &Prediction)], cols: usize) -> String {
     let cols = cols.max(1);
     let rows = items.len().div_ceil(cols).max(1);
-    let (w, h) = (cols as f32 * PANEL, rows as f32 * PANEL + 30.0);
+    let (w, h) = (cols as f32 * PANEL, rows as f32 * PANEL + 44.0);
     let mut s = String::new();
     let _ = writeln!(s, r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#);
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/><text x="8" y="20" font-size="14">{}</text>"#, escape(title));
     for (n, (win, pred)) in items.iter().enumerate() {
-        let (ox, oy) = ((n % cols) as f32 * PANEL, (n / cols) as f32 * PANEL + 30.0);
+        let (ox, oy) = ((n % cols) as f32 * PANEL, (n / cols) as f32 * PANEL + 44.0);
         let mut pts: Vec<[f32; 2]> = win.pos.to_vec();
         pts.extend(pred.trajectories.iter().flatten());
         let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
@@ -68,7 +68,7 @@ pub fn predictions_svg(title: &str, unit: &str, items: &[(&Window, &Prediction)]
         let (a, b) = (ox + PANEL - 20.0 - bar * sc, oy + 14.0);
         let _ = writeln!(s, r#"<line x1="{a:.1}" y1="{b}" x2="{:.1}" y2="{b}" stroke="black"/><text x="{a:.1}" y="{}" font-size="9">{bar} {unit}</text>"#, ox + PANEL - 20.0, b - 3.0);
     }
-    let _ = writeln!(s, r##"<text x="{}" y="20" font-size="11" fill="#555">blue: observed · green: true future · orange/red: K samples · thick red: best of K</text>"##, w / 2.0 - 150.0);
+    let _ = writeln!(s, r##"<text x="8" y="36" font-size="11" fill="#555">blue: observed 8 steps · dashed green: true future · orange: the K sampled trajectories, red dots their endpoints · thick red: best of K{}</text>"##, "");
     s.push_str("</svg>\n");
     s
 }
