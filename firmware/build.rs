@@ -69,10 +69,14 @@ fn main() {
         );
     }
     src += "];\n";
+    // The demo tracker's model: GPECNET_DEMO_MODEL=<name> (empty = the first one).
+    println!("cargo:rerun-if-env-changed=GPECNET_DEMO_MODEL");
+    let demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_default();
+    src += &format!("pub static DEMO_MODEL: &str = {:?};\n", demo.trim());
     // Numeric path of the profile build (one sine per image, so flash/RAM are per path).
     println!("cargo:rerun-if-env-changed=GPECNET_SINE");
     println!(
-        "cargo::rustc-check-cfg=cfg(prof_sine, values(\"libm\", \"fast-f32\", \"micromath\"))"
+        "cargo::rustc-check-cfg=cfg(prof_sine, values(\"libm\", \"fast-f32\", \"micromath\", \"q15-table\"))"
     );
     let sine = env::var("GPECNET_SINE").unwrap_or_else(|_| "libm".into());
     println!("cargo:rustc-cfg=prof_sine=\"{sine}\"");

@@ -18,7 +18,7 @@ use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::{raw::ThreadModeRawMutex, Mutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
-use gpecnet_core::{LibmSine, Model, Predictor};
+use gpecnet_core::{FixedPredictor, LibmSine, Model, NumericKind, PredictError, Predictor};
 use heapless::Vec;
 
 use crate::golden::{MAX_K, SCRATCH};
@@ -34,8 +34,35 @@ pub const K: usize = MAX_K;
 pub const FRAME_MS: u32 = 400;
 /// Length of the synthetic scene.
 pub const FRAMES: u32 = 24;
-/// The demo's numeric path (the reference sine).
+/// The sine of the demo's f32 path (the reference sine).
 type DemoSine = LibmSine;
+
+/// The demo's predictor, picked by the model's numeric kind: f32 blobs run
+/// `Predictor<DemoSine>`, `Int16Q15` blobs the integer `FixedPredictor`.
+enum AnyPredictor<'m> {
+    F32(Predictor<'m, 'static, DemoSine, SCRATCH>),
+    Fixed(FixedPredictor<'m, 'static, SCRATCH>),
+}
+
+impl<'m> AnyPredictor<'m> {
+    fn new(model: &'m Model<'static>) -> Result<Self, gpecnet_core::Error> {
+        Ok(match model.numeric() {
+            NumericKind::F32 => AnyPredictor::F32(Predictor::new(model)?),
+            NumericKind::Int16Q15 => AnyPredictor::Fixed(FixedPredictor::new(model)?),
+        })
+    }
+
+    fn predict_endpoints(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+    ) -> Result<Vec<[f32; 2], K>, PredictError> {
+        match self {
+            AnyPredictor::F32(p) => p.predict_endpoints::<K>(past, seed, K),
+            AnyPredictor::Fixed(p) => p.predict_endpoints::<K>(past, seed, K),
+        }
+    }
+}
 
 static TABLE: Mutex<ThreadModeRawMutex, RefCell<TrackTable<MAX_TRACKS>>> =
     Mutex::new(RefCell::new(TrackTable::new(MAX_MISSED)));
@@ -72,8 +99,18 @@ pub enum Report {
 
 /// Spawns the three tasks and waits for the end of the scene.
 pub async fn run(spawner: Spawner) -> bool {
-    let Some(&(name, blob)) = crate::models::BLOBS.first() else {
-        defmt::error!("demo: no model embedded (weights/*.gpec), skipping");
+    let want = crate::models::DEMO_MODEL;
+    let pick = if want.is_empty() {
+        crate::models::BLOBS.first()
+    } else {
+        crate::models::BLOBS.iter().find(|(n, _)| *n == want)
+    };
+    let Some(&(name, blob)) = pick else {
+        if want.is_empty() {
+            defmt::error!("demo: no model embedded (weights/*.gpec), skipping");
+        } else {
+            defmt::error!("demo: GPECNET_DEMO_MODEL={=str} is not embedded", want);
+        }
         return false;
     };
     let model = match Model::from_blob(blob) {
@@ -84,8 +121,12 @@ pub async fn run(spawner: Spawner) -> bool {
         }
     };
     defmt::println!(
-        "demo: model {=str}, {=usize} tracks max, K={=usize}, {=u32} frames at {=u32} ms",
+        "demo: model {=str} ({=str}), {=usize} tracks max, K={=usize}, {=u32} frames at {=u32} ms",
         name,
+        match model.numeric() {
+            NumericKind::F32 => "f32, libm sine",
+            NumericKind::Int16Q15 => "int16/Q15 fixed point, q15-table sine",
+        },
         MAX_TRACKS,
         K,
         FRAMES,
@@ -153,7 +194,7 @@ async fn ingest() {
 
 #[embassy_executor::task]
 async fn predict(model: Model<'static>) {
-    let mut p = match Predictor::<DemoSine, SCRATCH>::new(&model) {
+    let mut p = match AnyPredictor::new(&model) {
         Ok(p) => p,
         Err(e) => {
             defmt::error!("predict: {}", e);
@@ -169,7 +210,7 @@ async fn predict(model: Model<'static>) {
         for (id, past) in ready {
             // Seed: frame and id, so every run (and the host) reproduces it.
             let seed = ((frame as u64) << 32) | id as u64;
-            let r = match p.predict_endpoints::<K>(&past, seed, K) {
+            let r = match p.predict_endpoints(&past, seed) {
                 Ok(endpoints) => Report::Prediction {
                     frame,
                     id,

@@ -1,13 +1,14 @@
 //! Profiling build (`--features profile`, driven by `cargo xtask profile`):
 //! for each embedded model, one K = 20 prediction through the sine selected
-//! at build time (GPECNET_SINE -> cfg `prof_sine`), between `bench_start` and
+//! at build time (GPECNET_SINE -> cfg `prof_sine`; `q15-table` = the
+//! fixed-point `FixedPredictor` for `Int16Q15` blobs), between `bench_start` and
 //! `bench_end`. The QEMU TCG plugin (tools/insn_window.c) counts the guest
 //! instructions executed between the two markers; on a real board
 //! (`--features board`) DWT CYCCNT gives the cycles.
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
-use gpecnet_core::{Model, PredictError, Predictor};
+use gpecnet_core::{Model, PredictError};
 use heapless::Vec;
 
 use crate::golden::SCRATCH;
@@ -18,6 +19,16 @@ type ProfSine = gpecnet_core::sine::LibmSine;
 type ProfSine = gpecnet_core::sine::FastSine;
 #[cfg(all(prof_sine = "micromath", feature = "micromath"))]
 type ProfSine = gpecnet_core::sine::MicromathSine;
+
+/// The predictor of this image's numeric path.
+#[cfg(not(prof_sine = "q15-table"))]
+type ProfPredictor<'m, 'a> = gpecnet_core::Predictor<'m, 'a, ProfSine, SCRATCH>;
+#[cfg(prof_sine = "q15-table")]
+type ProfPredictor<'m, 'a> = gpecnet_core::FixedPredictor<'m, 'a, SCRATCH>;
+#[cfg(not(prof_sine = "q15-table"))]
+const PATH_NAME: &str = <ProfSine as gpecnet_core::Sine>::NAME;
+#[cfg(prof_sine = "q15-table")]
+const PATH_NAME: &str = gpecnet_core::fixed::SINE_NAME;
 
 pub const K: usize = 20;
 
@@ -42,7 +53,7 @@ pub extern "C" fn bench_end() {
 #[inline(never)]
 #[no_mangle]
 pub fn gpecnet_predict_k20(
-    p: &mut Predictor<'_, '_, ProfSine, SCRATCH>,
+    p: &mut ProfPredictor<'_, '_>,
     past: &[[f32; 2]; 8],
     seed: u64,
 ) -> Result<Vec<[f32; 2], K>, PredictError> {
@@ -82,7 +93,7 @@ pub fn run() -> bool {
                 continue;
             }
         };
-        let mut p = match Predictor::<ProfSine, SCRATCH>::new(&model) {
+        let mut p = match ProfPredictor::new(&model) {
             Ok(p) => p,
             Err(e) => {
                 defmt::error!("profile {=str}: {}", name, e);
@@ -110,7 +121,7 @@ pub fn run() -> bool {
                 defmt::println!(
                     "profile {=str} sine={=str} k={=usize} macs={=usize} predict_stack={=u32} predictor_size={=u32} hash={=u32:08x}",
                     name,
-                    <ProfSine as gpecnet_core::Sine>::NAME,
+                    PATH_NAME,
                     ends.len(),
                     model.endpoint_macs(K),
                     used as u32,

@@ -22,8 +22,13 @@ const APT_PKGS: &[&str] = &[
     "lld-22",
     "qemu-system-arm",
 ];
-/// Numeric paths profiled (gpecnet_core::sine::*::NAME).
+/// Numeric paths profiled for F32 blobs (gpecnet_core::sine::*::NAME).
 const SINES: &[&str] = &["libm", "fast-f32", "micromath"];
+/// The numeric path of Int16Q15 blobs (gpecnet_core::fixed::SINE_NAME).
+const FIXED_PATH: &str = "q15-table";
+/// Issue 6 targets for the small model in fixed point.
+const TARGET_INSNS: u64 = 300_000;
+const TARGET_CODE_WEIGHTS: u32 = 64 * 1024;
 
 const USAGE: &str = "usage: cargo xtask <command>
   demo               the main job from scratch: setup, then the shipped embedded model (weights/sdd-small)
@@ -738,6 +743,11 @@ fn field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
 struct ProfRow {
     model: String,
     sine: String,
+    blob: u32,
+    /// Bytes of the functions that executed inside the measured window.
+    exec_code: Option<u32>,
+    /// (function, instructions in the window), most first.
+    hot: Vec<(String, u64)>,
     flash: u32,
     text: u32,
     rodata: u32,
@@ -750,6 +760,83 @@ struct ProfRow {
     hash: String,
 }
 
+/// Whether a blob is fixed point: the `numeric` byte after "GPEC" + version 1 (one varint byte).
+fn blob_is_fixed(path: &Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .is_some_and(|b| b.len() > 5 && &b[..4] == b"GPEC" && b[5] == 1)
+}
+
+/// Defined functions (start, size, demangled name) from llvm-nm, sorted by address.
+fn functions(elf: &Path) -> Vec<(u32, u32, String)> {
+    let nm = ["llvm-nm-22", "llvm-nm"]
+        .iter()
+        .find_map(|t| which(t))
+        .unwrap_or_else(|| {
+            die("llvm-nm is needed for the per-function profile (apt-get install llvm)")
+        });
+    let o = Command::new(nm)
+        .args(["-C", "-S", "--defined-only"])
+        .arg(elf)
+        .output()
+        .unwrap_or_else(|e| die(&format!("llvm-nm: {e}")));
+    let mut v: Vec<(u32, u32, String)> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .filter_map(|l| {
+            let mut it = l.splitn(4, ' ');
+            let (a, sz, ty, name) = (it.next()?, it.next()?, it.next()?, it.next()?);
+            if !matches!(ty, "t" | "T" | "w" | "W") {
+                return None;
+            }
+            Some((
+                u32::from_str_radix(a, 16).ok()? & !1,
+                u32::from_str_radix(sz, 16).ok()?,
+                name.to_string(),
+            ))
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// Folds the plugin's per-PC counts ("0xPC n" lines) into functions:
+/// (instructions per function, most first; bytes of the functions that ran).
+fn fold_profile(prof: &Path, funcs: &[(u32, u32, String)]) -> (Vec<(String, u64)>, u32) {
+    let text = std::fs::read_to_string(prof).unwrap_or_default();
+    let mut per: BTreeMap<usize, u64> = BTreeMap::new();
+    let mut unknown = 0u64;
+    for l in text.lines() {
+        let mut it = l.split_whitespace();
+        let (Some(pc), Some(n)) = (it.next(), it.next()) else {
+            continue;
+        };
+        let (Some(pc), Ok(n)) = (
+            u32::from_str_radix(pc.trim_start_matches("0x"), 16).ok(),
+            n.parse::<u64>(),
+        ) else {
+            continue;
+        };
+        if n == 0 {
+            continue;
+        }
+        let i = funcs.partition_point(|f| f.0 <= pc);
+        match i.checked_sub(1).map(|i| (i, &funcs[i])) {
+            Some((i, f)) if pc < f.0 + f.1.max(2) => *per.entry(i).or_default() += n,
+            _ => unknown += n,
+        }
+    }
+    let code = per.keys().map(|&i| funcs[i].1).sum();
+    let mut hot: Vec<(String, u64)> = per
+        .into_iter()
+        .map(|(i, n)| (funcs[i].2.clone(), n))
+        .collect();
+    if unknown > 0 {
+        hot.push(("?".into(), unknown));
+    }
+    hot.sort_by_key(|b| std::cmp::Reverse(b.1));
+    (hot, code)
+}
+
 fn profile(o: &Opts) -> i32 {
     require(true);
     let dir = weights_dir(o);
@@ -760,7 +847,14 @@ fn profile(o: &Opts) -> i32 {
     let mut rows = Vec::new();
     let mut failed = false;
     for m in &models {
-        for &sine in SINES {
+        let blob_path = dir.join(format!("{m}.gpec"));
+        let blob_len = std::fs::metadata(&blob_path).map_or(0, |md| md.len() as u32);
+        let paths: &[&str] = if blob_is_fixed(&blob_path) {
+            &[FIXED_PATH]
+        } else {
+            SINES
+        };
+        for &sine in paths {
             let mut c = fw_cargo(o);
             c.env("GPECNET_MODELS", m).env("GPECNET_SINE", sine);
             c.args([
@@ -783,6 +877,8 @@ fn profile(o: &Opts) -> i32 {
                 _ => die("bench_start/bench_end missing or merged in the profile ELF"),
             };
             let log = out_dir.join(format!("{m}-{sine}.plugin.log"));
+            let pcprof = out_dir.join(format!("{m}-{sine}.pcprof"));
+            let _ = std::fs::remove_file(&pcprof);
             let mut q = Command::new("qemu-system-arm");
             q.args([
                 "-machine",
@@ -795,7 +891,11 @@ fn profile(o: &Opts) -> i32 {
             ])
             .args(["-semihosting-config", "enable=on,target=native"])
             .arg("-plugin")
-            .arg(format!("{},start={s:#x},end={e:#x}", so.display()))
+            .arg(format!(
+                "{},start={s:#x},end={e:#x},profile={},base=0x08000000",
+                so.display(),
+                pcprof.display()
+            ))
             .args(["-d", "plugin", "-D"])
             .arg(&log)
             .arg("-kernel")
@@ -827,9 +927,23 @@ fn profile(o: &Opts) -> i32 {
                 );
                 failed = true;
             }
+            let (hot, exec_code) = fold_profile(&pcprof, &functions(&elf_copy));
+            let mut hot_txt = String::new();
+            let total: u64 = hot.iter().map(|h| h.1).sum();
+            for (name, n) in &hot {
+                let _ = writeln!(
+                    hot_txt,
+                    "{n:>10} {:5.1}%  {name}",
+                    100.0 * *n as f64 / total.max(1) as f64
+                );
+            }
+            let _ = std::fs::write(out_dir.join(format!("{m}-{sine}.hot.txt")), hot_txt);
             rows.push(ProfRow {
                 model: m.clone(),
                 sine: sine.to_string(),
+                blob: blob_len,
+                exec_code: (exec_code > 0).then_some(exec_code),
+                hot,
                 flash: elf.flash(),
                 text: elf.section(".text"),
                 rodata: elf.section(".rodata"),
@@ -860,9 +974,9 @@ fn profile(o: &Opts) -> i32 {
     );
     let _ = writeln!(
         t,
-        "| model | sine | flash B (.text / .rodata) | static RAM B | stack peak B (whole run / predict call) | Predictor B | instructions (K=20) | MACs (K=20) | insns/MAC | output fnv32 |"
+        "| model | path | flash B (.text / .rodata) | blob B | predict code B | code + weights B | static RAM B | stack peak B (run / predict) | Predictor B | instructions (K=20) | MACs (K=20) | insns/MAC | output fnv32 |"
     );
-    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &rows {
         let per = match (r.insns, r.macs) {
             (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
@@ -870,12 +984,15 @@ fn profile(o: &Opts) -> i32 {
         };
         let _ = writeln!(
             t,
-            "| {} | {} | {} ({} / {}) | {} | {} / {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} ({} / {}) | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} |",
             r.model,
             r.sine,
             r.flash,
             r.text,
             r.rodata,
+            r.blob,
+            opt(r.exec_code.map(u64::from)),
+            opt(r.exec_code.map(|c| u64::from(c + r.blob))),
             r.ram,
             opt(r.stack_total.map(|v: u32| v as u64)),
             opt(r.stack_predict.map(|v: u32| v as u64)),
@@ -886,19 +1003,72 @@ fn profile(o: &Opts) -> i32 {
             r.hash
         );
     }
+    let _ = writeln!(t, "\nWhere the instructions go (top functions in the window; full lists in target/fw-profile/<model>-<path>.hot.txt):\n");
+    for r in &rows {
+        let total: u64 = r.hot.iter().map(|h| h.1).sum();
+        let top: Vec<String> = r
+            .hot
+            .iter()
+            .take(5)
+            .map(|(n, c)| {
+                format!(
+                    "{:.1}% `{}`",
+                    100.0 * *c as f64 / total.max(1) as f64,
+                    short_name(n)
+                )
+            })
+            .collect();
+        let _ = writeln!(t, "- {} / {}: {}", r.model, r.sine, top.join(", "));
+    }
+    for r in rows.iter().filter(|r| r.sine == FIXED_PATH) {
+        let insns_ok = r.insns.is_some_and(|i| i < TARGET_INSNS);
+        let size_ok = r
+            .exec_code
+            .is_some_and(|c| c + r.blob < TARGET_CODE_WEIGHTS);
+        let _ = writeln!(
+            t,
+            "\nTarget (issue 6, fixed point, K = 20): < {TARGET_INSNS} instructions: {} ({}); \
+             code + weights < {TARGET_CODE_WEIGHTS} B: {} ({} B = {} B blob + {} B predict code; whole image {} B incl. runtime, defmt, vector table).",
+            if insns_ok { "MET" } else { "NOT MET" },
+            opt(r.insns),
+            if size_ok { "MET" } else { "NOT MET" },
+            opt(r.exec_code.map(|c| u64::from(c + r.blob))),
+            r.blob,
+            opt(r.exec_code.map(u64::from)),
+            r.flash
+        );
+    }
     let _ = writeln!(
         t,
         "\nInstructions are QEMU guest instructions between bench_start and bench_end (TCG plugin \
          firmware/tools/insn_window.c), not Cortex-M4 cycles; see firmware/README.md to convert. \
          Stack: whole-run peak (painted at boot) / extra depth of the predict_endpoints call on top of the \
          Predictor, whose scratch (Predictor B) lives in the caller's frame. MACs from the blob's layer dims \
-         (Model::endpoint_macs)."
+         (Model::endpoint_macs). Predict code: bytes of the functions that executed between the markers \
+         (per-PC plugin profile folded with llvm-nm; constant tables such as the 514 B sine table are in \
+         .rodata, not counted)."
     );
     print!("{t}");
     let md = out_dir.join("profile.md");
     std::fs::write(&md, &t).unwrap();
     eprintln!("xtask: wrote {}", md.display());
     failed as i32
+}
+
+/// `a::b::<T>::f` -> `b::f`-ish: the last two path segments, generics dropped.
+fn short_name(n: &str) -> String {
+    let mut depth = 0;
+    let mut plain = String::new();
+    for ch in n.chars() {
+        match ch {
+            '<' => depth += 1,
+            '>' => depth -= 1,
+            _ if depth == 0 => plain.push(ch),
+            _ => {}
+        }
+    }
+    let parts: Vec<&str> = plain.split("::").filter(|p| !p.is_empty()).collect();
+    parts[parts.len().saturating_sub(2)..].join("::")
 }
 
 /// The README's one command: set up, evaluate on the host through gpecnet-core, verify on target.
