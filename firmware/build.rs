@@ -1,6 +1,9 @@
 //! Build script: memory map + linker scripts + the table of embedded model blobs.
 use std::{env, fs, path::PathBuf};
 
+/// Largest blob linked into the image (see xtask's MAX_MCU_BLOB).
+const MAX_MCU_BLOB: u64 = 512 * 1024;
+
 fn main() {
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap());
     let root = manifest.parent().unwrap().to_path_buf();
@@ -41,6 +44,15 @@ fn main() {
                 })
                 .filter(|n| weights.join(format!("{n}.golden")).is_file())
                 .filter(|n| only.as_ref().map_or(true, |o| o.contains(n)))
+                .filter(|n| {
+                    // Host-only models (paper size) do not fit the MCU's 1 MiB flash:
+                    // keep in step with MAX_MCU_BLOB in xtask/src/main.rs.
+                    let len = fs::metadata(weights.join(format!("{n}.gpec"))).map_or(0, |m| m.len());
+                    if len > MAX_MCU_BLOB {
+                        println!("cargo:warning=skipping {n}.gpec ({len} bytes > {MAX_MCU_BLOB}): host-only model");
+                    }
+                    len <= MAX_MCU_BLOB
+                })
                 .collect()
         })
         .unwrap_or_default();

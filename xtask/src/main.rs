@@ -381,12 +381,18 @@ fn weights_dir(o: &Opts) -> PathBuf {
 }
 
 /// Model names with both files, sorted (the firmware's build.rs does the same).
+/// Largest blob linked into the firmware: the STM32F405 has 1 MiB of flash,
+/// and code, golden files and the other models need room too. Bigger
+/// (host-only, e.g. paper-size) models are skipped by firmware/build.rs too.
+const MAX_MCU_BLOB: u64 = 512 * 1024;
+
 fn models_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .map(|rd| {
             rd.filter_map(|e| e.ok())
                 .map(|e| e.path())
                 .filter(|p| p.extension().is_some_and(|x| x == "gpec"))
+                .filter(|p| std::fs::metadata(p).is_ok_and(|m| m.len() <= MAX_MCU_BLOB))
                 .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(String::from))
                 .filter(|n| dir.join(format!("{n}.golden")).is_file())
                 .collect()
