@@ -117,6 +117,52 @@ pub struct TrainConfig {
     /// bit-reproducible only for the same thread count, so it is part of the config and is
     /// restored on `--resume`.
     pub threads: usize,
+    /// PECNet's non-local social pooling ([`crate::social`]) before the predictor. Off by
+    /// default (G-PECNet and every shipped model run without it); it needs the other
+    /// pedestrians at inference, so such a model trains and evaluates on the host but cannot
+    /// be exported. The social keys below are omitted from the TOML while at their defaults.
+    #[serde(skip_serializing_if = "is_false")]
+    pub social_pooling: bool,
+    /// Rounds of pooling (PECNet: 3), with the same networks each round.
+    #[serde(skip_serializing_if = "is_default_pools")]
+    pub nonlocal_pools: usize,
+    /// Width of the theta/phi embeddings (PECNet's `non_local_dim`: 128).
+    #[serde(skip_serializing_if = "is_default_nl_dim")]
+    pub non_local_dim: usize,
+    /// Hidden sizes of theta (`2 fdim + 2 -> non_local_dim`; PECNet: [256, 128, 64]).
+    #[serde(skip_serializing_if = "is_default_nl_size")]
+    pub non_local_theta_size: Vec<usize>,
+    /// Hidden sizes of phi (`2 fdim + 2 -> non_local_dim`; PECNet: [256, 128, 64]).
+    #[serde(skip_serializing_if = "is_default_nl_size")]
+    pub non_local_phi_size: Vec<usize>,
+    /// Hidden sizes of g (`2 fdim + 2 -> 2 fdim + 2`; PECNet: [256, 128, 64]).
+    #[serde(skip_serializing_if = "is_default_nl_size")]
+    pub non_local_g_size: Vec<usize>,
+    /// Grouping: max |start frame of one − observed frame of the other| (frames; PECNet: 0).
+    #[serde(skip_serializing_if = "is_default_time_thresh")]
+    pub time_thresh: i64,
+    /// Grouping: max min-distance between observed points, raw units (PECNet: 100 px).
+    #[serde(skip_serializing_if = "is_default_dist_thresh")]
+    pub dist_thresh: f64,
+}
+
+fn is_false(x: &bool) -> bool {
+    !*x
+}
+fn is_default_pools(x: &usize) -> bool {
+    *x == 3
+}
+fn is_default_nl_dim(x: &usize) -> bool {
+    *x == 128
+}
+fn is_default_nl_size(x: &[usize]) -> bool {
+    x == [256, 128, 64]
+}
+fn is_default_time_thresh(x: &i64) -> bool {
+    *x == 0
+}
+fn is_default_dist_thresh(x: &f64) -> bool {
+    *x == 100.0
 }
 
 impl Default for TrainConfig {
@@ -149,6 +195,14 @@ impl Default for TrainConfig {
             eval_every: 1,
             k: 20,
             threads: 0,
+            social_pooling: false,
+            nonlocal_pools: 3,
+            non_local_dim: 128,
+            non_local_theta_size: vec![256, 128, 64],
+            non_local_phi_size: vec![256, 128, 64],
+            non_local_g_size: vec![256, 128, 64],
+            time_thresh: 0,
+            dist_thresh: 100.0,
         }
     }
 }
@@ -200,7 +254,10 @@ impl TrainConfig {
             bail!("fdim and zdim must be positive");
         }
         if !(self.coord_scale.is_finite() && self.coord_scale > 0.0) {
-            bail!("coord_scale must be a positive number, got {}", self.coord_scale);
+            bail!(
+                "coord_scale must be a positive number, got {}",
+                self.coord_scale
+            );
         }
         for (name, v) in [
             ("enc_past_size", &self.enc_past_size),
@@ -208,6 +265,9 @@ impl TrainConfig {
             ("enc_latent_size", &self.enc_latent_size),
             ("dec_size", &self.dec_size),
             ("predictor_hidden_size", &self.predictor_hidden_size),
+            ("non_local_theta_size", &self.non_local_theta_size),
+            ("non_local_phi_size", &self.non_local_phi_size),
+            ("non_local_g_size", &self.non_local_g_size),
         ] {
             if v.contains(&0) {
                 bail!("{name} contains a zero-width layer");
@@ -228,6 +288,14 @@ impl TrainConfig {
             bail!("w0 must be positive for the sine activation");
         }
         self.dataset_spec()?;
+        if self.social_pooling
+            && (self.nonlocal_pools == 0
+                || self.non_local_dim == 0
+                || self.time_thresh < 0
+                || !(self.dist_thresh.is_finite() && self.dist_thresh >= 0.0))
+        {
+            bail!("social pooling needs nonlocal_pools > 0, non_local_dim > 0, time_thresh >= 0 and a finite dist_thresh >= 0");
+        }
         Ok(())
     }
 
@@ -265,7 +333,13 @@ mod tests {
 
     #[test]
     fn shipped_configs_parse() {
-        for name in ["sdd-paper", "sdd-small", "pecnet-relu", "quick"] {
+        for name in [
+            "sdd-paper",
+            "sdd-small",
+            "pecnet-relu",
+            "quick",
+            "pecnet-social",
+        ] {
             let c = TrainConfig::from_file(&cfg_dir().join(format!("{name}.toml"))).unwrap();
             let back = TrainConfig::from_toml_str(&c.to_toml_string().unwrap()).unwrap();
             assert_eq!(c, back, "{name}");

@@ -6,6 +6,7 @@ pub mod export;
 pub mod checkpoint;
 pub mod config;
 pub mod model;
+pub mod social;
 pub mod optim;
 pub mod rng;
 pub mod train;

@@ -1,4 +1,5 @@
-//! PECNet / G-PECNet (conditional VAE over the endpoint, no social pooling) on candle, CPU.
+//! PECNet / G-PECNet (conditional VAE over the endpoint) on candle, CPU, with PECNet's
+//! optional non-local social pooling ([`crate::social`], off by default, host only).
 //!
 //! Networks (PECNet names and order):
 //! * `encoder_past`: `2 * past_length` (x0, y0, x1, y1, ...) -> `fdim`
@@ -7,6 +8,10 @@
 //! * `decoder`: `fdim + zdim` -> 2 (the endpoint)
 //! * `predictor`: `2 * fdim + 2` (features, encoded endpoint, initial_pos) ->
 //!   `2 * (future_length - 1)` (the 11 intermediate points, x/y interleaved)
+//! * only with `social_pooling`: `non_local_theta`, `non_local_phi`, `non_local_g`, applied
+//!   `nonlocal_pools` times to the predictor's input features (masked by social groups). They
+//!   are initialised and stored after all other networks, so configs without pooling keep
+//!   their exact initialisation and checkpoint layout.
 //!
 //! Every MLP is `Linear -> act -> ... -> Linear` (activation after every layer but the last),
 //! with `act = sin(w0 * .)` (SIREN, G-PECNet) or ReLU (PECNet). All weights are initialised
@@ -18,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Activation, TrainConfig};
 use crate::data::{Sample, FUTURE, PAST};
 use crate::rng::Rng;
+use crate::social::SocialPooling;
 
 /// Activation of one exported layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -292,7 +298,7 @@ pub struct TrainForward {
     pub pred_future: Tensor,
 }
 
-/// PECNet without social pooling, with sine or ReLU MLPs.
+/// PECNet, with sine or ReLU MLPs and optional social pooling.
 #[derive(Clone, Debug)]
 pub struct Model {
     /// Past-trajectory encoder.
@@ -305,6 +311,8 @@ pub struct Model {
     pub decoder: Mlp,
     /// Intermediate-points predictor.
     pub predictor: Mlp,
+    /// Non-local social pooling (only with `social_pooling = true`).
+    pub social: Option<SocialPooling>,
     zdim: usize,
     kld_reg: f32,
     adl_reg: f32,
@@ -330,13 +338,21 @@ impl Model {
             a,
             w0,
             rng,
-        )?.with_scales(1.0, cs);
+        )?
+        .with_scales(1.0, cs);
+        // Drawn after everything else: configs without pooling keep their initialisation.
+        let social = if cfg.social_pooling {
+            Some(SocialPooling::new(cfg, rng)?)
+        } else {
+            None
+        };
         Ok(Self {
             encoder_past,
             encoder_dest,
             encoder_latent,
             decoder,
             predictor,
+            social,
             zdim: cfg.zdim,
             kld_reg: cfg.kld_reg,
             adl_reg: cfg.adl_reg,
@@ -359,7 +375,13 @@ impl Model {
         ]
         .iter()
         .flat_map(|m| m.vars())
+        .chain(self.social.iter().flat_map(|s| s.vars()))
         .collect()
+    }
+
+    /// `true` when the model has social pooling (its forward passes need a group mask).
+    pub fn has_social(&self) -> bool {
+        self.social.is_some()
     }
 
     /// Number of scalar parameters.
@@ -400,6 +422,17 @@ impl Model {
 
     /// Training forward pass; `eps ~ N(0, 1)` of shape `[B, zdim]` (from the caller's RNG).
     pub fn forward_train(&self, batch: &Batch, eps: &Tensor) -> candle_core::Result<TrainForward> {
+        self.forward_train_masked(batch, eps, None)
+    }
+
+    /// [`Model::forward_train`] with the social mask `[B, B]` of the batch (required when the
+    /// model has social pooling, ignored otherwise).
+    pub fn forward_train_masked(
+        &self,
+        batch: &Batch,
+        eps: &Tensor,
+        mask: Option<&Tensor>,
+    ) -> candle_core::Result<TrainForward> {
         let features = self.encoder_past.forward(&batch.obs)?;
         let dest_features = self.encoder_dest.forward(&batch.dest)?;
         let latent = self
@@ -410,7 +443,8 @@ impl Model {
         let std = logvar.affine(0.5, 0.0)?.exp()?;
         let z = (&mu + std.mul(eps)?)?;
         let dest_recon = self.decoder.forward(&Tensor::cat(&[&features, &z], 1)?)?;
-        let pred_future = self.predict_future(&features, &dest_recon, &batch.initial_pos)?;
+        let pred_future =
+            self.predict_future_masked(&features, &dest_recon, &batch.initial_pos, mask)?;
         Ok(TrainForward {
             dest_recon,
             mu,
@@ -421,7 +455,17 @@ impl Model {
 
     /// PECNet's loss: `MSE(dest, dest_recon) + kld_reg * KLD + adl_reg * MSE(future, pred)`.
     pub fn loss(&self, batch: &Batch, eps: &Tensor) -> candle_core::Result<Loss> {
-        let f = self.forward_train(batch, eps)?;
+        self.loss_masked(batch, eps, None)
+    }
+
+    /// [`Model::loss`] with the batch's social mask (see [`Model::forward_train_masked`]).
+    pub fn loss_masked(
+        &self,
+        batch: &Batch,
+        eps: &Tensor,
+        mask: Option<&Tensor>,
+    ) -> candle_core::Result<Loss> {
+        let f = self.forward_train_masked(batch, eps, mask)?;
         let rcl = (&batch.dest - &f.dest_recon)?.sqr()?.mean_all()?;
         let adl = (&batch.future - &f.pred_future)?.sqr()?.mean_all()?;
         // -0.5 * sum(1 + logvar - mu^2 - exp(logvar))
@@ -454,9 +498,29 @@ impl Model {
         dest: &Tensor,
         initial_pos: &Tensor,
     ) -> candle_core::Result<Tensor> {
+        self.predict_future_masked(features, dest, initial_pos, None)
+    }
+
+    /// [`Model::predict_future`] with social pooling of the predictor's input features over
+    /// `mask` `[B, B]` when the model has it (then `mask` is required).
+    pub fn predict_future_masked(
+        &self,
+        features: &Tensor,
+        dest: &Tensor,
+        initial_pos: &Tensor,
+        mask: Option<&Tensor>,
+    ) -> candle_core::Result<Tensor> {
         let dest_features = self.encoder_dest.forward(dest)?;
-        self.predictor
-            .forward(&Tensor::cat(&[features, &dest_features, initial_pos], 1)?)
+        let mut feat = Tensor::cat(&[features, &dest_features, initial_pos], 1)?;
+        if let Some(social) = &self.social {
+            let Some(mask) = mask else {
+                candle_core::bail!(
+                    "this model has social pooling: its forward pass needs the batch's group mask"
+                );
+            };
+            feat = social.pool(&feat, mask)?;
+        }
+        self.predictor.forward(&feat)
     }
 
     /// Inference: full 12-step futures in model space, `[B, FUTURE, 2]`, for latents `z`
@@ -467,15 +531,36 @@ impl Model {
         initial_pos: &Tensor,
         z: &Tensor,
     ) -> candle_core::Result<Tensor> {
+        self.sample_future_masked(obs, initial_pos, z, None)
+    }
+
+    /// [`Model::sample_future`] with the social mask `[B, B]` of the rows (see
+    /// [`Model::predict_future_masked`]).
+    pub fn sample_future_masked(
+        &self,
+        obs: &Tensor,
+        initial_pos: &Tensor,
+        z: &Tensor,
+        mask: Option<&Tensor>,
+    ) -> candle_core::Result<Tensor> {
         let features = self.encode_past(obs)?;
         let dest = self.decode_dest(&features, z)?;
-        let inter = self.predict_future(&features, &dest, initial_pos)?;
+        let inter = self.predict_future_masked(&features, &dest, initial_pos, mask)?;
         let b = obs.dims()[0];
         Tensor::cat(&[&inter, &dest], 1)?.reshape((b, FUTURE, 2))
     }
 
-    /// The embedded networks with `w0` folded in (see [`ExportedLayer`]).
+    /// The embedded networks with `w0` folded in (see [`ExportedLayer`]). Refuses a model
+    /// with social pooling: it needs the other pedestrians at inference, which the embedded
+    /// core does not support (such models exist to reproduce PECNet on the host).
     pub fn export_networks(&self) -> candle_core::Result<ExportedNetworks> {
+        if self.has_social() {
+            candle_core::bail!(
+                "this model uses social pooling (social_pooling = true), which needs the other \
+                 pedestrians of the scene at inference; the embedded core does not support it, \
+                 so it cannot be exported (it is for reproducing PECNet on the host)"
+            );
+        }
         Ok(ExportedNetworks {
             encoder_past: self.encoder_past.export()?,
             decoder: self.decoder.export()?,

@@ -52,6 +52,40 @@ pub struct PreparedData {
     pub val: Vec<Window>,
     /// Unit of the raw coordinates.
     pub unit: Unit,
+    /// Social groups of `train` (indices; [`social_train_groups`]); empty without
+    /// `social_pooling`.
+    pub groups: Vec<Vec<u32>>,
+}
+
+/// Social groups of the training windows (`social_pooling`): PECNet's star grouping
+/// ([`crate::social::group_windows`]) of the real windows, file by file; synthetic windows
+/// are singletons; the time-reversed copies (the second half of `train` when `reversed`) form
+/// the same groups as their originals (PECNet reuses each batch's mask).
+pub fn social_train_groups(
+    cfg: &TrainConfig,
+    train: &[Window],
+    n_real: usize,
+    reversed: bool,
+) -> Vec<Vec<u32>> {
+    let n_fwd = if reversed {
+        train.len() / 2
+    } else {
+        train.len()
+    };
+    let mut groups: Vec<Vec<u32>> =
+        crate::social::group_windows(&train[..n_real], cfg.time_thresh, cfg.dist_thresh)
+            .into_iter()
+            .map(|g| g.into_iter().map(|i| i as u32).collect())
+            .collect();
+    groups.extend((n_real..n_fwd).map(|i| vec![i as u32]));
+    if reversed {
+        let rev: Vec<Vec<u32>> = groups
+            .iter()
+            .map(|g| g.iter().map(|&i| i + n_fwd as u32).collect())
+            .collect();
+        groups.extend(rev);
+    }
+    groups
 }
 
 /// Load and prepare the data a config asks for. Never touches the test split.
@@ -89,7 +123,18 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
     } else {
         train
     };
+    let groups = if cfg.social_pooling {
+        let n_real = if cfg.time_reversal {
+            train.len() / 2
+        } else {
+            train.len()
+        };
+        social_train_groups(cfg, &train.windows, n_real, cfg.time_reversal)
+    } else {
+        Vec::new()
+    };
     Ok(PreparedData {
+        groups,
         train: train
             .windows
             .iter()
@@ -219,11 +264,33 @@ impl Trainer {
         let zdim = self.model.zdim();
         let mut acc = TrainLoss::default();
         let mut nb = 0usize;
-        for chunk in order.chunks(self.cfg.batch_size) {
+        // Social pooling: shuffle whole groups and pack them (never split) into batches.
+        let batches: Vec<(Vec<u32>, Option<Vec<usize>>)> = if self.model.has_social() {
+            let mut gorder: Vec<u32> = (0..self.data.groups.len() as u32).collect();
+            self.rng.shuffle(&mut gorder);
+            let shuffled: Vec<&[u32]> = gorder
+                .iter()
+                .map(|&g| self.data.groups[g as usize].as_slice())
+                .collect();
+            crate::social::pack_groups(&shuffled, self.cfg.batch_size)
+                .iter()
+                .map(|groups| {
+                    let rows = groups.iter().flat_map(|g| g.iter().copied()).collect();
+                    (rows, Some(groups.iter().map(|g| g.len()).collect()))
+                })
+                .collect()
+        } else {
+            order
+                .chunks(self.cfg.batch_size)
+                .map(|c| (c.to_vec(), None))
+                .collect()
+        };
+        for (chunk, sizes) in batches {
             let batch = Batch::from_samples(chunk.iter().map(|&i| &self.data.train[i as usize]))?;
             let eps = self.rng.normal_vec(chunk.len() * zdim, 1.0);
             let eps = Tensor::from_vec(eps, (chunk.len(), zdim), &Device::Cpu)?;
-            let loss = self.model.loss(&batch, &eps)?;
+            let mask = sizes.map(|s| crate::social::block_mask(&s)).transpose()?;
+            let loss = self.model.loss_masked(&batch, &eps, mask.as_ref())?;
             self.adam.backward_step(&loss.total)?;
             let total = loss.total.to_scalar::<f32>()?;
             if !total.is_finite() {
@@ -302,7 +369,15 @@ impl Trainer {
 /// Best-of-K validation of `model` on raw `windows`: K = `cfg.k` futures per window with
 /// `z ~ N(0, sigma^2)` from a fresh VALIDATION-stream RNG (identical draws every call),
 /// mapped back to raw units (`p / data_scale + p0`).
+///
+/// With social pooling the windows are grouped like the training data
+/// ([`crate::social::group_windows`]), packed into chunks without splitting groups, and each
+/// of the K samples is pooled over its own copy of the chunk (the same latents as without
+/// pooling: row `i * K + j` is sample `j` of window `i`).
 pub fn validate_model(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> Result<Metrics> {
+    if model.has_social() {
+        return validate_social(model, cfg, windows);
+    }
     let mut rng = Rng::with_stream(cfg.seed, streams::VALIDATION);
     let k = cfg.k;
     let zdim = model.zdim();
@@ -339,6 +414,74 @@ pub fn validate_model(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> R
                     let mut t = [[0.0f32; 2]; FUTURE];
                     for (s, p) in t.iter_mut().enumerate() {
                         let q = [fut[base + 2 * s], fut[base + 2 * s + 1]];
+                        *p = data::denormalize_point(q, w.pos[0], cfg.data_scale);
+                    }
+                    t
+                })
+                .collect();
+            acc.add(w, &Prediction { trajectories })?;
+        }
+    }
+    Ok(acc.finish())
+}
+
+fn validate_social(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> Result<Metrics> {
+    let mut rng = Rng::with_stream(cfg.seed, streams::VALIDATION);
+    let (k, zdim) = (cfg.k, model.zdim());
+    let groups: Vec<Vec<u32>> =
+        crate::social::group_windows(windows, cfg.time_thresh, cfg.dist_thresh)
+            .into_iter()
+            .map(|g| g.into_iter().map(|i| i as u32).collect())
+            .collect();
+    let mut acc = MetricsAccumulator::new();
+    for chunk_groups in crate::social::pack_groups(&groups, VAL_CHUNK) {
+        let idx: Vec<usize> = chunk_groups
+            .iter()
+            .flat_map(|g| g.iter().map(|&i| i as usize))
+            .collect();
+        let sizes: Vec<usize> = chunk_groups.iter().map(|g| g.len()).collect();
+        let mask = crate::social::block_mask(&sizes)?;
+        let n = idx.len();
+        let samples: Vec<Sample> = idx
+            .iter()
+            .map(|&i| data::normalize(&windows[i], cfg.data_scale))
+            .collect();
+        let obs: Vec<f32> = samples
+            .iter()
+            .flat_map(|s| s.obs.iter().flatten())
+            .copied()
+            .collect();
+        let init: Vec<f32> = samples.iter().flat_map(|s| s.initial_pos).collect();
+        let obs = Tensor::from_vec(obs, (n, 2 * PAST), &Device::Cpu)?;
+        let init = Tensor::from_vec(init, (n, 2), &Device::Cpu)?;
+        let z_all = rng.normal_vec(n * k * zdim, cfg.sigma);
+        // fut[j]: [n, FUTURE, 2] flattened, for sample j of every window.
+        let mut fut = Vec::with_capacity(k);
+        for j in 0..k {
+            let z: Vec<f32> = (0..n)
+                .flat_map(|i| {
+                    z_all[(i * k + j) * zdim..(i * k + j + 1) * zdim]
+                        .iter()
+                        .copied()
+                })
+                .collect();
+            let z = Tensor::from_vec(z, (n, zdim), &Device::Cpu)?;
+            fut.push(
+                model
+                    .sample_future_masked(&obs, &init, &z, Some(&mask))?
+                    .flatten_all()?
+                    .to_vec1::<f32>()?,
+            );
+        }
+        for (i, &wi) in idx.iter().enumerate() {
+            let w = &windows[wi];
+            let trajectories = fut
+                .iter()
+                .map(|f| {
+                    let base = i * FUTURE * 2;
+                    let mut t = [[0.0f32; 2]; FUTURE];
+                    for (s, p) in t.iter_mut().enumerate() {
+                        let q = [f[base + 2 * s], f[base + 2 * s + 1]];
                         *p = data::denormalize_point(q, w.pos[0], cfg.data_scale);
                     }
                     t
