@@ -8,8 +8,8 @@
 //!
 //! # Number format
 //!
-//! An activation vector with exponent `e` holds integers `v` (i16 range,
-//! kept in `i32`) meaning `v · 2^-e`. A layer ([`crate::blob::LayerWireQ`])
+//! An activation vector with exponent `e` holds `i16` integers `v` meaning
+//! `v · 2^-e`. A layer ([`crate::blob::LayerWireQ`])
 //! stores `in_exp`, `out_exp`, weights `q_ji` (i16), biases `B_j` (i32) and a
 //! shift `s_j` (i8) per output channel. The quantiser picks a power-of-two
 //! weight scale `2^ew_j` per output channel, so `q_ji ≈ W_ji · 2^ew_j`,
@@ -27,7 +27,8 @@
 //! 2. `Linear`: `y_j = sat16(rshr(acc_j, s_j))`; `Relu`: `max(that, 0)`;
 //!    `Sine`: `phase = rshr(acc_j, s_j) mod 2^32` for `s_j ≥ 0`, else
 //!    `(acc_j mod 2^32) · 2^(−s_j) mod 2^32` (wrap-around is the range
-//!    reduction), then `y_j = `[`sin_q15`]`(phase)` in Q15 (−32768..=32768).
+//!    reduction), then `y_j = `[`sin_q15`]`(phase)` in Q15, saturated to
+//!    −32767..=32767 (so every activation is an `i16`).
 //!
 //! `rshr(a, s) = (a + 2^(s−1)) >> s` (arithmetic shift: round half up),
 //! `rshr(a, 0) = a`; `sat16` clamps to −32768..=32767.
@@ -52,8 +53,16 @@
 //!
 //! # Memory
 //!
-//! `FixedPredictor<W>` holds four `i32` rows and one `i64` row of `W`
-//! (`24·W` bytes). The sine table is 514 bytes of flash.
+//! `FixedPredictor<W>` holds four `i16` rows and one `i64` row of `W`
+//! (`16·W` bytes). The sine table is 514 bytes of flash.
+//!
+//! # Speed (Cortex-M4)
+//!
+//! Weights are read as `[u8; 2]` pairs and activations are packed `i16`, so
+//! that LLVM's ARM parallel-DSP pass turns each pair of MACs into one
+//! unaligned `ldr` of two weights, one `ldr` of two activations and one
+//! `smlald` (dual 16×16 multiply-accumulate into 64 bits: the exact sum
+//! above). `cargo xtask profile` measures the result; see `firmware/README.md`.
 
 use core::ops::RangeInclusive;
 
@@ -92,14 +101,16 @@ pub const QUARTER_SINE: [u16; 257] = [
     32693, 32706, 32718, 32729, 32738, 32746, 32753, 32758, 32762, 32766, 32767, 32768,
 ];
 
-/// `sin(2π · phase / 2^32)` in Q15 (−32768..=32768 for −1..=1).
+/// `sin(2π · phase / 2^32)` in Q15, saturated to −32767..=32767 (so that
+/// every activation fits an `i16`).
 ///
 /// Quadrant = top 2 bits; within the quadrant the 30-bit offset `p` is
 /// mirrored (`2^30 − p`) in quadrants 1 and 3; index `p >> 22` (0..=256)
 /// into [`QUARTER_SINE`], 16-bit fraction `(p >> 6) & 0xffff`, linear
-/// interpolation `a + (((b − a) · frac + 2^15) >> 16)`, negated in quadrants
-/// 2 and 3. Measured maximum error against f64 `sin` over all 2^26 distinct
-/// inputs (the low 6 bits are ignored): see [`SIN_Q15_MAX_ERROR`].
+/// interpolation `v = a + (((b − a) · frac + 2^15) >> 16)`, then
+/// `min(v, 32767)`, negated in quadrants 2 and 3. Measured maximum error
+/// against f64 `sin` over all 2^26 distinct inputs (the low 6 bits are
+/// ignored): see [`SIN_Q15_MAX_ERROR`].
 #[inline]
 pub fn sin_q15(phase: u32) -> i32 {
     let quadrant = phase >> 30;
@@ -107,13 +118,14 @@ pub fn sin_q15(phase: u32) -> i32 {
     if quadrant & 1 == 1 {
         p = (1 << 30) - p;
     }
-    let idx = ((p >> 22) as usize).min(256);
+    let idx = (p >> 22) as usize;
     let frac = ((p >> 6) & 0xffff) as i32;
-    let a = QUARTER_SINE.get(idx).map_or(0, |&v| v as i32);
-    let b = QUARTER_SINE
-        .get((idx + 1).min(256))
-        .map_or(0, |&v| v as i32);
-    let v = a + (((b - a) * frac + 0x8000) >> 16);
+    let (a, b) = match QUARTER_SINE.get(idx..idx + 2) {
+        Some(&[a, b]) => (a as i32, b as i32),
+        // idx = 256 (p = 2^30): frac = 0, the peak.
+        _ => (32768, 32768),
+    };
+    let v = (a + (((b - a) * frac + 0x8000) >> 16)).min(32767);
     if quadrant >= 2 {
         -v
     } else {
@@ -168,10 +180,10 @@ fn rshr(a: i64, s: i8) -> i64 {
 
 /// The activation of one accumulated channel (see the module docs).
 #[inline]
-pub fn activate_q(act: Activation, acc: i64, shift: i8) -> i32 {
+pub fn activate_q(act: Activation, acc: i64, shift: i8) -> i16 {
     match act {
         Activation::Linear | Activation::Relu => {
-            let v = rshr(acc, shift).clamp(-32768, 32767) as i32;
+            let v = rshr(acc, shift).clamp(-32768, 32767) as i16;
             if act == Activation::Relu {
                 v.max(0)
             } else {
@@ -184,38 +196,91 @@ pub fn activate_q(act: Activation, acc: i64, shift: i8) -> i32 {
             } else {
                 (acc as u32).wrapping_shl((-(shift as i32)) as u32)
             };
-            sin_q15(phase)
+            sin_q15(phase) as i16
         }
     }
 }
 
-/// `acc + Σ_i q_i · x_i` over one row (i16 LE bytes) and `x`.
-#[inline]
-fn dot(row: &[u8], x: &[i32], mut acc: i64) -> i64 {
-    for (w, &xi) in row.chunks_exact(2).zip(x) {
-        let w = match w {
-            &[a, b] => i16::from_le_bytes([a, b]),
-            _ => 0,
+/// One i16 LE weight from `w[0..2]` (0 if short).
+#[inline(always)]
+fn w16(w: &[u8]) -> i32 {
+    w.first_chunk::<2>()
+        .map_or(0, |b| i32::from(i16::from_le_bytes(*b)))
+}
+
+/// `acc + Σ_i q_i · x_i` for one row `w` (i16 LE, `2·x.len()` bytes): each
+/// product is exact in `i32` (|q·x| ≤ 2^30), the sum is taken in `i64`.
+///
+/// Written so that LLVM's ARM parallel-DSP pass finds its pattern (two
+/// adjacent i16 loads on each side, each read as one `[u8; 2]` →
+/// `load i16`, sign-extended, multiplied, added to an i64): on a Cortex-M4
+/// every pair of MACs becomes one unaligned `ldr` of two weights, one `ldr`
+/// of two activations and one `smlald`, unrolled 4×. (Sharing the activation
+/// loads between several rows exceeds the pass's 16-load limit per block
+/// once the loop is unrolled, so it is one row per pass.)
+#[inline(always)]
+fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
+    let c = w.chunks_exact(4);
+    let t = c.remainder();
+    let xs = x.chunks_exact(2);
+    let xt = xs.remainder();
+    for (xx, q) in xs.zip(c) {
+        let (x0, x1) = match *xx {
+            [a, b] => (i32::from(a), i32::from(b)),
+            _ => (0, 0),
         };
-        acc += i64::from(w) * i64::from(xi);
+        let (q0, q1) = match q.split_first_chunk::<2>() {
+            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
+            None => (0, 0),
+        };
+        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
+    }
+    if let [v] = *xt {
+        acc += i64::from(w16(t) * i32::from(v));
     }
     acc
 }
 
-fn dense_q(layer: &Layer<'_>, x: &[i32], out: &mut [i32]) {
-    for (j, o) in out.iter_mut().enumerate() {
-        let row = layer.row_bytes_q(j);
-        let acc = dot(row, x, i64::from(layer.bias_q(j)));
-        *o = activate_q(layer.activation(), acc, layer.shift(j));
+/// For each output channel `j < m` of `layer`, calls `f(j, acc_j)` with
+/// `acc_j = init(j) + Σ_i q_j,skip+i · x_i` (exact, in `i64`).
+#[inline(always)]
+fn accumulate(
+    layer: &Layer<'_>,
+    skip: usize,
+    x: &[i16],
+    m: usize,
+    init: impl Fn(usize) -> i64,
+    mut f: impl FnMut(usize, i64),
+) {
+    let (lo, hi) = (2 * skip, 2 * (skip + x.len()));
+    for j in 0..m {
+        let row = layer.row_bytes_q(j).get(lo..hi).unwrap_or(&[]);
+        f(j, dot1(row, x, init(j)));
     }
+}
+
+fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
+    let act = layer.activation();
+    accumulate(
+        layer,
+        0,
+        x,
+        out.len(),
+        |j| i64::from(layer.bias_q(j)),
+        |j, acc| {
+            if let Some(o) = out.get_mut(j) {
+                *o = activate_q(act, acc, layer.shift(j));
+            }
+        },
+    );
 }
 
 fn run_network_q<'s>(
     net: &Network<'_>,
-    input: &[i32],
-    a: &'s mut [i32],
-    b: &'s mut [i32],
-) -> &'s [i32] {
+    input: &[i16],
+    a: &'s mut [i16],
+    b: &'s mut [i16],
+) -> &'s [i16] {
     let n = input.len().min(a.len());
     a[..n].copy_from_slice(&input[..n]);
     let (mut src, mut dst) = (a, b);
@@ -240,10 +305,10 @@ fn out_exp(net: &Network<'_>) -> i8 {
 /// Predicts endpoints (and trajectories) of a fixed-point model with scratch width `W`.
 pub struct FixedPredictor<'m, 'a, const W: usize> {
     model: &'m Model<'a>,
-    a: [i32; W],
-    b: [i32; W],
-    feat: [i32; W],
-    z: [i32; W],
+    a: [i16; W],
+    b: [i16; W],
+    feat: [i16; W],
+    z: [i16; W],
     part: [i64; W],
 }
 
@@ -291,10 +356,10 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         }
         let origin = past[0];
         let e = in_exp(self.model.encoder_past());
-        let mut x = [0i32; 2 * MAX_PAST];
+        let mut x = [0i16; 2 * MAX_PAST];
         for (t, pt) in past.iter().enumerate() {
-            x[2 * t] = quantize((pt[0] - origin[0]) * c.data_scale, e);
-            x[2 * t + 1] = quantize((pt[1] - origin[1]) * c.data_scale, e);
+            x[2 * t] = quantize((pt[0] - origin[0]) * c.data_scale, e) as i16;
+            x[2 * t + 1] = quantize((pt[1] - origin[1]) * c.data_scale, e) as i16;
         }
         let fdim = c.fdim as usize;
         let f = run_network_q(
@@ -305,30 +370,45 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         );
         self.feat[..fdim].copy_from_slice(&f[..fdim]);
         if let Some(l0) = self.model.decoder().layer(0) {
-            for (j, v) in self.part[..l0.out_dim()].iter_mut().enumerate() {
-                *v = dot(
-                    l0.row_bytes_q(j),
-                    &self.feat[..fdim],
-                    i64::from(l0.bias_q(j)),
-                );
-            }
+            let part = &mut self.part;
+            accumulate(
+                l0,
+                0,
+                &self.feat[..fdim],
+                l0.out_dim().min(W),
+                |j| i64::from(l0.bias_q(j)),
+                |j, acc| {
+                    if let Some(p) = part.get_mut(j) {
+                        *p = acc;
+                    }
+                },
+            );
         }
         Ok(origin)
     }
 
-    fn decode(&mut self) -> [i32; 2] {
+    fn decode(&mut self) -> [i16; 2] {
         let c = self.model.config();
         let (fdim, zdim) = (c.fdim as usize, c.zdim as usize);
         let dec = self.model.decoder();
         let Some(l0) = dec.layer(0) else {
             return [0; 2];
         };
-        let out0 = l0.out_dim();
-        for (j, o) in self.a[..out0].iter_mut().enumerate() {
-            let row = l0.row_bytes_q(j).get(2 * fdim..).unwrap_or(&[]);
-            let acc = dot(row, &self.z[..zdim], self.part[j]);
-            *o = activate_q(l0.activation(), acc, l0.shift(j));
-        }
+        let out0 = l0.out_dim().min(W);
+        let act = l0.activation();
+        let (a, part) = (&mut self.a, &self.part);
+        accumulate(
+            l0,
+            fdim,
+            &self.z[..zdim],
+            out0,
+            |j| part.get(j).copied().unwrap_or(0),
+            |j, acc| {
+                if let Some(o) = a.get_mut(j) {
+                    *o = activate_q(act, acc, l0.shift(j));
+                }
+            },
+        );
         let (mut src, mut dst) = (&mut self.a, &mut self.b);
         let mut width = out0;
         for layer in dec.layers().skip(1) {
@@ -363,7 +443,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         if !self.model.has_predictor() {
             return Err(PredictError::NoPredictor);
         }
-        let mut pending = heapless::Vec::<([f32; 2], [i32; 2]), K>::new();
+        let mut pending = heapless::Vec::<([f32; 2], [i16; 2]), K>::new();
         self.run::<K>(past, seed, k, |e, d| pending.push((e, d)).is_ok())?;
         let origin = past.first().copied().unwrap_or([0.0; 2]);
         let last = past.last().copied().unwrap_or([0.0; 2]);
@@ -382,7 +462,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         past: &[[f32; 2]],
         seed: u64,
         k: usize,
-        mut sink: impl FnMut([f32; 2], [i32; 2]) -> bool,
+        mut sink: impl FnMut([f32; 2], [i16; 2]) -> bool,
     ) -> Result<(), PredictError> {
         if k == 0 || k > K {
             return Err(PredictError::BadSampleCount);
@@ -395,12 +475,12 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         let mut g = Gaussian::new(seed);
         for _ in 0..k {
             for zi in self.z[..zdim].iter_mut() {
-                *zi = quantize(c.sigma * g.next(), ez);
+                *zi = quantize(c.sigma * g.next(), ez) as i16;
             }
             let d = self.decode();
             let e = [
-                dequantize(d[0], eo) / c.data_scale + origin[0],
-                dequantize(d[1], eo) / c.data_scale + origin[1],
+                dequantize(d[0].into(), eo) / c.data_scale + origin[0],
+                dequantize(d[1].into(), eo) / c.data_scale + origin[1],
             ];
             if !(e[0].is_finite() && e[1].is_finite()) {
                 return Err(PredictError::NonFiniteOutput);
@@ -417,7 +497,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         origin: [f32; 2],
         last: [f32; 2],
         e: [f32; 2],
-        d: [i32; 2],
+        d: [i16; 2],
     ) -> Result<Trajectory, PredictError> {
         let c = *self.model.config();
         let fdim = c.fdim as usize;
@@ -426,8 +506,8 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         let ddim = g.len();
         self.z[..fdim].copy_from_slice(&self.feat[..fdim]);
         self.z[fdim..fdim + ddim].copy_from_slice(g);
-        self.z[fdim + ddim] = quantize(last[0] / c.initial_pos_divisor, ef);
-        self.z[fdim + ddim + 1] = quantize(last[1] / c.initial_pos_divisor, ef);
+        self.z[fdim + ddim] = quantize(last[0] / c.initial_pos_divisor, ef) as i16;
+        self.z[fdim + ddim + 1] = quantize(last[1] / c.initial_pos_divisor, ef) as i16;
         let n_in = fdim + ddim + 2;
         let eq = out_exp(self.model.predictor());
         let q = run_network_q(
@@ -439,8 +519,8 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         let mut t = Trajectory::new();
         for pair in q.chunks_exact(2) {
             let pt = [
-                dequantize(pair[0], eq) / c.data_scale + origin[0],
-                dequantize(pair[1], eq) / c.data_scale + origin[1],
+                dequantize(pair[0].into(), eq) / c.data_scale + origin[0],
+                dequantize(pair[1].into(), eq) / c.data_scale + origin[1],
             ];
             if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
                 return Err(PredictError::NonFiniteOutput);

@@ -68,7 +68,7 @@ pub fn predictions_svg(title: &str, unit: &str, items: &[(&Window, &Prediction)]
         let (a, b) = (ox + PANEL - 20.0 - bar * sc, oy + 14.0);
         let _ = writeln!(s, r#"<line x1="{a:.1}" y1="{b}" x2="{:.1}" y2="{b}" stroke="black"/><text x="{a:.1}" y="{}" font-size="9">{bar} {unit}</text>"#, ox + PANEL - 20.0, b - 3.0);
     }
-    let _ = writeln!(s, r##"<text x="8" y="36" font-size="11" fill="#555">blue: observed 8 steps · dashed green: true future · orange: the K sampled trajectories, red dots their endpoints · thick red: best of K{}</text>"##, "");
+    let _ = writeln!(s, r##"<text x="8" y="36" font-size="11" fill="#555">blue: observed 8 steps · dashed green: true future · orange: the K sampled trajectories, red dots their endpoints · thick red: best of K</text>"##);
     s.push_str("</svg>\n");
     s
 }

@@ -72,10 +72,13 @@ struct QuantizeArgs {
     /// Calibrate on every N-th SDD training window.
     #[arg(long, default_value_t = 4)]
     cal_stride: usize,
+    /// Leave encoder_dest and predictor out (endpoint prediction only, about half the size).
+    #[arg(long)]
+    endpoint_only: bool,
 }
 
 fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
-    let c = gpecnet_trainer::quantize::quantize_blob(
+    let c = gpecnet_trainer::quantize::quantize_blob_with(
         &a.blob,
         &a.out,
         &a.data,
@@ -83,6 +86,7 @@ fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
         a.seed,
         a.cal_stride,
         8,
+        a.endpoint_only,
     )?;
     let (f, x) = (&c.test_f32, &c.test_fixed);
     println!(

@@ -298,7 +298,8 @@ fn table() -> &'static [i64; 257] {
     })
 }
 
-/// `sin(2π · phase / 2^32)` in Q15 from the specification.
+/// `sin(2π · phase / 2^32)` in Q15 from the specification (saturated to
+/// ±32767 so every activation fits an i16).
 pub fn sin_q15_ref(phase: u32) -> i64 {
     let t = table();
     let q = phase / (1 << 30);
@@ -308,7 +309,7 @@ pub fn sin_q15_ref(phase: u32) -> i64 {
     let frac = ((p % (1 << 22)) / 64) as i64;
     let a = t[i];
     let b = if i < 256 { t[i + 1] } else { t[256] };
-    let v = a + ((b - a) * frac + 32768).div_euclid(65536);
+    let v = (a + ((b - a) * frac + 32768).div_euclid(65536)).min(32767);
     if q >= 2 {
         -v
     } else {
@@ -762,6 +763,25 @@ pub fn quantize_blob(
     cal_stride: usize,
     cal_k: usize,
 ) -> Result<QuantCard> {
+    quantize_blob_with(src, out, data_root, k, base_seed, cal_stride, cal_k, false)
+}
+
+/// [`quantize_blob`], optionally `endpoint_only`: `encoder_dest` and
+/// `predictor` are dropped (the format allows both absent), so the blob holds
+/// only what endpoint prediction runs (`encoder_past` + `decoder`, about half
+/// the parameters); trajectories are then the straight line from the last
+/// observation to each endpoint (so ADE differs, FDE does not).
+#[allow(clippy::too_many_arguments)]
+pub fn quantize_blob_with(
+    src: &std::path::Path,
+    out: &std::path::Path,
+    data_root: &std::path::Path,
+    k: usize,
+    base_seed: u64,
+    cal_stride: usize,
+    cal_k: usize,
+    endpoint_only: bool,
+) -> Result<QuantCard> {
     use crate::data::{load_sdd, SddSplit};
     let name = out
         .file_stem()
@@ -781,7 +801,11 @@ pub fn quantize_blob(
     if src_model.numeric() != NumericKind::F32 {
         bail!("{} is not an f32 blob", src.display());
     }
-    let model = crate::export::read_blob(&src_bytes)?;
+    let mut model = crate::export::read_blob(&src_bytes)?;
+    if endpoint_only {
+        model.encoder_dest.clear();
+        model.predictor.clear();
+    }
     let train = load_sdd(data_root, SddSplit::Train)?;
     let cal_windows: Vec<Window> = train
         .windows
@@ -842,7 +866,7 @@ pub fn quantize_blob(
         calibration_windows: cal.windows,
         test_f32,
         test_fixed,
-        scratch_bytes: 24 * width,
+        scratch_bytes: 16 * width,
     };
     let dir = out.parent().unwrap_or(std::path::Path::new("."));
     let path = |ext: &str| dir.join(format!("{name}.{ext}"));
@@ -880,7 +904,7 @@ fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
         "# Model card: `{name}` (fixed point)\n\n\
 Post-training quantization of `weights/{src}` to the `Int16Q15` blob kind (`weights/FORMAT.md`): int16 weights with a \
 power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit accumulators, integer table sine \
-(`q15-table`, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::FixedPredictor`).\n\n\
+(`q15-table`, saturated to ±32767, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::FixedPredictor`).\n\n\
 | | |\n|---|---|\n\
 | blob | `weights/{name}.gpec`, {bytes} bytes (f32 source: {sbytes} bytes), CRC-32 `{crc:#010x}` |\n\
 | source | `{src}`, CRC-32 `{scrc:#010x}`, numbers with sine `{ssine}` |\n\
@@ -888,7 +912,8 @@ power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit 
 | calibration | {cal} SDD training windows, margin {margin} |\n\
 | exponents (in→out per layer) | {exps} |\n\
 | `FixedPredictor` scratch at minimum width | {scratch} bytes |\n\
-| produced by | `gpecnet quantize --blob weights/{src} --out weights/{name}.gpec` |\n\n\
+| networks | {nets} |\n\
+| produced by | `gpecnet quantize --blob weights/{src} --out weights/{name}.gpec{flag}` |\n\n\
 ## SDD test set ({n} windows, pixels), both through `gpecnet-core`\n\n\
 Latent seed of window `i` = {seed} + i.\n\n\
 | metric | f32 source | fixed point | difference |\n|---|---|---|---|\n\
@@ -900,6 +925,14 @@ Latent seed of window `i` = {seed} + i.\n\n\
 Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
         name = c.name,
         src = c.source,
+        nets = if q.predictor.is_empty() {
+            "encoder_past + decoder only (endpoint-only: the trajectory predictor is left out; \
+endpoints are the product, e.g. for a drone's path planner; ADE below uses the straight line \
+from the last observation to each endpoint, FDE is unaffected)"
+        } else {
+            "encoder_past, decoder, encoder_dest, predictor"
+        },
+        flag = if q.predictor.is_empty() { " --endpoint-only" } else { "" },
         bytes = c.blob_bytes,
         sbytes = c.source_bytes,
         crc = c.blob_crc,
