@@ -117,6 +117,21 @@ pub struct TrainConfig {
     /// bit-reproducible only for the same thread count, so it is part of the config and is
     /// restored on `--resume`.
     pub threads: usize,
+    /// Synthetic augmentation (issue 5, `gpecnet train --augment K`): add the first
+    /// `round(augment_pct / 100 × n_real)` trajectories of [`TrainConfig::synthetic_pool`] to
+    /// the training windows, where `n_real` is the number of real training windows (SDD train
+    /// minus the validation scenes, plus `train_extra` when enabled) before time reversal; the
+    /// synthetic windows are then time-reversed like the real ones. Validation (and the test
+    /// set) are never augmented. 0 (the default) = no augmentation; `[0, 100]`, SDD only.
+    /// Omitted from the TOML when 0, so unaugmented configs serialise as before.
+    #[serde(skip_serializing_if = "is_zero_f32")]
+    pub augment_pct: f32,
+    /// The fixed-order synthetic pool CSV written by `gpecnet synth` (e.g.
+    /// `runs/pool/pool.csv`; relative paths are relative to the working directory). Required
+    /// when `augment_pct > 0`; it must hold at least the number of trajectories asked for and
+    /// must be the same file when a run is resumed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub synthetic_pool: Option<String>,
     /// PECNet's non-local social pooling ([`crate::social`]) before the predictor. Off by
     /// default (G-PECNet and every shipped model run without it); it needs the other
     /// pedestrians at inference, so such a model trains and evaluates on the host but cannot
@@ -165,6 +180,10 @@ fn is_default_dist_thresh(x: &f64) -> bool {
     *x == 100.0
 }
 
+fn is_zero_f32(x: &f32) -> bool {
+    *x == 0.0
+}
+
 impl Default for TrainConfig {
     fn default() -> Self {
         Self {
@@ -195,6 +214,8 @@ impl Default for TrainConfig {
             eval_every: 1,
             k: 20,
             threads: 0,
+            augment_pct: 0.0,
+            synthetic_pool: None,
             social_pooling: false,
             nonlocal_pools: 3,
             non_local_dim: 128,
@@ -287,7 +308,7 @@ impl TrainConfig {
         {
             bail!("w0 must be positive for the sine activation");
         }
-        self.dataset_spec()?;
+        let spec = self.dataset_spec()?;
         if self.social_pooling
             && (self.nonlocal_pools == 0
                 || self.non_local_dim == 0
@@ -295,6 +316,23 @@ impl TrainConfig {
                 || !(self.dist_thresh.is_finite() && self.dist_thresh >= 0.0))
         {
             bail!("social pooling needs nonlocal_pools > 0, non_local_dim > 0, time_thresh >= 0 and a finite dist_thresh >= 0");
+        }
+        if !(self.augment_pct.is_finite() && (0.0..=100.0).contains(&self.augment_pct)) {
+            bail!("augment_pct must be in [0, 100], got {}", self.augment_pct);
+        }
+        if self.augment_pct > 0.0 {
+            if spec != DatasetSpec::Sdd {
+                bail!(
+                    "augment_pct > 0 needs dataset = \"sdd\" (the synthetic pool is in SDD pixels)"
+                );
+            }
+            if self
+                .synthetic_pool
+                .as_deref()
+                .is_none_or(|p| p.trim().is_empty())
+            {
+                bail!("augment_pct = {} needs synthetic_pool = \"<pool.csv>\" (written by `gpecnet synth`)", self.augment_pct);
+            }
         }
         Ok(())
     }
@@ -358,5 +396,33 @@ mod tests {
         assert!(TrainConfig::from_toml_str("learning_rat = 0.1").is_err());
         assert!(TrainConfig::from_toml_str("dataset = \"foo\"").is_err());
         assert!(TrainConfig::from_toml_str("dataset = \"eth_ucy:zara1\"").is_ok());
+    }
+
+    #[test]
+    fn augmentation_fields() {
+        // Unaugmented configs serialise without the new keys (old TOML stays identical).
+        let d = TrainConfig::default().to_toml_string().unwrap();
+        assert!(
+            !d.contains("augment_pct") && !d.contains("synthetic_pool"),
+            "{d}"
+        );
+        let c =
+            TrainConfig::from_toml_str("augment_pct = 6\nsynthetic_pool = \"runs/pool/pool.csv\"")
+                .unwrap();
+        assert_eq!(c.augment_pct, 6.0);
+        assert_eq!(
+            TrainConfig::from_toml_str(&c.to_toml_string().unwrap()).unwrap(),
+            c
+        );
+        assert!(
+            TrainConfig::from_toml_str("augment_pct = 6").is_err(),
+            "pool required"
+        );
+        assert!(TrainConfig::from_toml_str("augment_pct = -1").is_err());
+        assert!(TrainConfig::from_toml_str("augment_pct = 101\nsynthetic_pool = \"p\"").is_err());
+        assert!(TrainConfig::from_toml_str(
+            "augment_pct = 5\nsynthetic_pool = \"p\"\ndataset = \"eth_ucy:zara1\""
+        )
+        .is_err());
     }
 }

@@ -50,6 +50,10 @@ enum Command {
     Synth(SynthArgs),
     /// Train the policy-gradient agent in the HMM playground; learning curve and episodes SVG.
     RlTrain(RlTrainArgs),
+    /// The augmentation sweep: one training run per --pcts value (0 = no augmentation) with the
+    /// same config, each best-validation model evaluated on the SDD test set through
+    /// gpecnet-core; writes <out>/aug-<K>/ runs and <out>/sweep.md, sweep.csv.
+    Sweep(SweepArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -200,6 +204,13 @@ struct TrainArgs {
     /// terminal; then one line per epoch is printed instead).
     #[arg(long)]
     quiet: bool,
+    /// Augment with the first K % (of the real training windows) of the synthetic pool
+    /// (overrides the config's augment_pct; new runs only).
+    #[arg(long, value_name = "K")]
+    augment: Option<f32>,
+    /// The synthetic pool CSV written by `gpecnet synth` (overrides synthetic_pool).
+    #[arg(long, value_name = "CSV")]
+    pool: Option<PathBuf>,
 }
 
 fn cmd_train(a: TrainArgs) -> Result<()> {
@@ -211,15 +222,24 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         stop_after: None,
     };
     let summary = if a.resume {
-        if a.config.is_some() {
-            anyhow::bail!("--resume uses the config stored in the checkpoint; drop --config");
+        if a.config.is_some() || a.augment.is_some() || a.pool.is_some() {
+            anyhow::bail!(
+                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool"
+            );
         }
         train::train_resume(&opts)?
     } else {
         let Some(path) = a.config else {
             anyhow::bail!("a new run needs --config <TOML> (or --resume to continue one)");
         };
-        train::train_new(TrainConfig::from_file(&path)?, &opts)?
+        let mut cfg = TrainConfig::from_file(&path)?;
+        if let Some(k) = a.augment {
+            cfg.augment_pct = k;
+        }
+        if let Some(p) = a.pool {
+            cfg.synthetic_pool = Some(p.to_string_lossy().into_owned());
+        }
+        train::train_new(cfg, &opts)?
     };
     let u = summary.unit;
     println!(
@@ -328,6 +348,72 @@ fn cmd_rl_train(a: RlTrainArgs) -> Result<()> {
     Ok(())
 }
 
+#[derive(clap::Args, Debug)]
+struct SweepArgs {
+    /// Training config of every point (its augment_pct / synthetic_pool are overridden).
+    #[arg(long, value_name = "TOML", default_value = "host-trainer/configs/sdd-small.toml")]
+    config: PathBuf,
+    /// Augmentation percentages, comma-separated (0 = no augmentation).
+    #[arg(long, default_value = "0,1,3,5,6,8,10,13,15,18")]
+    pcts: String,
+    /// Epochs of every run (default: the config's num_epochs).
+    #[arg(long, value_name = "N")]
+    epochs: Option<usize>,
+    /// Output directory: aug-<K>/ runs, sweep.md, sweep.csv.
+    #[arg(long, value_name = "DIR", default_value = "runs/sweep")]
+    out: PathBuf,
+    /// The synthetic pool CSV; generated there (--pool-n, --pool-seed) if it does not exist.
+    #[arg(long, value_name = "CSV", default_value = "runs/pool/pool.csv")]
+    pool: PathBuf,
+    /// Seed of a generated pool.
+    #[arg(long, default_value_t = 1)]
+    pool_seed: u64,
+    /// Size of a generated pool.
+    #[arg(long, default_value_t = 18000)]
+    pool_n: usize,
+    /// Data root holding sdd/.
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Samples per test window.
+    #[arg(long, default_value_t = 20)]
+    k: usize,
+    /// Latent seed of test window i is SEED + i.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// No per-epoch lines.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn cmd_sweep(a: SweepArgs) -> Result<()> {
+    use gpecnet_trainer::synth::sweep;
+    let command = format!(
+        "gpecnet sweep --config {} --pcts {} --epochs {} --out {} --pool {}",
+        a.config.display(),
+        a.pcts,
+        a.epochs.map_or("<config>".into(), |n| n.to_string()),
+        a.out.display(),
+        a.pool.display()
+    );
+    let opts = sweep::SweepOptions {
+        config: TrainConfig::from_file(&a.config)?,
+        epochs: a.epochs,
+        pcts: sweep::parse_pcts(&a.pcts)?,
+        data_root: a.data,
+        pool: a.pool,
+        pool_seed: a.pool_seed,
+        pool_n: a.pool_n,
+        out: a.out,
+        k: a.k,
+        base_seed: a.seed,
+        quiet: a.quiet,
+        command,
+    };
+    let rows = sweep::run_sweep(&opts)?;
+    print!("{}", sweep::sweep_md(&opts, &rows));
+    Ok(())
+}
+
 fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Train(a) => cmd_train(a),
@@ -338,5 +424,6 @@ fn main() -> Result<()> {
         Command::Classify(a) => cmd_classify(a),
         Command::Synth(a) => cmd_synth(a),
         Command::RlTrain(a) => cmd_rl_train(a),
+        Command::Sweep(a) => cmd_sweep(a),
     }
 }

@@ -1,7 +1,8 @@
 //! The training loop (`gpecnet train`).
 //!
-//! * Data: SDD `train` minus the validation scenes (or ETH/UCY `<scene>/train`), every window
-//!   plus its time-reversed copy (PECNet), normalised with [`data::normalize`].
+//! * Data: SDD `train` minus the validation scenes (or ETH/UCY `<scene>/train`), plus, with
+//!   `augment_pct > 0`, the first `augment_pct` % (of the real count) of the synthetic pool;
+//!   every window plus its time-reversed copy (PECNet), normalised with [`data::normalize`].
 //! * Each epoch: seeded shuffle, minibatches of `batch_size`, Adam on PECNet's loss, then
 //!   (every `eval_every` epochs and at the last) best-of-K validation in raw units with latents
 //!   `z ~ N(0, sigma^2)` drawn from a validation RNG re-seeded identically every time, so
@@ -46,8 +47,13 @@ pub fn set_num_threads(n: usize) {
 /// Training and validation data, ready for the loop.
 #[derive(Clone, Debug)]
 pub struct PreparedData {
-    /// Normalised training samples (with time-reversed copies when enabled).
+    /// Normalised training samples: the real windows, then the synthetic ones, then (when
+    /// enabled) the time-reversed copies of both in the same order.
     pub train: Vec<Sample>,
+    /// Real training windows (before time reversal).
+    pub n_real: usize,
+    /// Synthetic windows added by `augment_pct` (before time reversal).
+    pub n_synthetic: usize,
     /// Raw validation windows.
     pub val: Vec<Window>,
     /// Unit of the raw coordinates.
@@ -88,6 +94,21 @@ pub fn social_train_groups(
     groups
 }
 
+/// The synthetic windows `cfg` adds to `n_real` real training windows: the first
+/// `round(augment_pct / 100 × n_real)` trajectories of `cfg.synthetic_pool`
+/// ([`crate::synth::sample::take_first_pct`]); none when `augment_pct` is 0.
+pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>> {
+    if cfg.augment_pct <= 0.0 {
+        return Ok(Vec::new());
+    }
+    let Some(path) = cfg.synthetic_pool.as_deref() else {
+        bail!("augment_pct = {} needs synthetic_pool", cfg.augment_pct);
+    };
+    let pool = crate::synth::sample::read_pool(Path::new(path))?;
+    crate::synth::sample::take_first_pct(&pool, f64::from(cfg.augment_pct), n_real)
+        .with_context(|| format!("augmenting from {path}"))
+}
+
 /// Load and prepare the data a config asks for. Never touches the test split.
 pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData> {
     let (train, val) = match cfg.dataset_spec()? {
@@ -118,17 +139,17 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
         );
     }
     let unit = train.unit;
+    let mut train = train;
+    let n_real = train.len();
+    let synthetic = synthetic_windows(cfg, n_real)?;
+    let n_synthetic = synthetic.len();
+    train.windows.extend(synthetic);
     let train = if cfg.time_reversal {
         train.with_time_reversed()
     } else {
         train
     };
     let groups = if cfg.social_pooling {
-        let n_real = if cfg.time_reversal {
-            train.len() / 2
-        } else {
-            train.len()
-        };
         social_train_groups(cfg, &train.windows, n_real, cfg.time_reversal)
     } else {
         Vec::new()
@@ -142,6 +163,8 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
             .collect(),
         val: val.windows,
         unit,
+        n_real,
+        n_synthetic,
     })
 }
 

@@ -9,6 +9,7 @@
 //! * [`agent`]: the 8→16→8→4 policy network and REINFORCE with the paper's reward.
 //! * [`sample`]: the fixed-order synthetic pool matching the training set's type statistics.
 //! * [`plot`]: hand-written SVG pictures.
+//! * [`sweep`]: training with the first K % of the pool for several K (`gpecnet sweep`).
 //!
 //! Everything random is driven by [`crate::rng::Rng`] (ChaCha8 with hand-written samplers), so
 //! every output is reproducible from its seed.
@@ -21,6 +22,7 @@ pub mod hmm;
 pub mod newtonian;
 pub mod plot;
 pub mod sample;
+pub mod sweep;
 
 use crate::data::WINDOW;
 
