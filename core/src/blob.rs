@@ -321,6 +321,14 @@ impl<'a> Layer<'a> {
             _ => 0,
         }
     }
+    /// Fixed point: the whole layer's raw tensors `(weights, bias, shifts)`:
+    /// `out_dim × in_dim` i16 LE (row-major), `out_dim` i32 LE and
+    /// `out_dim` i8, for walking all rows in one pass without per-row
+    /// bounds checks (empty for f32 layers' shifts).
+    #[inline]
+    pub fn tensors_q(&self) -> (&'a [u8], &'a [u8], &'a [u8]) {
+        (self.weights, self.bias, self.shifts)
+    }
     /// Fixed point: requantisation shift of channel `j`, or 0 when out of range.
     #[inline]
     pub fn shift(&self, j: usize) -> i8 {

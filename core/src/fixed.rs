@@ -62,7 +62,12 @@
 //! that LLVM's ARM parallel-DSP pass turns each pair of MACs into one
 //! unaligned `ldr` of two weights, one `ldr` of two activations and one
 //! `smlald` (dual 16×16 multiply-accumulate into 64 bits: the exact sum
-//! above). `cargo xtask profile` measures the result; see `firmware/README.md`.
+//! above). Each layer's weights, biases and shifts are walked in one pass
+//! ([`crate::blob::Layer::tensors_q`], no per-row bounds checks), the
+//! activation is chosen once per layer, the rounding shift needs one
+//! variable 64-bit shift, and the decoder's 16 latent columns use a
+//! fixed-length product. `cargo xtask profile` measures the result; see
+//! `firmware/README.md`.
 
 use core::ops::RangeInclusive;
 
@@ -168,13 +173,17 @@ pub fn dequantize(v: i32, e: i8) -> f32 {
 }
 
 /// `(a + 2^(s−1)) >> s`, or `a` for `s ≤ 0`.
+///
+/// Computed as `((a >> (s−1)) + 1) >> 1`, which is the same integer
+/// (`⌊(a/2^(s−1) + 1)/2⌋ = ⌊(⌊a/2^(s−1)⌋ + 1)/2⌋`) but needs one variable
+/// 64-bit shift instead of a variable 64-bit constant, an add and a shift.
 #[inline]
 fn rshr(a: i64, s: i8) -> i64 {
     if s <= 0 {
         a
     } else {
-        let s = (s as u32).min(62);
-        (a + (1i64 << (s - 1))) >> s
+        let t = a >> ((s as u32).min(62) - 1);
+        (t + 1) >> 1
     }
 }
 
@@ -216,8 +225,9 @@ fn w16(w: &[u8]) -> i32 {
 /// `load i16`, sign-extended, multiplied, added to an i64): on a Cortex-M4
 /// every pair of MACs becomes one unaligned `ldr` of two weights, one `ldr`
 /// of two activations and one `smlald`, unrolled 4×. (Sharing the activation
-/// loads between several rows exceeds the pass's 16-load limit per block
-/// once the loop is unrolled, so it is one row per pass.)
+/// loads between several rows, or fixed 8-MAC blocks, exceeds the pass's
+/// 16-load limit per block once the loop is unrolled, so it is one row per
+/// pass, two MACs per step.)
 #[inline(always)]
 fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     let c = w.chunks_exact(4);
@@ -241,38 +251,167 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     acc
 }
 
-/// For each output channel `j < m` of `layer`, calls `f(j, acc_j)` with
-/// `acc_j = init(j) + Σ_i q_j,skip+i · x_i` (exact, in `i64`).
+/// [`dot1`] for an even `x.len()` (no odd tail, so a shorter loop
+/// prologue/epilogue per row; used for `Sine` layers whose width is a
+/// multiple of 8, i.e. the hidden layers).
 #[inline(always)]
-fn accumulate(
+fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
+    for (xx, q) in x.chunks_exact(2).zip(w.chunks_exact(4)) {
+        let (x0, x1) = match *xx {
+            [a, b] => (i32::from(a), i32::from(b)),
+            _ => (0, 0),
+        };
+        let (q0, q1) = match q.split_first_chunk::<2>() {
+            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
+            None => (0, 0),
+        };
+        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
+    }
+    acc
+}
+
+/// For each output channel `j` (zipped with `out`, at most `out_dim`), calls
+/// `f(o_j, acc_j, s_j)` with `acc_j = init(j) + Σ_i q_j,skip+i · x_i` (exact,
+/// in `i64`): one pass over the layer's whole weight slice, row by row.
+#[inline(always)]
+fn accumulate<T>(
     layer: &Layer<'_>,
     skip: usize,
     x: &[i16],
-    m: usize,
-    init: impl Fn(usize) -> i64,
-    mut f: impl FnMut(usize, i64),
+    out: &mut [T],
+    init: impl Fn(usize, i32) -> i64,
+    mut f: impl FnMut(&mut T, i64, i8),
+    dot: impl Fn(&[u8], &[i16], i64) -> i64,
 ) {
+    let (w, bias, shifts) = layer.tensors_q();
+    let n = 2 * layer.in_dim();
     let (lo, hi) = (2 * skip, 2 * (skip + x.len()));
-    for j in 0..m {
-        let row = layer.row_bytes_q(j).get(lo..hi).unwrap_or(&[]);
-        f(j, dot1(row, x, init(j)));
+    let rows = w.chunks_exact(n.max(1));
+    let biases = bias.chunks_exact(4);
+    for (j, (((o, row), b), &s)) in out.iter_mut().zip(rows).zip(biases).zip(shifts).enumerate() {
+        let b = match *b {
+            [b0, b1, b2, b3] => i32::from_le_bytes([b0, b1, b2, b3]),
+            _ => 0,
+        };
+        let row = row.get(lo..hi).unwrap_or(&[]);
+        f(o, dot(row, x, init(j, b)), s as i8);
     }
 }
 
-fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
-    let act = layer.activation();
+/// `dense_q` with the activation chosen once per layer.
+#[inline(always)]
+fn dense_with(
+    layer: &Layer<'_>,
+    x: &[i16],
+    out: &mut [i16],
+    g: impl Fn(i64, i8) -> i16,
+    dot: impl Fn(&[u8], &[i16], i64) -> i64,
+) {
     accumulate(
         layer,
         0,
         x,
-        out.len(),
-        |j| i64::from(layer.bias_q(j)),
-        |j, acc| {
-            if let Some(o) = out.get_mut(j) {
-                *o = activate_q(act, acc, layer.shift(j));
-            }
-        },
+        out,
+        |_, b| i64::from(b),
+        |o, acc, s| *o = g(acc, s),
+        dot,
     );
+}
+
+fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
+    if x.len() & 7 == 0 && layer.activation() == Activation::Sine {
+        return dense_with(
+            layer,
+            x,
+            out,
+            |a, s| activate_q(Activation::Sine, a, s),
+            dot_even,
+        );
+    }
+    match layer.activation() {
+        Activation::Linear => dense_with(
+            layer,
+            x,
+            out,
+            |a, s| activate_q(Activation::Linear, a, s),
+            dot1,
+        ),
+        Activation::Relu => dense_with(
+            layer,
+            x,
+            out,
+            |a, s| activate_q(Activation::Relu, a, s),
+            dot1,
+        ),
+        Activation::Sine => dense_with(
+            layer,
+            x,
+            out,
+            |a, s| activate_q(Activation::Sine, a, s),
+            dot1,
+        ),
+    }
+}
+
+/// `acc + Σ_{i<16} q_i · z_i` with `z` packed in pairs (`zp[k]` holds
+/// `z_2k` in its low and `z_2k+1` in its high half), prepared once per
+/// sample. A fixed 16-column product is fully unrolled, which the
+/// parallel-DSP pass refuses (more than 16 loads); written this way LLVM
+/// hoists the 16 sign-extended `z_i` out of the row loop, so each column
+/// costs one `ldrsh` of the weight, one reload of `z_i` and one `smlalbb`
+/// (85 instead of 104 instructions per row with the generic loop).
+#[inline(always)]
+fn dot16_packed(q: &[u8; 32], zp: &[i32; 8], mut acc: i64) -> i64 {
+    for (w, &z) in q.chunks_exact(4).zip(zp) {
+        if let Some((a, b)) = w.split_first_chunk::<2>() {
+            acc += i64::from(i32::from(i16::from_le_bytes(*a)) * i32::from(z as i16));
+            acc += i64::from(w16(b) * (z >> 16));
+        }
+    }
+    acc
+}
+
+/// The decoder's first layer, latent columns `skip..skip + z.len()` only:
+/// `out_j = g(part_j + Σ_i q_j,skip+i · z_i, s_j)`, where `part_j` already
+/// holds the bias and the feature columns. With 16 latent columns at the
+/// end of each row (the shipped models) the dot product has a fixed length.
+#[inline(always)]
+fn latent_with(
+    layer: &Layer<'_>,
+    skip: usize,
+    z: &[i16],
+    part: &[i64],
+    out: &mut [i16],
+    g: impl Fn(i64, i8) -> i16,
+) {
+    let (w, _, shifts) = layer.tensors_q();
+    let n = 2 * layer.in_dim();
+    let rows = w.chunks_exact(n.max(1)).zip(part).zip(shifts);
+    match <&[i16; 16]>::try_from(z) {
+        Ok(z16) if n == 2 * (skip + 16) => {
+            // z packed in pairs once (kept in registers across the rows).
+            let mut zp = [0i32; 8];
+            for (d, v) in zp.iter_mut().zip(z16.chunks_exact(2)) {
+                if let [a, b] = *v {
+                    *d = i32::from(a as u16) | (i32::from(b) << 16);
+                }
+            }
+            for (o, ((row, &p), &s)) in out.iter_mut().zip(rows) {
+                let acc = match row.last_chunk::<32>() {
+                    Some(q) => dot16_packed(q, &zp, p),
+                    None => p,
+                };
+                *o = g(acc, s as i8);
+            }
+        }
+        _ => {
+            let (lo, hi) = (2 * skip, 2 * (skip + z.len()));
+            for (o, ((row, &p), &s)) in out.iter_mut().zip(rows) {
+                let row = row.get(lo..hi).unwrap_or(&[]);
+                *o = g(dot1(row, z, p), s as i8);
+            }
+        }
+    }
 }
 
 fn run_network_q<'s>(
@@ -370,18 +509,14 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         );
         self.feat[..fdim].copy_from_slice(&f[..fdim]);
         if let Some(l0) = self.model.decoder().layer(0) {
-            let part = &mut self.part;
             accumulate(
                 l0,
                 0,
                 &self.feat[..fdim],
-                l0.out_dim().min(W),
-                |j| i64::from(l0.bias_q(j)),
-                |j, acc| {
-                    if let Some(p) = part.get_mut(j) {
-                        *p = acc;
-                    }
-                },
+                &mut self.part,
+                |_, b| i64::from(b),
+                |p, acc, _| *p = acc,
+                dot1,
             );
         }
         Ok(origin)
@@ -395,20 +530,18 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
             return [0; 2];
         };
         let out0 = l0.out_dim().min(W);
-        let act = l0.activation();
-        let (a, part) = (&mut self.a, &self.part);
-        accumulate(
-            l0,
-            fdim,
-            &self.z[..zdim],
-            out0,
-            |j| part.get(j).copied().unwrap_or(0),
-            |j, acc| {
-                if let Some(o) = a.get_mut(j) {
-                    *o = activate_q(act, acc, l0.shift(j));
-                }
-            },
-        );
+        let (z, part, out) = (&self.z[..zdim], &self.part, &mut self.a[..out0]);
+        match l0.activation() {
+            Activation::Linear => latent_with(l0, fdim, z, part, out, |a, s| {
+                activate_q(Activation::Linear, a, s)
+            }),
+            Activation::Relu => latent_with(l0, fdim, z, part, out, |a, s| {
+                activate_q(Activation::Relu, a, s)
+            }),
+            Activation::Sine => latent_with(l0, fdim, z, part, out, |a, s| {
+                activate_q(Activation::Sine, a, s)
+            }),
+        }
         let (mut src, mut dst) = (&mut self.a, &mut self.b);
         let mut width = out0;
         for layer in dec.layers().skip(1) {
