@@ -118,9 +118,10 @@ pub const QUARTER_SINE: [u16; 257] = [
 /// ignored): see [`SIN_Q15_MAX_ERROR`].
 #[inline]
 pub fn sin_q15(phase: u32) -> i32 {
-    let quadrant = phase >> 30;
+    // −1 in quadrants 2 and 3, else 0: `(v ^ neg) − neg` negates there.
+    let neg = (phase as i32) >> 31;
     let mut p = phase & 0x3fff_ffff;
-    if quadrant & 1 == 1 {
+    if phase & (1 << 30) != 0 {
         p = (1 << 30) - p;
     }
     let idx = (p >> 22) as usize;
@@ -131,11 +132,7 @@ pub fn sin_q15(phase: u32) -> i32 {
         _ => (32768, 32768),
     };
     let v = (a + (((b - a) * frac + 0x8000) >> 16)).min(32767);
-    if quadrant >= 2 {
-        -v
-    } else {
-        v
-    }
+    (v ^ neg) - neg
 }
 
 /// Measured maximum absolute error of [`sin_q15`]`/32768` against f64 sin,
