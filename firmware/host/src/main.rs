@@ -50,6 +50,11 @@ fn main() {
                 })
                 .filter(|n| dir.join(format!("{n}.golden")).is_file())
                 .filter(|n| only.as_ref().map_or(true, |o| o.contains(n)))
+                // Host-only models do not go into the image (firmware/build.rs MAX_MCU_BLOB).
+                .filter(|n| {
+                    std::fs::metadata(dir.join(format!("{n}.gpec")))
+                        .is_ok_and(|m| m.len() <= 512 * 1024)
+                })
                 .collect()
         })
         .unwrap_or_default();
