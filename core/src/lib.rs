@@ -47,7 +47,10 @@
 #![deny(missing_docs)]
 // No panicking helpers in library code; slice indexing is used only where
 // validation at load time proves the bounds (see `blob::validate`).
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod blob;
 pub mod fixed;

@@ -99,7 +99,9 @@ impl core::fmt::Display for PredictError {
             PredictError::NonFiniteInput => f.write_str("non-finite input coordinate"),
             PredictError::NonFiniteOutput => f.write_str("model output is not finite"),
             PredictError::NoPredictor => f.write_str("model has no trajectory predictor"),
-            PredictError::NotF32 => f.write_str("model is not an f32 model (use the fixed-point predictor)"),
+            PredictError::NotF32 => {
+                f.write_str("model is not an f32 model (use the fixed-point predictor)")
+            }
         }
     }
 }

@@ -24,10 +24,18 @@ fn bench_inference(c: &mut Criterion) {
     let mut g = c.benchmark_group("inference_256_windows_k20");
     g.sample_size(10);
     g.throughput(Throughput::Elements(256));
-    g.bench_function("core_f32_libm", |b| b.iter(|| evaluate_core(&blob, SineKind::Libm, &test, 20, 0).expect("eval")));
-    g.bench_function("core_f32_fast_sine", |b| b.iter(|| evaluate_core(&blob, SineKind::Fast, &test, 20, 0).expect("eval")));
-    g.bench_function("core_fixed_q15", |b| b.iter(|| evaluate_core_fixed(&qblob, &test, 20, 0).expect("eval")));
-    g.bench_function("reference_f32_libm", |b| b.iter(|| evaluate_reference(&model, SineKind::Libm, &test, 20, 0).expect("eval")));
+    g.bench_function("core_f32_libm", |b| {
+        b.iter(|| evaluate_core(&blob, SineKind::Libm, &test, 20, 0).expect("eval"))
+    });
+    g.bench_function("core_f32_fast_sine", |b| {
+        b.iter(|| evaluate_core(&blob, SineKind::Fast, &test, 20, 0).expect("eval"))
+    });
+    g.bench_function("core_fixed_q15", |b| {
+        b.iter(|| evaluate_core_fixed(&qblob, &test, 20, 0).expect("eval"))
+    });
+    g.bench_function("reference_f32_libm", |b| {
+        b.iter(|| evaluate_reference(&model, SineKind::Libm, &test, 20, 0).expect("eval"))
+    });
     g.finish();
 }
 

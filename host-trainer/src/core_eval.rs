@@ -34,12 +34,20 @@ pub fn linear_fill(last: [f32; 2], end: [f32; 2]) -> [[f32; 2]; FUTURE] {
     let mut out = [[0.0; 2]; FUTURE];
     for (t, o) in out.iter_mut().enumerate() {
         let a = (t + 1) as f32 / FUTURE as f32;
-        *o = [last[0] + (end[0] - last[0]) * a, last[1] + (end[1] - last[1]) * a];
+        *o = [
+            last[0] + (end[0] - last[0]) * a,
+            last[1] + (end[1] - last[1]) * a,
+        ];
     }
     out
 }
 
-fn predict_core_with<S: Sine>(model: &Model<'_>, w: &Window, seed: u64, k: usize) -> Result<Prediction> {
+fn predict_core_with<S: Sine>(
+    model: &Model<'_>,
+    w: &Window,
+    seed: u64,
+    k: usize,
+) -> Result<Prediction> {
     let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?);
     let past = w.obs();
     let trajectories = if model.has_predictor() {
@@ -59,7 +67,13 @@ fn predict_core_with<S: Sine>(model: &Model<'_>, w: &Window, seed: u64, k: usize
 }
 
 /// K samples for one window through `gpecnet-core`.
-pub fn predict_core(model: &Model<'_>, sine: SineKind, w: &Window, seed: u64, k: usize) -> Result<Prediction> {
+pub fn predict_core(
+    model: &Model<'_>,
+    sine: SineKind,
+    w: &Window,
+    seed: u64,
+    k: usize,
+) -> Result<Prediction> {
     if k == 0 || k > HOST_MAX_K {
         return Err(anyhow!("k must be 1..={HOST_MAX_K}"));
     }
@@ -70,11 +84,20 @@ pub fn predict_core(model: &Model<'_>, sine: SineKind, w: &Window, seed: u64, k:
 }
 
 /// K samples for one window through the reference path.
-pub fn predict_reference(model: &RefModel, sine: SineKind, w: &Window, seed: u64, k: usize) -> Prediction {
+pub fn predict_reference(
+    model: &RefModel,
+    sine: SineKind,
+    w: &Window,
+    seed: u64,
+    k: usize,
+) -> Prediction {
     let past = w.obs();
     let p = model.predict(&past, seed, k, sine, !model.predictor.is_empty());
     let trajectories = if model.predictor.is_empty() {
-        p.endpoints.iter().map(|e| linear_fill(past[PAST - 1], *e)).collect()
+        p.endpoints
+            .iter()
+            .map(|e| linear_fill(past[PAST - 1], *e))
+            .collect()
     } else {
         p.trajectories.iter().map(|t| to_fixed(t)).collect()
     };
@@ -82,16 +105,25 @@ pub fn predict_reference(model: &RefModel, sine: SineKind, w: &Window, seed: u64
 }
 
 fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(n.max(1));
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(n.max(1));
     let chunk = n.div_ceil(threads);
     let parts: Vec<Result<Vec<T>>> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..threads)
             .map(|t| {
                 let f = &f;
-                s.spawn(move || (t * chunk..((t + 1) * chunk).min(n)).map(f).collect::<Result<Vec<T>>>())
+                s.spawn(move || {
+                    (t * chunk..((t + 1) * chunk).min(n))
+                        .map(f)
+                        .collect::<Result<Vec<T>>>()
+                })
             })
             .collect();
-        handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err(anyhow!("worker panicked")))).collect()
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(anyhow!("worker panicked"))))
+            .collect()
     });
     let mut out = Vec::with_capacity(n);
     for p in parts {
@@ -101,18 +133,42 @@ fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Res
 }
 
 /// Evaluates a blob through `gpecnet-core` on every window of `ds`.
-pub fn evaluate_core(blob: &[u8], sine: SineKind, ds: &Dataset, k: usize, base_seed: u64) -> Result<(Metrics, Vec<Prediction>)> {
+pub fn evaluate_core(
+    blob: &[u8],
+    sine: SineKind,
+    ds: &Dataset,
+    k: usize,
+    base_seed: u64,
+) -> Result<(Metrics, Vec<Prediction>)> {
     let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
     let preds = parallel_map(ds.windows.len(), |i| {
-        predict_core(&model, sine, &ds.windows[i], base_seed.wrapping_add(i as u64), k)
+        predict_core(
+            &model,
+            sine,
+            &ds.windows[i],
+            base_seed.wrapping_add(i as u64),
+            k,
+        )
     })?;
     Ok((accumulate(ds, &preds)?, preds))
 }
 
 /// Evaluates the reference path on every window of `ds`.
-pub fn evaluate_reference(model: &RefModel, sine: SineKind, ds: &Dataset, k: usize, base_seed: u64) -> Result<(Metrics, Vec<Prediction>)> {
+pub fn evaluate_reference(
+    model: &RefModel,
+    sine: SineKind,
+    ds: &Dataset,
+    k: usize,
+    base_seed: u64,
+) -> Result<(Metrics, Vec<Prediction>)> {
     let preds = parallel_map(ds.windows.len(), |i| {
-        Ok(predict_reference(model, sine, &ds.windows[i], base_seed.wrapping_add(i as u64), k))
+        Ok(predict_reference(
+            model,
+            sine,
+            &ds.windows[i],
+            base_seed.wrapping_add(i as u64),
+            k,
+        ))
     })?;
     Ok((accumulate(ds, &preds)?, preds))
 }
@@ -120,7 +176,8 @@ pub fn evaluate_reference(model: &RefModel, sine: SineKind, ds: &Dataset, k: usi
 fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
     let mut acc = MetricsAccumulator::new();
     for (w, p) in ds.windows.iter().zip(preds) {
-        acc.add(w, p).map_err(|e| anyhow!("{}#{}: {e:?}", w.scene, w.ped_id))?;
+        acc.add(w, p)
+            .map_err(|e| anyhow!("{}#{}: {e:?}", w.scene, w.ped_id))?;
     }
     Ok(acc.finish())
 }

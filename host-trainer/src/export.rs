@@ -3,9 +3,12 @@
 
 use anyhow::{bail, Context, Result};
 use gpecnet_core::blob::{
-    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC,
+    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION,
+    MAGIC,
 };
-use gpecnet_core::golden::{GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION};
+use gpecnet_core::golden::{
+    GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
+};
 
 use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
 
@@ -50,9 +53,27 @@ pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
         hidden_activation: act_to_wire(c.hidden_act),
     };
     let mut out = Vec::new();
-    push(&mut out, &Preamble { magic: MAGIC, version: FORMAT_VERSION })?;
-    push(&mut out, &ModelInfo { numeric: NumericKind::F32, name: &model.name, config })?;
-    for net in [&model.encoder_past, &model.decoder, &model.encoder_dest, &model.predictor] {
+    push(
+        &mut out,
+        &Preamble {
+            magic: MAGIC,
+            version: FORMAT_VERSION,
+        },
+    )?;
+    push(
+        &mut out,
+        &ModelInfo {
+            numeric: NumericKind::F32,
+            name: &model.name,
+            config,
+        },
+    )?;
+    for net in [
+        &model.encoder_past,
+        &model.decoder,
+        &model.encoder_dest,
+        &model.predictor,
+    ] {
         push(&mut out, &u8::try_from(net.len())?)?;
         for l in net {
             let (w, b) = (le_bytes(&l.w), le_bytes(&l.b));
@@ -69,7 +90,8 @@ pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
     let crc = CRC32.checksum(&out);
     out.extend(crc.to_le_bytes());
     // The embedded reader must accept what we write.
-    gpecnet_core::Model::from_blob(&out).map_err(|e| anyhow::anyhow!("exported blob rejected by gpecnet-core: {e}"))?;
+    gpecnet_core::Model::from_blob(&out)
+        .map_err(|e| anyhow::anyhow!("exported blob rejected by gpecnet-core: {e}"))?;
     Ok(out)
 }
 
@@ -86,7 +108,10 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
                 in_dim: l.in_dim(),
                 out_dim: l.out_dim(),
                 act: act_from_wire(l.activation()),
-                w: (0..l.out_dim()).flat_map(|j| (0..l.in_dim()).map(move |i| (j, i))).map(|(j, i)| l.weight(j, i)).collect(),
+                w: (0..l.out_dim())
+                    .flat_map(|j| (0..l.in_dim()).map(move |i| (j, i)))
+                    .map(|(j, i)| l.weight(j, i))
+                    .collect(),
                 b: (0..l.out_dim()).map(|j| l.bias(j)).collect(),
             })
             .collect()
@@ -125,7 +150,12 @@ pub struct GoldenCase {
 }
 
 /// Computes golden cases with the canonical reference path.
-pub fn golden_cases(model: &RefModel, inputs: &[(Vec<[f32; 2]>, u64)], k: usize, sine: SineKind) -> Vec<GoldenCase> {
+pub fn golden_cases(
+    model: &RefModel,
+    inputs: &[(Vec<[f32; 2]>, u64)],
+    k: usize,
+    sine: SineKind,
+) -> Vec<GoldenCase> {
     inputs
         .iter()
         .map(|(past, seed)| {
@@ -141,10 +171,22 @@ pub fn golden_cases(model: &RefModel, inputs: &[(Vec<[f32; 2]>, u64)], k: usize,
 }
 
 /// Serialises golden cases for the blob whose CRC is `model_crc`.
-pub fn golden_bytes(model: &RefModel, model_crc: u32, sine: SineKind, k: usize, cases: &[GoldenCase]) -> Result<Vec<u8>> {
+pub fn golden_bytes(
+    model: &RefModel,
+    model_crc: u32,
+    sine: SineKind,
+    k: usize,
+    cases: &[GoldenCase],
+) -> Result<Vec<u8>> {
     let c = &model.config;
     let mut out = Vec::new();
-    push(&mut out, &GoldenPreamble { magic: GOLDEN_MAGIC, version: GOLDEN_VERSION })?;
+    push(
+        &mut out,
+        &GoldenPreamble {
+            magic: GOLDEN_MAGIC,
+            version: GOLDEN_VERSION,
+        },
+    )?;
     let info = GoldenInfo {
         model_name: &model.name,
         model_crc,
@@ -159,23 +201,45 @@ pub fn golden_bytes(model: &RefModel, model_crc: u32, sine: SineKind, k: usize, 
         if case.past.len() != c.past_len || case.endpoints.len() != k {
             bail!("golden case shape does not match the model");
         }
-        let flat = |v: &[[f32; 2]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
-        let (p, e, t) = (flat(&case.past), flat(&case.endpoints), flat(&case.trajectory0));
-        push(&mut out, &GoldenCaseWire { past: &p, seed: case.seed, endpoints: &e, trajectory0: &t })?;
+        let flat = |v: &[[f32; 2]]| -> Vec<u8> {
+            v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect()
+        };
+        let (p, e, t) = (
+            flat(&case.past),
+            flat(&case.endpoints),
+            flat(&case.trajectory0),
+        );
+        push(
+            &mut out,
+            &GoldenCaseWire {
+                past: &p,
+                seed: case.seed,
+                endpoints: &e,
+                trajectory0: &t,
+            },
+        )?;
     }
     let crc = CRC32.checksum(&out);
     out.extend(crc.to_le_bytes());
-    gpecnet_core::golden::GoldenSet::parse(&out).map_err(|e| anyhow::anyhow!("golden file rejected by gpecnet-core: {e}"))?;
+    gpecnet_core::golden::GoldenSet::parse(&out)
+        .map_err(|e| anyhow::anyhow!("golden file rejected by gpecnet-core: {e}"))?;
     Ok(out)
 }
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let tmp = dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).unwrap_or("out")));
-    let mut f = std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("out")
+    ));
+    let mut f =
+        std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
     f.write_all(bytes)?;
     f.sync_all()?;
     std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;

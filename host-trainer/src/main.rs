@@ -154,20 +154,54 @@ struct EvalArgs {
 fn cmd_export(a: ExportArgs) -> Result<()> {
     let card = gpecnet_trainer::ship::ship(&a.run, &a.name, &a.out, &a.data, a.sine, a.k, a.seed)?;
     let m = card.test;
-    println!("exported {} (epoch {}, {} parameters, {} bytes) to {}", card.name, card.epoch, card.parameters, card.blob_bytes, a.out.display());
+    println!(
+        "exported {} (epoch {}, {} parameters, {} bytes) to {}",
+        card.name,
+        card.epoch,
+        card.parameters,
+        card.blob_bytes,
+        a.out.display()
+    );
     println!("SDD test through gpecnet-core: minADE {:.3} px  minFDE {:.3} px (K={})  ADE/FDE K=1 {:.3}/{:.3} px", m.min_ade, m.min_fde, m.k, m.ade_k1, m.fde_k1);
     Ok(())
 }
 
 fn cmd_eval(a: EvalArgs) -> Result<()> {
-    let r = gpecnet_trainer::ship::eval_blob(&a.blob, &a.data, a.sine, a.k, a.seed, Some(&a.draw), a.n_draw)?;
+    let r = gpecnet_trainer::ship::eval_blob(
+        &a.blob,
+        &a.data,
+        a.sine,
+        a.k,
+        a.seed,
+        Some(&a.draw),
+        a.n_draw,
+    )?;
     let (m, cv) = (&r.metrics, &r.constant_velocity);
-    println!("model {} on the SDD test set ({} windows), through gpecnet-core, pixels", r.name, m.n);
+    println!(
+        "model {} on the SDD test set ({} windows), through gpecnet-core, pixels",
+        r.name, m.n
+    );
     println!("{:<34} {:>9} {:>9}", "", "ADE", "FDE");
-    println!("{:<34} {:>9.3} {:>9.3}", format!("best of K = {}", m.k), m.min_ade, m.min_fde);
-    println!("{:<34} {:>9.3} {:>9.3}", "K = 1 (first sample)", m.ade_k1, m.fde_k1);
-    println!("{:<34} {:>9.3} {:>9.3}", format!("mean over the {} samples", m.k), m.mean_ade, m.mean_fde);
-    println!("{:<34} {:>9.3} {:>9.3}", "constant velocity (K = 1)", cv.ade_k1, cv.fde_k1);
+    println!(
+        "{:<34} {:>9.3} {:>9.3}",
+        format!("best of K = {}", m.k),
+        m.min_ade,
+        m.min_fde
+    );
+    println!(
+        "{:<34} {:>9.3} {:>9.3}",
+        "K = 1 (first sample)", m.ade_k1, m.fde_k1
+    );
+    println!(
+        "{:<34} {:>9.3} {:>9.3}",
+        format!("mean over the {} samples", m.k),
+        m.mean_ade,
+        m.mean_fde
+    );
+    println!(
+        "{:<34} {:>9.3} {:>9.3}",
+        "constant velocity (K = 1)", cv.ade_k1, cv.fde_k1
+    );
     match r.matches_card {
         Some(true) => println!("model card: reproduced exactly"),
         Some(false) => println!("model card: NOT reproduced (different K, seed, sine or weights?)"),
@@ -280,8 +314,15 @@ struct AbscoreArgs {
 
 fn cmd_abscore(a: AbscoreArgs) -> Result<()> {
     use gpecnet_trainer::synth::abscore::Which;
-    let which = if a.scaled { Which::Scaled } else { Which::Unscaled };
-    print!("{}", gpecnet_trainer::synth::cli::run_abscore(&a.data, &a.out, a.max_abscore, which)?);
+    let which = if a.scaled {
+        Which::Scaled
+    } else {
+        Which::Unscaled
+    };
+    print!(
+        "{}",
+        gpecnet_trainer::synth::cli::run_abscore(&a.data, &a.out, a.max_abscore, which)?
+    );
     Ok(())
 }
 
@@ -296,7 +337,10 @@ struct ClassifyArgs {
 }
 
 fn cmd_classify(a: ClassifyArgs) -> Result<()> {
-    print!("{}", gpecnet_trainer::synth::cli::run_classify(&a.data, &a.out)?);
+    print!(
+        "{}",
+        gpecnet_trainer::synth::cli::run_classify(&a.data, &a.out)?
+    );
     Ok(())
 }
 
@@ -320,7 +364,10 @@ struct SynthArgs {
 }
 
 fn cmd_synth(a: SynthArgs) -> Result<()> {
-    print!("{}", gpecnet_trainer::synth::cli::run_synth(&a.data, a.n, a.seed, a.rl_episodes, &a.out)?);
+    print!(
+        "{}",
+        gpecnet_trainer::synth::cli::run_synth(&a.data, a.n, a.seed, a.rl_episodes, &a.out)?
+    );
     Ok(())
 }
 
@@ -344,14 +391,21 @@ struct RlTrainArgs {
 }
 
 fn cmd_rl_train(a: RlTrainArgs) -> Result<()> {
-    print!("{}", gpecnet_trainer::synth::cli::run_rl_train(a.episodes, a.batch, a.lr, a.seed, &a.out)?.0);
+    print!(
+        "{}",
+        gpecnet_trainer::synth::cli::run_rl_train(a.episodes, a.batch, a.lr, a.seed, &a.out)?.0
+    );
     Ok(())
 }
 
 #[derive(clap::Args, Debug)]
 struct SweepArgs {
     /// Training config of every point (its augment_pct / synthetic_pool are overridden).
-    #[arg(long, value_name = "TOML", default_value = "host-trainer/configs/sdd-small.toml")]
+    #[arg(
+        long,
+        value_name = "TOML",
+        default_value = "host-trainer/configs/sdd-small.toml"
+    )]
     config: PathBuf,
     /// Augmentation percentages, comma-separated (0 = no augmentation).
     #[arg(long, default_value = "0,1,3,5,6,8,10,13,15,18")]

@@ -77,7 +77,9 @@ pub struct RefModel {
 }
 
 /// Which sine the SIREN layers use (must match the device's choice).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
 pub enum SineKind {
     /// `libm::sinf`, the reference.
     Libm,
@@ -146,7 +148,14 @@ fn sin_turns(t: f32) -> f32 {
         r = -0.5 - r;
     }
     let r2 = r * r;
-    let c = [std::f32::consts::TAU, -41.341_7f32, 81.605_25, -76.705_86, 42.058_693, -15.094_643];
+    let c = [
+        std::f32::consts::TAU,
+        -41.341_7f32,
+        81.605_25,
+        -76.705_86,
+        42.058_693,
+        -15.094_643,
+    ];
     r * (c[0] + r2 * (c[1] + r2 * (c[2] + r2 * (c[3] + r2 * (c[4] + r2 * c[5])))))
 }
 
@@ -177,7 +186,10 @@ pub struct Normals {
 impl Normals {
     /// Sampler for `seed`.
     pub fn new(seed: u64) -> Self {
-        Self { rng: Xoshiro::new(seed), spare: None }
+        Self {
+            rng: Xoshiro::new(seed),
+            spare: None,
+        }
     }
     /// Next N(0, 1).
     pub fn next_normal(&mut self) -> f32 {
@@ -289,32 +301,48 @@ impl RefModel {
     /// Checks the dimensions chain as the blob format requires.
     pub fn validate(&self) -> Result<()> {
         let c = &self.config;
-        let chain = |name: &str, net: &[RefLayer], input: usize, output: Option<usize>| -> Result<usize> {
-            let mut w = input;
-            if net.is_empty() {
-                bail!("{name}: no layers");
-            }
-            for (i, l) in net.iter().enumerate() {
-                if l.in_dim != w || l.w.len() != l.in_dim * l.out_dim || l.b.len() != l.out_dim {
-                    bail!("{name} layer {i}: shape {}x{} does not chain from width {w}", l.out_dim, l.in_dim);
+        let chain =
+            |name: &str, net: &[RefLayer], input: usize, output: Option<usize>| -> Result<usize> {
+                let mut w = input;
+                if net.is_empty() {
+                    bail!("{name}: no layers");
                 }
-                if l.w.iter().chain(&l.b).any(|v| !v.is_finite()) {
-                    bail!("{name} layer {i}: non-finite weight");
+                for (i, l) in net.iter().enumerate() {
+                    if l.in_dim != w || l.w.len() != l.in_dim * l.out_dim || l.b.len() != l.out_dim
+                    {
+                        bail!(
+                            "{name} layer {i}: shape {}x{} does not chain from width {w}",
+                            l.out_dim,
+                            l.in_dim
+                        );
+                    }
+                    if l.w.iter().chain(&l.b).any(|v| !v.is_finite()) {
+                        bail!("{name} layer {i}: non-finite weight");
+                    }
+                    w = l.out_dim;
                 }
-                w = l.out_dim;
-            }
-            if let Some(o) = output {
-                if w != o {
-                    bail!("{name}: output width {w}, expected {o}");
+                if let Some(o) = output {
+                    if w != o {
+                        bail!("{name}: output width {w}, expected {o}");
+                    }
                 }
-            }
-            Ok(w)
-        };
-        chain("encoder_past", &self.encoder_past, 2 * c.past_len, Some(c.fdim))?;
+                Ok(w)
+            };
+        chain(
+            "encoder_past",
+            &self.encoder_past,
+            2 * c.past_len,
+            Some(c.fdim),
+        )?;
         chain("decoder", &self.decoder, c.fdim + c.zdim, Some(2))?;
         if !self.predictor.is_empty() {
             let ddim = chain("encoder_dest", &self.encoder_dest, 2, None)?;
-            chain("predictor", &self.predictor, c.fdim + ddim + 2, Some(2 * (c.future_len - 1)))?;
+            chain(
+                "predictor",
+                &self.predictor,
+                c.fdim + ddim + 2,
+                Some(2 * (c.future_len - 1)),
+            )?;
         }
         Ok(())
     }
@@ -322,14 +350,27 @@ impl RefModel {
     /// The documented computation (see `gpecnet_core::predictor`), naively:
     /// a full decoder pass per sample (the core caches the feature columns;
     /// the two must agree bit for bit).
-    pub fn predict(&self, past: &[[f32; 2]], seed: u64, k: usize, kind: SineKind, trajectories: bool) -> RefPrediction {
+    pub fn predict(
+        &self,
+        past: &[[f32; 2]],
+        seed: u64,
+        k: usize,
+        kind: SineKind,
+        trajectories: bool,
+    ) -> RefPrediction {
         let c = &self.config;
         let o = past[0];
-        let x: Vec<f32> = past.iter().flat_map(|p| [(p[0] - o[0]) * c.data_scale, (p[1] - o[1]) * c.data_scale]).collect();
+        let x: Vec<f32> = past
+            .iter()
+            .flat_map(|p| [(p[0] - o[0]) * c.data_scale, (p[1] - o[1]) * c.data_scale])
+            .collect();
         let f = run(&self.encoder_past, &x, kind);
         let mut normals = Normals::new(seed);
         let last = past[past.len() - 1];
-        let mut out = RefPrediction { endpoints: Vec::with_capacity(k), trajectories: Vec::new() };
+        let mut out = RefPrediction {
+            endpoints: Vec::with_capacity(k),
+            trajectories: Vec::new(),
+        };
         let mut input = f.clone();
         for _ in 0..k {
             input.truncate(c.fdim);
@@ -346,7 +387,10 @@ impl RefModel {
                 pin.push(last[0] / c.initial_pos_divisor);
                 pin.push(last[1] / c.initial_pos_divisor);
                 let q = run(&self.predictor, &pin, kind);
-                let mut t: Vec<[f32; 2]> = q.chunks(2).map(|p| [p[0] / c.data_scale + o[0], p[1] / c.data_scale + o[1]]).collect();
+                let mut t: Vec<[f32; 2]> = q
+                    .chunks(2)
+                    .map(|p| [p[0] / c.data_scale + o[0], p[1] / c.data_scale + o[1]])
+                    .collect();
                 t.push(e);
                 out.trajectories.push(t);
             }
@@ -356,11 +400,16 @@ impl RefModel {
 
     /// Multiply-accumulates of all layers.
     pub fn parameter_count(&self) -> usize {
-        [&self.encoder_past, &self.decoder, &self.encoder_dest, &self.predictor]
-            .iter()
-            .flat_map(|n| n.iter())
-            .map(|l| l.w.len() + l.b.len())
-            .sum()
+        [
+            &self.encoder_past,
+            &self.decoder,
+            &self.encoder_dest,
+            &self.predictor,
+        ]
+        .iter()
+        .flat_map(|n| n.iter())
+        .map(|l| l.w.len() + l.b.len())
+        .sum()
     }
 }
 
@@ -391,7 +440,9 @@ mod tests {
     #[test]
     fn accumulate_order_is_sequential() {
         // 5 rows (4 + remainder) against a plain loop, bit for bit.
-        let w: Vec<f32> = (0..35).map(|i| ((i * 37 % 11) as f32 - 5.0) * 0.37).collect();
+        let w: Vec<f32> = (0..35)
+            .map(|i| ((i * 37 % 11) as f32 - 5.0) * 0.37)
+            .collect();
         let x: Vec<f32> = (0..7).map(|i| (i as f32 - 3.0) * 1.3e-3 + 1e5).collect();
         let mut acc = vec![0.1f32; 5];
         accumulate(&w, 7, 0, &x, &mut acc);

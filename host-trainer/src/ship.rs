@@ -106,15 +106,30 @@ pub fn artefact_paths(out_dir: &Path, name: &str) -> [PathBuf; 4] {
 }
 
 /// Exports run `run` as model `name` into `out_dir`.
-pub fn ship(run: &Path, name: &str, out_dir: &Path, data_root: &Path, sine: SineKind, k: usize, base_seed: u64) -> Result<ModelCard> {
-    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+pub fn ship(
+    run: &Path,
+    name: &str,
+    out_dir: &Path,
+    data_root: &Path,
+    sine: SineKind,
+    k: usize,
+    base_seed: u64,
+) -> Result<ModelCard> {
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+    {
         bail!("model name {name:?}: use letters, digits, '-' and '_'");
     }
     let (cfg, model, epoch) = model_from_run(run, name)?;
     let blob = blob_bytes(&model)?;
     let core_model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{e}"))?;
     let test = load_sdd(data_root, SddSplit::Test)?;
-    eprintln!("evaluating {name} on {} SDD test windows through gpecnet-core (K = {k}) ...", test.windows.len());
+    eprintln!(
+        "evaluating {name} on {} SDD test windows through gpecnet-core (K = {k}) ...",
+        test.windows.len()
+    );
     let (metrics, _) = evaluate_core(&blob, sine, &test, k, base_seed)?;
     let (ref_metrics, _) = evaluate_reference(&model, sine, &test, k, base_seed)?;
     if metrics != ref_metrics {
@@ -156,7 +171,12 @@ pub fn ship(run: &Path, name: &str, out_dir: &Path, data_root: &Path, sine: Sine
 fn model_card_md(c: &ModelCard, test: &Dataset, run: &Path) -> String {
     let m = &c.test;
     let cv = &c.test_constant_velocity;
-    let val = c.val.map_or("n/a".to_string(), |v| format!("minADE {:.2} / minFDE {:.2} px (K = {})", v.min_ade, v.min_fde, v.k));
+    let val = c.val.map_or("n/a".to_string(), |v| {
+        format!(
+            "minADE {:.2} / minFDE {:.2} px (K = {})",
+            v.min_ade, v.min_fde, v.k
+        )
+    });
     format!(
         "# Model card: `{name}`\n\n\
 G-PECNet endpoint predictor (PECNet CVAE with SIREN sine MLPs), exported for `gpecnet-core`.\n\n\
@@ -230,24 +250,49 @@ pub fn sine_of_blob(blob_path: &Path) -> Option<SineKind> {
 
 /// Evaluates a blob through `gpecnet-core` on the SDD test set, compares with
 /// its model card, and draws `n_draw` predictions (every `stride`-th window).
-pub fn eval_blob(blob_path: &Path, data_root: &Path, sine: Option<SineKind>, k: usize, base_seed: u64, svg: Option<&Path>, n_draw: usize) -> Result<EvalReport> {
-    let blob = std::fs::read(blob_path).with_context(|| format!("reading {}", blob_path.display()))?;
-    let model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
+pub fn eval_blob(
+    blob_path: &Path,
+    data_root: &Path,
+    sine: Option<SineKind>,
+    k: usize,
+    base_seed: u64,
+    svg: Option<&Path>,
+    n_draw: usize,
+) -> Result<EvalReport> {
+    let blob =
+        std::fs::read(blob_path).with_context(|| format!("reading {}", blob_path.display()))?;
+    let model = gpecnet_core::Model::from_blob(&blob)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
     let test = load_sdd(data_root, SddSplit::Test)?;
-    let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json")).ok().and_then(|b| serde_json::from_slice(&b).ok());
+    let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok());
     let (metrics, preds, matches_card) = if model.numeric() == gpecnet_core::NumericKind::F32 {
-        let sine = sine.or_else(|| sine_of_blob(blob_path)).unwrap_or(SineKind::Libm);
+        let sine = sine
+            .or_else(|| sine_of_blob(blob_path))
+            .unwrap_or(SineKind::Libm);
         let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
         let card: Option<ModelCard> = card.and_then(|v| serde_json::from_value(v).ok());
-        let matches = card.map(|c| c.blob_crc == model.crc() && c.k == k && c.base_seed == base_seed && c.sine == sine && c.test == metrics);
+        let matches = card.map(|c| {
+            c.blob_crc == model.crc()
+                && c.k == k
+                && c.base_seed == base_seed
+                && c.sine == sine
+                && c.test == metrics
+        });
         (metrics, preds, matches)
     } else {
         if sine.is_some() {
-            bail!("--sine applies to f32 blobs; {} is fixed point (integer table sine)", blob_path.display());
+            bail!(
+                "--sine applies to f32 blobs; {} is fixed point (integer table sine)",
+                blob_path.display()
+            );
         }
         let (metrics, preds) = crate::quantize::evaluate_core_fixed(&blob, &test, k, base_seed)?;
         let matches = card.map(|c| {
-            let want: Option<Metrics> = c.get("test_fixed").and_then(|t| serde_json::from_value(t.clone()).ok());
+            let want: Option<Metrics> = c
+                .get("test_fixed")
+                .and_then(|t| serde_json::from_value(t.clone()).ok());
             c.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
                 && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
                 && want == Some(metrics)
@@ -257,12 +302,32 @@ pub fn eval_blob(blob_path: &Path, data_root: &Path, sine: Option<SineKind>, k: 
     let svg = match svg {
         Some(path) => {
             let stride = (test.windows.len() / n_draw.max(1)).max(1);
-            let items: Vec<_> = test.windows.iter().zip(&preds).step_by(stride).take(n_draw).collect();
-            let title = format!("{} on SDD test (K = {k}, through gpecnet-core): minADE {:.2} px, minFDE {:.2} px", model.name(), metrics.min_ade, metrics.min_fde);
-            write_atomic(path, crate::draw::predictions_svg(&title, "px", &items, 4).as_bytes())?;
+            let items: Vec<_> = test
+                .windows
+                .iter()
+                .zip(&preds)
+                .step_by(stride)
+                .take(n_draw)
+                .collect();
+            let title = format!(
+                "{} on SDD test (K = {k}, through gpecnet-core): minADE {:.2} px, minFDE {:.2} px",
+                model.name(),
+                metrics.min_ade,
+                metrics.min_fde
+            );
+            write_atomic(
+                path,
+                crate::draw::predictions_svg(&title, "px", &items, 4).as_bytes(),
+            )?;
             Some(path.to_path_buf())
         }
         None => None,
     };
-    Ok(EvalReport { name: model.name().to_string(), metrics, constant_velocity: evaluate_baseline(&test, constant_velocity), matches_card, svg })
+    Ok(EvalReport {
+        name: model.name().to_string(),
+        metrics,
+        constant_velocity: evaluate_baseline(&test, constant_velocity),
+        matches_card,
+        svg,
+    })
 }

@@ -6,18 +6,27 @@ use gpecnet_trainer::reference::{Act, RefConfig, RefLayer, RefModel};
 
 /// The workspace root.
 pub fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().map(PathBuf::from).unwrap_or_default()
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(PathBuf::from)
+        .unwrap_or_default()
 }
 
 /// `../shared/data` next to the checkout (or `GPECNET_DATA`).
 pub fn data_root() -> PathBuf {
-    std::env::var_os("GPECNET_DATA").map(PathBuf::from).unwrap_or_else(|| workspace_root().join("../shared/data"))
+    std::env::var_os("GPECNET_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("../shared/data"))
 }
 
 /// Every `weights/*.gpec` blob, sorted.
 pub fn shipped_blobs() -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(workspace_root().join("weights"))
-        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "gpec")).collect())
+        .map(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "gpec"))
+                .collect()
+        })
         .unwrap_or_default();
     v.sort();
     v
@@ -25,7 +34,14 @@ pub fn shipped_blobs() -> Vec<PathBuf> {
 
 /// A SIREN model with SIREN-initialised random weights (w0 folded), of the
 /// given widths, for tests that need a model before training.
-pub fn random_siren(name: &str, enc: &[usize], dec: &[usize], dest: &[usize], pred: &[usize], seed: u32) -> RefModel {
+pub fn random_siren(
+    name: &str,
+    enc: &[usize],
+    dec: &[usize],
+    dest: &[usize],
+    pred: &[usize],
+    seed: u32,
+) -> RefModel {
     let (fdim, zdim, w0) = (16usize, 16usize, 30.0f32);
     let mut s = seed.wrapping_mul(0x9E37_79B9) | 1;
     let mut uni = move || {
@@ -40,11 +56,21 @@ pub fn random_siren(name: &str, enc: &[usize], dec: &[usize], dest: &[usize], pr
             .map(|l| {
                 let (i, o) = (dims[l], dims[l + 1]);
                 let last = l + 1 == n;
-                let bound = if l == 0 { 1.0 / i as f32 } else { (6.0 / i as f32).sqrt() / w0 };
+                let bound = if l == 0 {
+                    1.0 / i as f32
+                } else {
+                    (6.0 / i as f32).sqrt() / w0
+                };
                 let fold = if last { 1.0 } else { w0 };
                 let w = (0..i * o).map(|_| uni() * bound * fold).collect();
                 let b = (0..o).map(|_| uni() / (i as f32).sqrt() * fold).collect();
-                RefLayer { in_dim: i, out_dim: o, act: if last { Act::Linear } else { Act::Sine }, w, b }
+                RefLayer {
+                    in_dim: i,
+                    out_dim: o,
+                    act: if last { Act::Linear } else { Act::Sine },
+                    w,
+                    b,
+                }
             })
             .collect()
     };

@@ -19,7 +19,8 @@ fn export_roundtrip_is_lossless() {
 
 #[test]
 fn random_siren_matches_on_sdd_test_set() {
-    let test = load_sdd(&data_root(), SddSplit::Test).expect("SDD test set (see ../shared/data/README.md)");
+    let test = load_sdd(&data_root(), SddSplit::Test)
+        .expect("SDD test set (see ../shared/data/README.md)");
     assert_eq!(test.windows.len(), 2829);
     for (sine, seed) in [(SineKind::Libm, 0u64), (SineKind::Fast, 1000)] {
         let m = random_siren("bitexact", &[64, 32], &[128, 64], &[8, 16], &[128, 64], 7);
@@ -30,7 +31,9 @@ fn random_siren_matches_on_sdd_test_set() {
         for (a, b) in pc.iter().zip(&pr) {
             for (ta, tb) in a.trajectories.iter().zip(&b.trajectories) {
                 for (p, q) in ta.iter().zip(tb) {
-                    mismatches += usize::from(p[0].to_bits() != q[0].to_bits() || p[1].to_bits() != q[1].to_bits());
+                    mismatches += usize::from(
+                        p[0].to_bits() != q[0].to_bits() || p[1].to_bits() != q[1].to_bits(),
+                    );
                 }
             }
         }
@@ -45,7 +48,12 @@ fn random_siren_matches_on_sdd_test_set() {
 #[test]
 fn relu_model_matches() {
     let mut m = random_siren("relu", &[32], &[64], &[8, 16], &[64], 3);
-    for net in [&mut m.encoder_past, &mut m.decoder, &mut m.encoder_dest, &mut m.predictor] {
+    for net in [
+        &mut m.encoder_past,
+        &mut m.decoder,
+        &mut m.encoder_dest,
+        &mut m.predictor,
+    ] {
         for l in net.iter_mut() {
             if l.act == gpecnet_trainer::reference::Act::Sine {
                 l.act = gpecnet_trainer::reference::Act::Relu;

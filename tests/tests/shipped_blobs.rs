@@ -31,7 +31,9 @@ fn replay_core<S: Sine>(model: &Model<'_>, golden: &GoldenSet<'_>) -> usize {
             bad += usize::from(e.map(f32::to_bits) != case.endpoint_bits(i));
         }
         if case.trajectory0_len() > 0 {
-            let t = p.predict_trajectories::<1>(&case.past, case.seed, 1).unwrap();
+            let t = p
+                .predict_trajectories::<1>(&case.past, case.seed, 1)
+                .unwrap();
             for (j, pt) in t[0].iter().enumerate() {
                 bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));
             }
@@ -43,13 +45,24 @@ fn replay_core<S: Sine>(model: &Model<'_>, golden: &GoldenSet<'_>) -> usize {
 #[test]
 fn weights_folder_ships_models() {
     let blobs = f32_blobs();
-    assert!(blobs.iter().any(|p| p.ends_with("sdd-small.gpec")), "weights/sdd-small.gpec missing: {blobs:?}");
+    assert!(
+        blobs.iter().any(|p| p.ends_with("sdd-small.gpec")),
+        "weights/sdd-small.gpec missing: {blobs:?}"
+    );
     for b in &blobs {
         for ext in ["golden", "json", "md"] {
-            assert!(b.with_extension(ext).exists(), "{} has no .{ext}", b.display());
+            assert!(
+                b.with_extension(ext).exists(),
+                "{} has no .{ext}",
+                b.display()
+            );
         }
         let card = std::fs::read_to_string(b.with_extension("md")).unwrap();
-        assert!(card.contains("CC BY-NC-SA 3.0"), "{}: model card must state the SDD licence", b.display());
+        assert!(
+            card.contains("CC BY-NC-SA 3.0"),
+            "{}: model card must state the SDD licence",
+            b.display()
+        );
     }
 }
 
@@ -60,18 +73,32 @@ fn golden_vectors_replay_bit_exact() {
         let model = Model::from_blob(&blob).unwrap();
         let gbytes = std::fs::read(path.with_extension("golden")).unwrap();
         let golden = GoldenSet::parse(&gbytes).unwrap();
-        assert_eq!(golden.info().model_crc, model.crc(), "{}: golden file is for other weights", path.display());
+        assert_eq!(
+            golden.info().model_crc,
+            model.crc(),
+            "{}: golden file is for other weights",
+            path.display()
+        );
         assert!(golden.info().n_cases >= 200, "a few hundred cases expected");
         let bad = match golden.info().sine {
             "libm" => replay_core::<LibmSine>(&model, &golden),
             "fast-f32" => replay_core::<FastSine>(&model, &golden),
             other => panic!("unknown sine {other}"),
         };
-        assert_eq!(bad, 0, "{}: {bad} values differ from the trainer's", path.display());
+        assert_eq!(
+            bad,
+            0,
+            "{}: {bad} values differ from the trainer's",
+            path.display()
+        );
 
         // The trainer's reference path, reading the same blob, reproduces the golden file too.
         let r = read_blob(&blob).unwrap();
-        let sine = if golden.info().sine == "libm" { SineKind::Libm } else { SineKind::Fast };
+        let sine = if golden.info().sine == "libm" {
+            SineKind::Libm
+        } else {
+            SineKind::Fast
+        };
         for case in golden.cases() {
             let p = r.predict(&case.past, case.seed, case.k(), sine, false);
             for (i, e) in p.endpoints.iter().enumerate() {
@@ -83,12 +110,23 @@ fn golden_vectors_replay_bit_exact() {
 
 #[test]
 fn sdd_test_set_reproduces_model_cards() {
-    let test = load_sdd(&data_root(), SddSplit::Test).expect("SDD test set (see ../shared/data/README.md)");
+    let test = load_sdd(&data_root(), SddSplit::Test)
+        .expect("SDD test set (see ../shared/data/README.md)");
     for path in f32_blobs() {
         let blob = std::fs::read(&path).unwrap();
-        let card: ModelCard = serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
+        let card: ModelCard =
+            serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
         let (m, _) = evaluate_core(&blob, card.sine, &test, card.k, card.base_seed).unwrap();
-        assert_eq!(m, card.test, "{}: SDD test metrics through gpecnet-core differ from the model card", path.display());
-        assert!(m.min_fde < card.test_constant_velocity.fde_k1, "{}: worse than constant velocity", path.display());
+        assert_eq!(
+            m,
+            card.test,
+            "{}: SDD test metrics through gpecnet-core differ from the model card",
+            path.display()
+        );
+        assert!(
+            m.min_fde < card.test_constant_velocity.fde_k1,
+            "{}: worse than constant velocity",
+            path.display()
+        );
     }
 }
