@@ -2,6 +2,8 @@
 //!
 //! One `Command` variant and one small `cmd_*` function per subcommand; the work lives in the
 //! library modules so subcommands can be appended without touching each other.
+// Doc comments here are the CLI --help text, where <name> placeholders are plain text.
+#![allow(rustdoc::invalid_html_tags)]
 
 use std::path::PathBuf;
 

@@ -15,7 +15,7 @@
 //!
 //! Every MLP is `Linear -> act -> ... -> Linear` (activation after every layer but the last),
 //! with `act = sin(w0 * .)` (SIREN, G-PECNet) or ReLU (PECNet). All weights are initialised
-//! from the crate's seeded [`Rng`](crate::rng::Rng); no candle randomness is used.
+//! from the crate's seeded [`Rng`]; no candle randomness is used.
 
 use candle_core::{DType, Device, Tensor, Var};
 use serde::{Deserialize, Serialize};
