@@ -21,7 +21,7 @@ pub const HOST_WIDTH: usize = 1024;
 /// Most samples per window on the host.
 pub const HOST_MAX_K: usize = 64;
 
-fn to_fixed(t: &[[f32; 2]]) -> [[f32; 2]; FUTURE] {
+pub(crate) fn to_fixed(t: &[[f32; 2]]) -> [[f32; 2]; FUTURE] {
     let mut out = [[0.0; 2]; FUTURE];
     for (o, p) in out.iter_mut().zip(t) {
         *o = *p;
@@ -104,7 +104,10 @@ pub fn predict_reference(
     Prediction { trajectories }
 }
 
-fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
+pub(crate) fn parallel_map<T: Send>(
+    n: usize,
+    f: impl Fn(usize) -> Result<T> + Sync,
+) -> Result<Vec<T>> {
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(n.max(1));
@@ -173,7 +176,7 @@ pub fn evaluate_reference(
     Ok((accumulate(ds, &preds)?, preds))
 }
 
-fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
+pub(crate) fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
     let mut acc = MetricsAccumulator::new();
     for (w, p) in ds.windows.iter().zip(preds) {
         acc.add(w, p)

@@ -12,7 +12,7 @@ use gpecnet_core::golden::{
 
 use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
 
-fn act_to_wire(a: Act) -> Activation {
+pub(crate) fn act_to_wire(a: Act) -> Activation {
     match a {
         Act::Linear => Activation::Linear,
         Act::Relu => Activation::Relu,
@@ -32,7 +32,7 @@ fn le_bytes(v: &[f32]) -> Vec<u8> {
     v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
-fn push<T: serde::Serialize>(out: &mut Vec<u8>, v: &T) -> Result<()> {
+pub(crate) fn push<T: serde::Serialize>(out: &mut Vec<u8>, v: &T) -> Result<()> {
     out.extend(postcard::to_stdvec(v).context("postcard encoding")?);
     Ok(())
 }

@@ -27,8 +27,8 @@ use gpecnet_core::golden::{
 use serde::{Deserialize, Serialize};
 
 use crate::core_eval::linear_fill;
-use crate::data::{Dataset, Window, FUTURE, PAST};
-use crate::eval::{Metrics, MetricsAccumulator, Prediction};
+use crate::data::{Dataset, Window, PAST};
+use crate::eval::{Metrics, Prediction};
 use crate::reference::{Act, Normals, RefConfig, RefLayer, RefModel};
 
 /// Headroom over the calibrated maximum of each activation vector.
@@ -451,19 +451,6 @@ impl QModel {
 
 // ------------------------------------------------------------------ export
 
-fn push<T: Serialize>(out: &mut Vec<u8>, v: &T) -> Result<()> {
-    out.extend(postcard::to_stdvec(v).context("postcard encoding")?);
-    Ok(())
-}
-
-fn act_wire(a: Act) -> gpecnet_core::Activation {
-    match a {
-        Act::Linear => gpecnet_core::Activation::Linear,
-        Act::Relu => gpecnet_core::Activation::Relu,
-        Act::Sine => gpecnet_core::Activation::Sine,
-    }
-}
-
 /// Serialises a fixed-point blob (checked by `gpecnet-core`'s reader).
 pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
     let c = &m.config;
@@ -476,17 +463,17 @@ pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
         sigma: c.sigma,
         initial_pos_divisor: c.initial_pos_divisor,
         w0: c.w0,
-        hidden_activation: act_wire(c.hidden_act),
+        hidden_activation: crate::export::act_to_wire(c.hidden_act),
     };
     let mut out = Vec::new();
-    push(
+    crate::export::push(
         &mut out,
         &Preamble {
             magic: MAGIC,
             version: FORMAT_VERSION,
         },
     )?;
-    push(
+    crate::export::push(
         &mut out,
         &ModelInfo {
             numeric: NumericKind::Int16Q15,
@@ -495,17 +482,17 @@ pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
         },
     )?;
     for net in [&m.encoder_past, &m.decoder, &m.encoder_dest, &m.predictor] {
-        push(&mut out, &u8::try_from(net.len())?)?;
+        crate::export::push(&mut out, &u8::try_from(net.len())?)?;
         for l in net {
             let w: Vec<u8> = l.w.iter().flat_map(|v| v.to_le_bytes()).collect();
             let b: Vec<u8> = l.b.iter().flat_map(|v| v.to_le_bytes()).collect();
             let s: Vec<u8> = l.s.iter().map(|&v| v as u8).collect();
-            push(
+            crate::export::push(
                 &mut out,
                 &LayerWireQ {
                     in_dim: u16::try_from(l.in_dim)?,
                     out_dim: u16::try_from(l.out_dim)?,
-                    activation: act_wire(l.act),
+                    activation: crate::export::act_to_wire(l.act),
                     in_exp: l.in_exp,
                     out_exp: l.out_exp,
                     weights: &w,
@@ -531,7 +518,7 @@ pub fn qgolden_bytes(
 ) -> Result<Vec<u8>> {
     let c = &m.config;
     let mut out = Vec::new();
-    push(
+    crate::export::push(
         &mut out,
         &GoldenPreamble {
             magic: GOLDEN_MAGIC,
@@ -547,14 +534,14 @@ pub fn qgolden_bytes(
         k: u8::try_from(k)?,
         n_cases: u32::try_from(inputs.len())?,
     };
-    push(&mut out, &info)?;
+    crate::export::push(&mut out, &info)?;
     let flat =
         |v: &[[f32; 2]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
     for (past, seed) in inputs {
         let (ends, trajs) = m.predict(past, *seed, k);
         let t0 = trajs.first().cloned().unwrap_or_default();
         let (p, e, t) = (flat(past), flat(&ends), flat(&t0));
-        push(
+        crate::export::push(
             &mut out,
             &GoldenCaseWire {
                 past: &p,
@@ -576,14 +563,6 @@ pub fn qgolden_bytes(
 const HOST_WIDTH: usize = 1024;
 const HOST_MAX_K: usize = 64;
 
-fn to_fixed(t: &[[f32; 2]]) -> [[f32; 2]; FUTURE] {
-    let mut out = [[0.0; 2]; FUTURE];
-    for (o, p) in out.iter_mut().zip(t) {
-        *o = *p;
-    }
-    out
-}
-
 /// K samples for one window through `gpecnet_core::FixedPredictor`.
 pub fn predict_core_fixed(
     model: &gpecnet_core::Model<'_>,
@@ -602,7 +581,7 @@ pub fn predict_core_fixed(
         p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
             .map_err(|e| anyhow!("{e}"))?
             .iter()
-            .map(|t| to_fixed(t))
+            .map(|t| crate::core_eval::to_fixed(t))
             .collect()
     } else {
         p.predict_endpoints::<HOST_MAX_K>(&past, seed, k)
@@ -623,42 +602,12 @@ pub fn predict_reference_fixed(m: &QModel, w: &Window, seed: u64, k: usize) -> P
             .map(|e| linear_fill(past[PAST - 1], *e))
             .collect()
     } else {
-        trajs.iter().map(|t| to_fixed(t)).collect()
+        trajs
+            .iter()
+            .map(|t| crate::core_eval::to_fixed(t))
+            .collect()
     };
     Prediction { trajectories }
-}
-
-fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(n.max(1));
-    let chunk = n.div_ceil(threads);
-    std::thread::scope(|s| {
-        let hs: Vec<_> = (0..threads)
-            .map(|t| {
-                let f = &f;
-                s.spawn(move || {
-                    (t * chunk..((t + 1) * chunk).min(n))
-                        .map(f)
-                        .collect::<Result<Vec<T>>>()
-                })
-            })
-            .collect();
-        let mut out = Vec::with_capacity(n);
-        for h in hs {
-            out.extend(h.join().map_err(|_| anyhow!("worker panicked"))??);
-        }
-        Ok(out)
-    })
-}
-
-fn metrics(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
-    let mut acc = MetricsAccumulator::new();
-    for (w, p) in ds.windows.iter().zip(preds) {
-        acc.add(w, p)
-            .map_err(|e| anyhow!("{}#{}: {e:?}", w.scene, w.ped_id))?;
-    }
-    Ok(acc.finish())
 }
 
 /// Evaluates a fixed-point blob through `gpecnet-core` (window `i` uses seed `base_seed + i`).
@@ -669,10 +618,10 @@ pub fn evaluate_core_fixed(
     base_seed: u64,
 ) -> Result<(Metrics, Vec<Prediction>)> {
     let model = gpecnet_core::Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
-    let preds = parallel_map(ds.windows.len(), |i| {
+    let preds = crate::core_eval::parallel_map(ds.windows.len(), |i| {
         predict_core_fixed(&model, &ds.windows[i], base_seed.wrapping_add(i as u64), k)
     })?;
-    Ok((metrics(ds, &preds)?, preds))
+    Ok((crate::core_eval::accumulate(ds, &preds)?, preds))
 }
 
 /// Evaluates the integer reference on every window of `ds`.
@@ -682,7 +631,7 @@ pub fn evaluate_reference_fixed(
     k: usize,
     base_seed: u64,
 ) -> Result<(Metrics, Vec<Prediction>)> {
-    let preds = parallel_map(ds.windows.len(), |i| {
+    let preds = crate::core_eval::parallel_map(ds.windows.len(), |i| {
         Ok(predict_reference_fixed(
             m,
             &ds.windows[i],
@@ -690,7 +639,7 @@ pub fn evaluate_reference_fixed(
             k,
         ))
     })?;
-    Ok((metrics(ds, &preds)?, preds))
+    Ok((crate::core_eval::accumulate(ds, &preds)?, preds))
 }
 
 /// Calibrates on (every `stride`-th window of) `train` and quantizes.
