@@ -37,11 +37,10 @@ pub(crate) fn push<T: serde::Serialize>(out: &mut Vec<u8>, v: &T) -> Result<()> 
     Ok(())
 }
 
-/// Serialises `model` as an f32 blob (format version 1), CRC included.
-pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
-    model.validate()?;
-    let c = &model.config;
-    let config = ModelConfig {
+/// The blob's `ModelConfig` for a model's hyper-parameters (shared by the f32
+/// and fixed-point exporters).
+pub(crate) fn wire_config(c: &RefConfig) -> Result<ModelConfig> {
+    Ok(ModelConfig {
         past_len: u8::try_from(c.past_len)?,
         future_len: u8::try_from(c.future_len)?,
         fdim: u16::try_from(c.fdim)?,
@@ -51,7 +50,13 @@ pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
         initial_pos_divisor: c.initial_pos_divisor,
         w0: c.w0,
         hidden_activation: act_to_wire(c.hidden_act),
-    };
+    })
+}
+
+/// Serialises `model` as an f32 blob (format version 1), CRC included.
+pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
+    model.validate()?;
+    let config = wire_config(&model.config)?;
     let mut out = Vec::new();
     push(
         &mut out,

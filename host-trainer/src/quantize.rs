@@ -19,7 +19,7 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use gpecnet_core::blob::{
-    LayerWireQ, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC,
+    LayerWireQ, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC,
 };
 use gpecnet_core::golden::{
     GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
@@ -453,18 +453,7 @@ impl QModel {
 
 /// Serialises a fixed-point blob (checked by `gpecnet-core`'s reader).
 pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
-    let c = &m.config;
-    let config = ModelConfig {
-        past_len: u8::try_from(c.past_len)?,
-        future_len: u8::try_from(c.future_len)?,
-        fdim: u16::try_from(c.fdim)?,
-        zdim: u16::try_from(c.zdim)?,
-        data_scale: c.data_scale,
-        sigma: c.sigma,
-        initial_pos_divisor: c.initial_pos_divisor,
-        w0: c.w0,
-        hidden_activation: crate::export::act_to_wire(c.hidden_act),
-    };
+    let config = crate::export::wire_config(&m.config)?;
     let mut out = Vec::new();
     crate::export::push(
         &mut out,
