@@ -53,6 +53,7 @@
 )]
 
 pub mod blob;
+pub mod cluster;
 pub mod fixed;
 pub mod golden;
 pub mod math;
