@@ -15,3 +15,4 @@ pub mod ship;
 pub mod social;
 pub mod synth;
 pub mod train;
+pub mod tts;
