@@ -236,3 +236,75 @@ fn bad_metres_per_pixel_table() {
     let e = sdd_metres_per_pixel(&dir.path().join("nope")).unwrap_err();
     assert!(matches!(e, DataError::Missing { .. }), "{e:?}");
 }
+
+#[test]
+fn kde_nll_and_hit_rates_on_hand_made_sets() {
+    // scipy 1.17: -gaussian_kde(pts.T).logpdf([2, 1]) = 5.921155544059406.
+    let pts = [
+        [0.0, 0.0],
+        [10.0, 2.0],
+        [3.0, -7.0],
+        [-4.0, 5.0],
+        [8.0, 8.0],
+    ];
+    assert!((kde_nll(&pts, [2.0, 1.0]) - 5.921155544059406).abs() < 1e-6);
+    // Floor: log-density never below -20, so NLL never above 20; degenerate sets are finite.
+    assert_eq!(kde_nll(&pts, [5000.0, 0.0]), -KDE_LOG_PDF_FLOOR);
+    assert!(kde_nll(&[[1.0, 1.0]; 20], [1.0, 1.0]).is_finite());
+
+    // Two windows through DistAccumulator::add (trajectories' last points vs Window::endpoint).
+    let w = line_window();
+    let near = offset(&w, 12.0, 16.0); // 20 from the truth: within 20 (inclusive)
+    let far = offset(&w, 30.0, 0.0); // 30: within 40 only
+    let mut acc = DistAccumulator::new();
+    acc.add(
+        &w,
+        &Prediction {
+            trajectories: vec![near, far],
+        },
+    );
+    acc.add(&w, &Prediction::single(far));
+    assert_eq!(acc.len(), 2);
+    assert_eq!(acc.within(20.0), 0.5);
+    assert_eq!(acc.within(40.0), 1.0);
+    assert_eq!(acc.within(19.999), 0.0);
+    let d = acc.finish().unwrap();
+    assert_eq!((d.hit20, d.hit40), (0.5, 1.0));
+    assert!(d.kde_nll.is_finite() && d.kde_nll <= 20.0);
+    assert!(DistAccumulator::new().finish().is_none());
+}
+
+#[test]
+fn constant_velocity_n_on_sdd() {
+    let root = default_data_root();
+    let (_, val) = split_by_scene(
+        load_sdd(&root, SddSplit::Train).unwrap(),
+        &default_sdd_val_scenes(),
+    );
+    let test = load_sdd(&root, SddSplit::Test).unwrap();
+    // n = 1 and n = 7 are the named baselines, bit for bit.
+    let sweep = cv_sweep(&test);
+    assert_eq!(sweep.len(), 7);
+    assert_eq!(sweep[0], evaluate_baseline(&test, constant_velocity));
+    assert_eq!(sweep[6], evaluate_baseline(&test, constant_velocity_avg));
+    for w in test.windows.iter().step_by(97) {
+        assert_eq!(constant_velocity_n(w, 1), constant_velocity(w));
+        assert_eq!(constant_velocity_n(w, 7), constant_velocity_avg(w));
+    }
+    let (n, val_sweep) = select_cv_n(&val).unwrap();
+    assert_eq!(val.len(), 846);
+    assert!((1..=7).contains(&n));
+    assert!(val_sweep
+        .iter()
+        .all(|m| m.fde_k1 >= val_sweep[n - 1].fde_k1));
+    for (i, (v, t)) in val_sweep.iter().zip(&sweep).enumerate() {
+        println!(
+            "CV n = {}: val ADE/FDE {:.2}/{:.2}, test {:.2}/{:.2}",
+            i + 1,
+            v.ade_k1,
+            v.fde_k1,
+            t.ade_k1,
+            t.fde_k1
+        );
+    }
+}
