@@ -30,14 +30,22 @@ use serde::{Deserialize, Serialize};
 
 /// The four bytes every blob starts with.
 pub const MAGIC: [u8; 4] = *b"GPEC";
-/// The format version this reader understands.
-pub const FORMAT_VERSION: u16 = 1;
+/// The newest format version this reader understands (it also reads version 1).
+///
+/// Version 2 adds [`Extensions`] after [`ModelInfo`] and a fifth network, the
+/// point-forecast head, after the predictor. Writers emit version 1 whenever a
+/// model uses none of that, so such blobs keep their bytes.
+pub const FORMAT_VERSION: u16 = 2;
+/// The oldest format version this reader understands.
+pub const MIN_FORMAT_VERSION: u16 = 1;
 /// Most layers one network may have.
 pub const MAX_LAYERS: usize = 8;
 /// Longest observed history a model may take (steps).
 pub const MAX_PAST: usize = 16;
 /// Longest predicted future a model may produce (steps).
 pub const MAX_FUTURE: usize = 32;
+/// Most test-time samples ([`Extensions::tts_samples`]) a blob may ask for.
+pub const MAX_TTS_SAMPLES: usize = 1024;
 /// The checksum: CRC-32/ISO-HDLC (the zlib/PNG/Ethernet CRC).
 pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -109,6 +117,23 @@ pub struct ModelInfo<'a> {
     pub config: ModelConfig,
 }
 
+/// Version-2 settings, between [`ModelInfo`] and the networks (absent in version 1,
+/// where every field reads as 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Extensions {
+    /// Heading-canonical frame ([`crate::frame`]): 0 = raw orientation; `m` in
+    /// `1..past_len` = rotate by the displacement over the last `m` observed steps.
+    pub heading_steps: u8,
+    /// Test-time sampling ([`crate::cluster`]): 0 = the `K` endpoints are `K`
+    /// latent samples; `N > 0` = draw `N` samples and reduce them to `K` by k-means.
+    pub tts_samples: u16,
+    /// Lloyd iterations of that k-means.
+    pub tts_iters: u8,
+    /// Its initialisation: 0 = the first `K` samples, 1 = farthest-point.
+    pub tts_init: u8,
+}
+
 /// One layer on the wire: dims, activation, and raw little-endian tensors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LayerWire<'a> {
@@ -163,6 +188,8 @@ pub enum NetworkId {
     EncoderDest,
     /// Trajectory predictor: `fdim + ddim + 2 → 2·(future_len − 1)` (optional).
     Predictor,
+    /// Point-forecast head: `2·past_len → 2·future_len` (optional, format version 2).
+    PointHead,
 }
 
 /// Every way a byte string can fail to be a usable model blob.
@@ -416,6 +443,8 @@ pub struct Model<'a> {
     decoder: Network<'a>,
     encoder_dest: Network<'a>,
     predictor: Network<'a>,
+    point_head: Network<'a>,
+    ext: Extensions,
     crc: u32,
 }
 
@@ -437,7 +466,7 @@ impl<'a> Model<'a> {
         }
         let mut cur = bytes;
         let pre: Preamble = take(&mut cur)?;
-        if pre.version != FORMAT_VERSION {
+        if !(MIN_FORMAT_VERSION..=FORMAT_VERSION).contains(&pre.version) {
             return Err(BlobError::UnsupportedVersion(pre.version));
         }
         let body_len = bytes.len().checked_sub(4).ok_or(BlobError::Truncated)?;
@@ -497,11 +526,24 @@ impl<'a> Model<'a> {
     pub fn has_predictor(&self) -> bool {
         !self.predictor.is_empty()
     }
+    /// The point-forecast head (empty when the model has none).
+    pub fn point_head(&self) -> &Network<'a> {
+        &self.point_head
+    }
+    /// Whether the model has a deterministic point forecast.
+    pub fn has_point_head(&self) -> bool {
+        !self.point_head.is_empty()
+    }
+    /// The version-2 settings (all 0 for a version-1 blob).
+    pub fn extensions(&self) -> &Extensions {
+        &self.ext
+    }
     /// The widest layer of any network: the scratch width a predictor needs.
     pub fn max_width(&self) -> usize {
         let m = self.encoder_past.max_width().max(self.decoder.max_width());
         m.max(self.encoder_dest.max_width())
             .max(self.predictor.max_width())
+            .max(self.point_head.max_width())
     }
     /// Number of weights and biases.
     pub fn parameter_count(&self) -> usize {
@@ -510,6 +552,7 @@ impl<'a> Model<'a> {
             &self.decoder,
             &self.encoder_dest,
             &self.predictor,
+            &self.point_head,
         ]
         .iter()
         .flat_map(|n| n.layers())
@@ -527,10 +570,17 @@ impl<'a> Model<'a> {
 
 fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     let mut cur = body;
-    let _pre: Preamble = take(&mut cur)?;
+    let pre: Preamble = take(&mut cur)?;
     let info: ModelInfo = take(&mut cur)?;
-    let mut nets = [Network::EMPTY; 4];
-    for net in nets.iter_mut() {
+    let v2 = pre.version >= 2;
+    let ext: Extensions = if v2 {
+        take(&mut cur)?
+    } else {
+        Extensions::default()
+    };
+    let mut nets = [Network::EMPTY; 5];
+    let n_nets = if v2 { 5 } else { 4 };
+    for net in nets.iter_mut().take(n_nets) {
         let n: u8 = take(&mut cur)?;
         if n as usize > MAX_LAYERS {
             return Err(BlobError::ExceedsCapacity);
@@ -570,7 +620,7 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     if !cur.is_empty() {
         return Err(BlobError::TrailingBytes);
     }
-    let [encoder_past, decoder, encoder_dest, predictor] = nets;
+    let [encoder_past, decoder, encoder_dest, predictor, point_head] = nets;
     let model = Model {
         name: info.name,
         numeric: info.numeric,
@@ -579,6 +629,8 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         decoder,
         encoder_dest,
         predictor,
+        point_head,
+        ext,
         crc: 0,
     };
     validate(&model)?;
@@ -620,6 +672,17 @@ fn validate(m: &Model<'_>) -> Result<(), BlobError> {
         (true, false) => return Err(BlobError::ShapeMismatch(NetworkId::EncoderDest)),
         (false, true) => return Err(BlobError::ShapeMismatch(NetworkId::Predictor)),
     }
+    if !m.point_head.is_empty() {
+        let (p2, f2) = (2 * c.past_len as usize, 2 * c.future_len as usize);
+        check_network(&m.point_head, NetworkId::PointHead, p2, f2, q)?;
+    }
+    let e = &m.ext;
+    if e.heading_steps >= c.past_len || e.tts_init > 1 {
+        return Err(BlobError::BadConfig);
+    }
+    if e.tts_samples as usize > MAX_TTS_SAMPLES {
+        return Err(BlobError::ExceedsCapacity);
+    }
     if q == NumericKind::Int16Q15 {
         check_boundary_exps(m)?;
     }
@@ -651,6 +714,10 @@ fn check_boundary_exps(m: &Model<'_>) -> Result<(), BlobError> {
         if net_exps(&m.predictor).0 != f {
             return Err(BlobError::BadScale(NetworkId::Predictor));
         }
+    }
+    // The point head reads the same quantised input vector as encoder_past.
+    if !m.point_head.is_empty() && net_exps(&m.point_head).0 != net_exps(&m.encoder_past).0 {
+        return Err(BlobError::BadScale(NetworkId::PointHead));
     }
     Ok(())
 }

@@ -72,6 +72,7 @@
 use core::ops::RangeInclusive;
 
 use crate::blob::{Activation, Layer, Model, Network, NumericKind, MAX_PAST};
+use crate::frame::Frame;
 use crate::predictor::{PredictError, Trajectory};
 use crate::prng::Gaussian;
 use crate::{BlobError, Error};
@@ -446,6 +447,7 @@ pub struct FixedPredictor<'m, 'a, const W: usize> {
     feat: [i16; W],
     z: [i16; W],
     part: [i64; W],
+    frame: Frame,
 }
 
 impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
@@ -470,6 +472,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
             feat: [0; W],
             z: [0; W],
             part: [0; W],
+            frame: Frame::raw(),
         })
     }
 
@@ -478,32 +481,55 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         self.model
     }
 
-    fn encode(&mut self, past: &[[f32; 2]]) -> Result<[f32; 2], PredictError> {
+    /// Checks `past`, sets the frame and writes the quantised network input into `x`
+    /// (the exponent of encoder_past's input, which the point head shares).
+    fn input(
+        &mut self,
+        past: &[[f32; 2]],
+        x: &mut [i16; 2 * MAX_PAST],
+    ) -> Result<usize, PredictError> {
         let c = *self.model.config();
-        let p = c.past_len as usize;
-        if past.len() != p {
-            return Err(PredictError::WrongPastLength {
-                expected: p,
-                got: past.len(),
-            });
-        }
-        if past.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(PredictError::NonFiniteInput);
-        }
-        let origin = past[0];
+        self.frame = Frame::checked(past, self.model)?;
         let e = in_exp(self.model.encoder_past());
-        let mut x = [0i16; 2 * MAX_PAST];
         for (t, pt) in past.iter().enumerate() {
-            x[2 * t] = quantize((pt[0] - origin[0]) * c.data_scale, e) as i16;
-            x[2 * t + 1] = quantize((pt[1] - origin[1]) * c.data_scale, e) as i16;
+            let v = self.frame.input(*pt, c.data_scale);
+            x[2 * t] = quantize(v[0], e) as i16;
+            x[2 * t + 1] = quantize(v[1], e) as i16;
         }
+        Ok(2 * past.len())
+    }
+
+    /// The model's deterministic point forecast (see
+    /// [`crate::Predictor::predict_point`]), in fixed point.
+    pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
+        if !self.model.has_point_head() {
+            return Err(PredictError::NoPointHead);
+        }
+        let c = *self.model.config();
+        let mut x = [0i16; 2 * MAX_PAST];
+        let p = self.input(past, &mut x)?;
+        let eq = out_exp(self.model.point_head());
+        let q = run_network_q(self.model.point_head(), &x[..p], &mut self.a, &mut self.b);
+        let mut t = Trajectory::new();
+        for pair in q.chunks_exact(2) {
+            let d = [
+                dequantize(pair[0].into(), eq),
+                dequantize(pair[1].into(), eq),
+            ];
+            let pt = self.frame.output(d, c.data_scale);
+            if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
+                return Err(PredictError::NonFiniteOutput);
+            }
+        }
+        Ok(t)
+    }
+
+    fn encode(&mut self, past: &[[f32; 2]]) -> Result<(), PredictError> {
+        let c = *self.model.config();
+        let mut x = [0i16; 2 * MAX_PAST];
+        let p = self.input(past, &mut x)?;
         let fdim = c.fdim as usize;
-        let f = run_network_q(
-            self.model.encoder_past(),
-            &x[..2 * p],
-            &mut self.a,
-            &mut self.b,
-        );
+        let f = run_network_q(self.model.encoder_past(), &x[..p], &mut self.a, &mut self.b);
         self.feat[..fdim].copy_from_slice(&f[..fdim]);
         if let Some(l0) = self.model.decoder().layer(0) {
             accumulate(
@@ -516,7 +542,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
                 dot1,
             );
         }
-        Ok(origin)
+        Ok(())
     }
 
     fn decode(&mut self) -> [i16; 2] {
@@ -550,6 +576,23 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         [src[0], src[1]]
     }
 
+    /// The model's endpoint set (see [`crate::sampling`]): `out.len()` endpoints,
+    /// plain latent samples or, when the blob asks for test-time sampling,
+    /// the k-means reduction of its `tts_samples` samples. `N` bounds the
+    /// samples drawn (8 bytes of stack each); it must be at least
+    /// [`crate::sampling::samples_needed`].
+    pub fn predict_endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        let ext = *self.model.extensions();
+        crate::sampling::endpoint_set::<N>(&ext, out, |n, buf| {
+            self.run::<N>(past, seed, n, |e, _| buf.push(e).is_ok())
+        })
+    }
+
     /// Predicts `k` endpoints (`k <= K`) in the caller's units; same inputs,
     /// same bits, on every target.
     pub fn predict_endpoints<const K: usize>(
@@ -575,11 +618,10 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         }
         let mut pending = heapless::Vec::<([f32; 2], [i16; 2]), K>::new();
         self.run::<K>(past, seed, k, |e, d| pending.push((e, d)).is_ok())?;
-        let origin = past.first().copied().unwrap_or([0.0; 2]);
         let last = past.last().copied().unwrap_or([0.0; 2]);
         let mut out: heapless::Vec<Trajectory, K> = heapless::Vec::new();
         for (e, d) in pending {
-            let t = self.trajectory(origin, last, e, d)?;
+            let t = self.trajectory(last, e, d)?;
             if out.push(t).is_err() {
                 return Err(PredictError::BadSampleCount);
             }
@@ -597,7 +639,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         if k == 0 || k > K {
             return Err(PredictError::BadSampleCount);
         }
-        let origin = self.encode(past)?;
+        self.encode(past)?;
         let c = *self.model.config();
         let zdim = c.zdim as usize;
         let ez = in_exp(self.model.decoder());
@@ -608,10 +650,8 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
                 *zi = quantize(c.sigma * g.next(), ez) as i16;
             }
             let d = self.decode();
-            let e = [
-                dequantize(d[0].into(), eo) / c.data_scale + origin[0],
-                dequantize(d[1].into(), eo) / c.data_scale + origin[1],
-            ];
+            let dd = [dequantize(d[0].into(), eo), dequantize(d[1].into(), eo)];
+            let e = self.frame.output(dd, c.data_scale);
             if !(e[0].is_finite() && e[1].is_finite()) {
                 return Err(PredictError::NonFiniteOutput);
             }
@@ -624,7 +664,6 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
 
     fn trajectory(
         &mut self,
-        origin: [f32; 2],
         last: [f32; 2],
         e: [f32; 2],
         d: [i16; 2],
@@ -636,6 +675,7 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         let ddim = g.len();
         self.z[..fdim].copy_from_slice(&self.feat[..fdim]);
         self.z[fdim..fdim + ddim].copy_from_slice(g);
+        let last = self.frame.predictor_position(last);
         self.z[fdim + ddim] = quantize(last[0] / c.initial_pos_divisor, ef) as i16;
         self.z[fdim + ddim + 1] = quantize(last[1] / c.initial_pos_divisor, ef) as i16;
         let n_in = fdim + ddim + 2;
@@ -648,10 +688,11 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         );
         let mut t = Trajectory::new();
         for pair in q.chunks_exact(2) {
-            let pt = [
-                dequantize(pair[0].into(), eq) / c.data_scale + origin[0],
-                dequantize(pair[1].into(), eq) / c.data_scale + origin[1],
+            let d = [
+                dequantize(pair[0].into(), eq),
+                dequantize(pair[1].into(), eq),
             ];
+            let pt = self.frame.output(d, c.data_scale);
             if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
                 return Err(PredictError::NonFiniteOutput);
             }

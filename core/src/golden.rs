@@ -15,6 +15,11 @@
 //! `past` holds `past_len` (x, y) f32 pairs, `endpoints` `k` pairs,
 //! `trajectory0` either nothing or `future_len` pairs (sample 0's full
 //! trajectory), all little endian.
+//!
+//! Version 2 (written for models with a point-forecast head) appends one field
+//! to every case, `point: &[u8]`: nothing, or the point forecast's
+//! `future_len` pairs ([`GoldenCaseWireV2`]). For a model with test-time
+//! sampling, `endpoints` are the `k` reduced endpoints (the blob's protocol).
 
 use serde::{Deserialize, Serialize};
 
@@ -22,8 +27,10 @@ use crate::blob::{read_f32, BlobError, CRC32, MAX_FUTURE, MAX_PAST};
 
 /// First four bytes of a golden file.
 pub const GOLDEN_MAGIC: [u8; 4] = *b"GPGV";
-/// Golden format version.
+/// Golden format version of files without point forecasts (still written for them).
 pub const GOLDEN_VERSION: u16 = 1;
+/// Golden format version with a point forecast per case.
+pub const GOLDEN_VERSION_POINT: u16 = 2;
 
 /// First value of a golden file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -66,6 +73,42 @@ pub struct GoldenCaseWire<'a> {
     pub trajectory0: &'a [u8],
 }
 
+/// One case on the wire, format version 2: [`GoldenCaseWire`] plus the point forecast.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GoldenCaseWireV2<'a> {
+    /// Observed positions, f32 LE pairs.
+    pub past: &'a [u8],
+    /// Latent seed.
+    pub seed: u64,
+    /// Expected endpoints, f32 LE pairs.
+    pub endpoints: &'a [u8],
+    /// Expected trajectory of sample 0, f32 LE pairs, or empty.
+    pub trajectory0: &'a [u8],
+    /// Expected point forecast, f32 LE pairs, or empty.
+    pub point: &'a [u8],
+}
+
+impl<'a> From<GoldenCaseWire<'a>> for GoldenCaseWireV2<'a> {
+    fn from(c: GoldenCaseWire<'a>) -> Self {
+        GoldenCaseWireV2 {
+            past: c.past,
+            seed: c.seed,
+            endpoints: c.endpoints,
+            trajectory0: c.trajectory0,
+            point: &[],
+        }
+    }
+}
+
+/// Reads the next case of a file of `version`.
+fn take_case<'a>(bytes: &mut &'a [u8], version: u16) -> Result<GoldenCaseWireV2<'a>, BlobError> {
+    if version >= GOLDEN_VERSION_POINT {
+        take(bytes)
+    } else {
+        take::<GoldenCaseWire>(bytes).map(Into::into)
+    }
+}
+
 /// A decoded case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GoldenCase<'a> {
@@ -75,9 +118,23 @@ pub struct GoldenCase<'a> {
     pub seed: u64,
     endpoints: &'a [u8],
     trajectory0: &'a [u8],
+    point: &'a [u8],
 }
 
 impl GoldenCase<'_> {
+    /// Expected point `t` of the point forecast, if recorded.
+    pub fn point_bits(&self, t: usize) -> Option<[u32; 2]> {
+        (8 * t + 8 <= self.point.len()).then(|| {
+            [
+                read_f32(self.point, 2 * t).to_bits(),
+                read_f32(self.point, 2 * t + 1).to_bits(),
+            ]
+        })
+    }
+    /// Number of recorded point-forecast points (0 when none).
+    pub fn point_len(&self) -> usize {
+        self.point.len() / 8
+    }
     /// Number of expected endpoints.
     pub fn k(&self) -> usize {
         self.endpoints.len() / 8
@@ -108,6 +165,7 @@ impl GoldenCase<'_> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GoldenSet<'a> {
     info: GoldenInfo<'a>,
+    version: u16,
     cases: &'a [u8],
 }
 
@@ -136,7 +194,7 @@ impl<'a> GoldenSet<'a> {
         };
         let mut cur = body;
         let pre: GoldenPreamble = take(&mut cur)?;
-        if pre.version != GOLDEN_VERSION {
+        if !(GOLDEN_VERSION..=GOLDEN_VERSION_POINT).contains(&pre.version) {
             return Err(BlobError::UnsupportedVersion(pre.version));
         }
         let computed = CRC32.checksum(body);
@@ -147,15 +205,21 @@ impl<'a> GoldenSet<'a> {
         if info.past_len as usize > MAX_PAST || info.future_len as usize > MAX_FUTURE {
             return Err(BlobError::ExceedsCapacity);
         }
-        let set = Self { info, cases: cur };
+        let set = Self {
+            info,
+            version: pre.version,
+            cases: cur,
+        };
         let mut rest = cur;
+        let fl = 8 * info.future_len as usize;
         for _ in 0..info.n_cases {
-            let c: GoldenCaseWire = take(&mut rest)?;
-            let traj_ok =
-                c.trajectory0.is_empty() || c.trajectory0.len() == 8 * info.future_len as usize;
+            let c = take_case(&mut rest, pre.version)?;
+            let traj_ok = c.trajectory0.is_empty() || c.trajectory0.len() == fl;
+            let point_ok = c.point.is_empty() || c.point.len() == fl;
             if c.past.len() != 8 * info.past_len as usize
                 || c.endpoints.len() != 8 * info.k as usize
                 || !traj_ok
+                || !point_ok
             {
                 return Err(BlobError::BadConfig);
             }
@@ -174,9 +238,9 @@ impl<'a> GoldenSet<'a> {
     /// The cases, decoded lazily (validated by [`GoldenSet::parse`]).
     pub fn cases(&self) -> impl Iterator<Item = GoldenCase<'a>> + 'a {
         let mut rest = self.cases;
-        let n = self.info.n_cases;
+        let (n, version) = (self.info.n_cases, self.version);
         (0..n).map_while(move |_| {
-            let c: GoldenCaseWire = take(&mut rest).ok()?;
+            let c = take_case(&mut rest, version).ok()?;
             let mut past = heapless::Vec::new();
             for i in 0..c.past.len() / 8 {
                 past.push([read_f32(c.past, 2 * i), read_f32(c.past, 2 * i + 1)])
@@ -187,6 +251,7 @@ impl<'a> GoldenSet<'a> {
                 seed: c.seed,
                 endpoints: c.endpoints,
                 trajectory0: c.trajectory0,
+                point: c.point,
             })
         })
     }

@@ -55,10 +55,12 @@
 pub mod blob;
 pub mod cluster;
 pub mod fixed;
+pub mod frame;
 pub mod golden;
 pub mod math;
 pub mod predictor;
 pub mod prng;
+pub mod sampling;
 pub mod sine;
 
 pub use blob::{Activation, BlobError, Model, ModelConfig, NumericKind};

@@ -45,6 +45,7 @@
 use core::marker::PhantomData;
 
 use crate::blob::{Activation, Layer, Model, Network, MAX_FUTURE};
+use crate::frame::Frame;
 use crate::prng::Gaussian;
 use crate::sine::Sine;
 
@@ -77,6 +78,8 @@ pub enum PredictError {
     NonFiniteOutput,
     /// Trajectories were asked of a model without a predictor network.
     NoPredictor,
+    /// A point forecast was asked of a model without a point-forecast head.
+    NoPointHead,
     /// The model is not an f32 model (use [`crate::fixed::FixedPredictor`] for fixed point).
     NotF32,
 }
@@ -99,6 +102,7 @@ impl core::fmt::Display for PredictError {
             PredictError::NonFiniteInput => f.write_str("non-finite input coordinate"),
             PredictError::NonFiniteOutput => f.write_str("model output is not finite"),
             PredictError::NoPredictor => f.write_str("model has no trajectory predictor"),
+            PredictError::NoPointHead => f.write_str("model has no point-forecast head"),
             PredictError::NotF32 => {
                 f.write_str("model is not an f32 model (use the fixed-point predictor)")
             }
@@ -184,6 +188,7 @@ pub struct Predictor<'m, 'a, S: Sine, const W: usize> {
     feat: [f32; W],
     part: [f32; W],
     z: [f32; W],
+    frame: Frame,
     _sine: PhantomData<S>,
 }
 
@@ -208,6 +213,7 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
             feat: [0.0; W],
             part: [0.0; W],
             z: [0.0; W],
+            frame: Frame::raw(),
             _sine: PhantomData,
         })
     }
@@ -217,32 +223,29 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         self.model
     }
 
-    /// Steps 1–3: normalise, encode, and sum the decoder's feature columns.
-    fn encode(&mut self, past: &[[f32; 2]]) -> Result<[f32; 2], PredictError> {
+    /// Step 1: checks `past`, sets the frame and writes the network input into `x`.
+    fn input(
+        &mut self,
+        past: &[[f32; 2]],
+        x: &mut [f32; 2 * crate::blob::MAX_PAST],
+    ) -> Result<usize, PredictError> {
         let c = *self.model.config();
-        let p = c.past_len as usize;
-        if past.len() != p {
-            return Err(PredictError::WrongPastLength {
-                expected: p,
-                got: past.len(),
-            });
-        }
-        if past.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(PredictError::NonFiniteInput);
-        }
-        let origin = past[0];
-        let mut x = [0.0f32; 2 * crate::blob::MAX_PAST];
+        self.frame = Frame::checked(past, self.model)?;
         for (t, pt) in past.iter().enumerate() {
-            x[2 * t] = (pt[0] - origin[0]) * c.data_scale;
-            x[2 * t + 1] = (pt[1] - origin[1]) * c.data_scale;
+            let v = self.frame.input(*pt, c.data_scale);
+            x[2 * t] = v[0];
+            x[2 * t + 1] = v[1];
         }
+        Ok(2 * past.len())
+    }
+
+    /// Steps 1–3: normalise, encode, and sum the decoder's feature columns.
+    fn encode(&mut self, past: &[[f32; 2]]) -> Result<(), PredictError> {
+        let c = *self.model.config();
+        let mut x = [0.0f32; 2 * crate::blob::MAX_PAST];
+        let p = self.input(past, &mut x)?;
         let fdim = c.fdim as usize;
-        let f = run_network::<S>(
-            self.model.encoder_past(),
-            &x[..2 * p],
-            &mut self.a,
-            &mut self.b,
-        );
+        let f = run_network::<S>(self.model.encoder_past(), &x[..p], &mut self.a, &mut self.b);
         self.feat[..fdim].copy_from_slice(&f[..fdim]);
         if let Some(l0) = self.model.decoder().layer(0) {
             let out = l0.out_dim();
@@ -251,7 +254,29 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
             }
             accumulate(l0, 0, &self.feat[..fdim], &mut self.part[..out]);
         }
-        Ok(origin)
+        Ok(())
+    }
+
+    /// The model's deterministic point forecast (its point-forecast head): the
+    /// whole future, `future_len` points, the last one the endpoint. Needs a
+    /// model with a point head ([`Model::has_point_head`]).
+    pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
+        if !self.model.has_point_head() {
+            return Err(PredictError::NoPointHead);
+        }
+        let c = *self.model.config();
+        let mut x = [0.0f32; 2 * crate::blob::MAX_PAST];
+        let p = self.input(past, &mut x)?;
+        let q = run_network::<S>(self.model.point_head(), &x[..p], &mut self.a, &mut self.b);
+        let mut t = Trajectory::new();
+        for pair in q.chunks_exact(2) {
+            let pt = self.frame.output([pair[0], pair[1]], c.data_scale);
+            if !(pt[0].is_finite() && pt[1].is_finite()) {
+                return Err(PredictError::NonFiniteOutput);
+            }
+            t.push(pt).map_err(|_| PredictError::NonFiniteOutput)?;
+        }
+        Ok(t)
     }
 
     /// Step 4 for one latent already in `self.z`: the normalised endpoint.
@@ -277,6 +302,23 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
             width = out;
         }
         [src[0], src[1]]
+    }
+
+    /// The model's endpoint set (see [`crate::sampling`]): `out.len()` endpoints,
+    /// plain latent samples or, when the blob asks for test-time sampling,
+    /// the k-means reduction of its `tts_samples` samples. `N` bounds the
+    /// samples drawn (8 bytes of stack each); it must be at least
+    /// [`crate::sampling::samples_needed`].
+    pub fn predict_endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        let ext = *self.model.extensions();
+        crate::sampling::endpoint_set::<N>(&ext, out, |n, buf| {
+            self.run::<N>(past, seed, n, |e, _| buf.push(e).is_ok())
+        })
     }
 
     /// Predicts `k` endpoints (`k <= K`) for the observed `past`, drawing the
@@ -309,9 +351,8 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         let last = past.last().copied().unwrap_or([0.0; 2]);
         let mut pending = heapless::Vec::<([f32; 2], [f32; 2]), K>::new();
         self.run::<K>(past, seed, k, |e, d| pending.push((e, d)).is_ok())?;
-        let origin = past.first().copied().unwrap_or([0.0; 2]);
         for (e, d) in pending {
-            match self.trajectory(origin, last, e, d) {
+            match self.trajectory(last, e, d) {
                 Ok(t) => {
                     if out.push(t).is_err() {
                         err = Some(PredictError::BadSampleCount);
@@ -336,7 +377,7 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         if k == 0 || k > K {
             return Err(PredictError::BadSampleCount);
         }
-        let origin = self.encode(past)?;
+        self.encode(past)?;
         let c = *self.model.config();
         let zdim = c.zdim as usize;
         let mut g = Gaussian::new(seed);
@@ -345,10 +386,7 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
                 *zi = c.sigma * g.next();
             }
             let d = self.decode();
-            let e = [
-                d[0] / c.data_scale + origin[0],
-                d[1] / c.data_scale + origin[1],
-            ];
+            let e = self.frame.output(d, c.data_scale);
             if !(e[0].is_finite() && e[1].is_finite()) {
                 return Err(PredictError::NonFiniteOutput);
             }
@@ -362,7 +400,6 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
     /// Step 6 for one normalised endpoint `d` (features already in `self.feat`).
     fn trajectory(
         &mut self,
-        origin: [f32; 2],
         last: [f32; 2],
         e: [f32; 2],
         d: [f32; 2],
@@ -374,6 +411,7 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         // Predictor input [f, g, initial_pos] assembled in `z` (free by now).
         self.z[..fdim].copy_from_slice(&self.feat[..fdim]);
         self.z[fdim..fdim + ddim].copy_from_slice(g);
+        let last = self.frame.predictor_position(last);
         self.z[fdim + ddim] = last[0] / c.initial_pos_divisor;
         self.z[fdim + ddim + 1] = last[1] / c.initial_pos_divisor;
         let n_in = fdim + ddim + 2;
@@ -385,10 +423,7 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         );
         let mut t = Trajectory::new();
         for pair in q.chunks_exact(2) {
-            let pt = [
-                pair[0] / c.data_scale + origin[0],
-                pair[1] / c.data_scale + origin[1],
-            ];
+            let pt = self.frame.output([pair[0], pair[1]], c.data_scale);
             if !(pt[0].is_finite() && pt[1].is_finite()) {
                 return Err(PredictError::NonFiniteOutput);
             }

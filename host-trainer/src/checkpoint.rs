@@ -28,7 +28,8 @@ use crate::rng::{Rng, RngState};
 /// File name of the checkpoint inside a run directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"GPECCKPT";
-const VERSION: u32 = 1;
+/// 2: point head (`best_point`, per-epoch point metrics).
+const VERSION: u32 = 2;
 const HEADER: usize = 28;
 
 /// Metrics of one finished epoch.
@@ -48,6 +49,10 @@ pub struct EpochMetrics {
     pub val: Option<Metrics>,
     /// Wall-clock seconds of the epoch (training + validation).
     pub seconds: f64,
+    /// Mean point-head loss (0 without a head).
+    pub train_point: f64,
+    /// Validation of the point head (K = 1), when the model has one and it was validated.
+    pub val_point: Option<Metrics>,
 }
 
 /// The best epoch so far (by validation min FDE) and its weights.
@@ -78,6 +83,8 @@ pub struct Checkpoint {
     pub best: Option<BestModel>,
     /// Per-epoch metrics of every finished epoch.
     pub history: Vec<EpochMetrics>,
+    /// Best epoch of the point head (by validation FDE; its weights are taken from here).
+    pub best_point: Option<BestModel>,
 }
 
 /// Why a checkpoint could not be read or written.
@@ -296,8 +303,17 @@ pub fn load_model(
         (Which::Best, Some(b)) => (&b.weights, b.epoch),
         _ => (&ckpt.weights, ckpt.epochs_done),
     };
+    // With Which::Best the point head comes from its own best epoch (by validation FDE).
+    let mut weights = weights.clone();
+    let nh = model.point_head_tensors();
+    if let (Which::Best, Some(bp)) = (which, &ckpt.best_point) {
+        let n = weights.len();
+        if nh > 0 && bp.weights.len() == n {
+            weights[n - nh..].clone_from_slice(&bp.weights[n - nh..]);
+        }
+    }
     model
-        .set_weights(weights)
+        .set_weights(&weights)
         .map_err(|e| CheckpointError::Inconsistent {
             path: checkpoint_path(run_dir_or_file),
             msg: e.to_string(),
@@ -322,6 +338,7 @@ mod tests {
             rng: Rng::with_stream(3, 2).state(),
             best: None,
             history: vec![],
+            best_point: None,
         }
     }
 

@@ -159,6 +159,29 @@ pub struct TrainConfig {
     /// Grouping: max min-distance between observed points, raw units (PECNet: 100 px).
     #[serde(skip_serializing_if = "is_default_dist_thresh")]
     pub dist_thresh: f64,
+    /// Heading-canonical frame ([`crate::frame`]): `m > 0` rotates every window about its first
+    /// observed point so that the displacement over its last `m` observed steps points along
+    /// +x (`1 <= m < past_length`); 0 (the default) keeps the raw orientation. Stored in the
+    /// blob; `gpecnet-core` applies the same rotation. Omitted from the TOML when 0.
+    #[serde(skip_serializing_if = "is_zero_usize")]
+    pub heading_steps: usize,
+    /// Hidden sizes of the point-forecast head (issue 10): an MLP from the normalised observed
+    /// track (`2 * past_length`) to the whole normalised future (`2 * future_length`), trained
+    /// on the mean Euclidean displacement (not its square) next to the CVAE and shipped in the
+    /// blob. Empty (the default) = no head. Omitted from the TOML when empty.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub point_head_size: Vec<usize>,
+    /// Weight of the point head's loss (its parameters are disjoint from the CVAE's, so this
+    /// only scales its effective learning rate under Adam's normalisation: keep 1).
+    #[serde(skip_serializing_if = "is_one_f32")]
+    pub point_reg: f32,
+}
+
+fn is_zero_usize(x: &usize) -> bool {
+    *x == 0
+}
+fn is_one_f32(x: &f32) -> bool {
+    *x == 1.0
 }
 
 fn is_false(x: &bool) -> bool {
@@ -224,6 +247,9 @@ impl Default for TrainConfig {
             non_local_g_size: vec![256, 128, 64],
             time_thresh: 0,
             dist_thresh: 100.0,
+            heading_steps: 0,
+            point_head_size: Vec::new(),
+            point_reg: 1.0,
         }
     }
 }
@@ -289,6 +315,7 @@ impl TrainConfig {
             ("non_local_theta_size", &self.non_local_theta_size),
             ("non_local_phi_size", &self.non_local_phi_size),
             ("non_local_g_size", &self.non_local_g_size),
+            ("point_head_size", &self.point_head_size),
         ] {
             if v.contains(&0) {
                 bail!("{name} contains a zero-width layer");
@@ -316,6 +343,22 @@ impl TrainConfig {
                 || !(self.dist_thresh.is_finite() && self.dist_thresh >= 0.0))
         {
             bail!("social pooling needs nonlocal_pools > 0, non_local_dim > 0, time_thresh >= 0 and a finite dist_thresh >= 0");
+        }
+        if self.heading_steps >= self.past_length {
+            bail!(
+                "heading_steps must be 0 (off) or in 1..{}, got {}",
+                self.past_length,
+                self.heading_steps
+            );
+        }
+        if self.heading_steps > 0 && self.social_pooling {
+            bail!("heading_steps and social_pooling cannot be combined (each pedestrian would be rotated into its own frame before pooling)");
+        }
+        if !(self.point_reg.is_finite() && self.point_reg > 0.0) {
+            bail!(
+                "point_reg must be a positive number, got {}",
+                self.point_reg
+            );
         }
         if !(self.augment_pct.is_finite() && (0.0..=100.0).contains(&self.augment_pct)) {
             bail!("augment_pct must be in [0, 100], got {}", self.augment_pct);
@@ -347,6 +390,11 @@ impl TrainConfig {
             + mlp_params(self.fdim + self.zdim, &self.dec_size, 2)
             + mlp_params(2, &self.enc_dest_size, self.fdim)
             + mlp_params(2 * self.fdim + 2, &self.predictor_hidden_size, pred_out)
+            + if self.point_head_size.is_empty() {
+                0
+            } else {
+                mlp_params(p2, &self.point_head_size, 2 * self.future_length)
+            }
     }
 }
 

@@ -50,7 +50,14 @@ fn predict_core_with<S: Sine>(
 ) -> Result<Prediction> {
     let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?);
     let past = w.obs();
-    let trajectories = if model.has_predictor() {
+    let trajectories = if model.extensions().tts_samples > 0 {
+        let mut ends = vec![[0.0f32; 2]; k];
+        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(&past, seed, &mut ends)
+            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
+        ends.iter()
+            .map(|e| linear_fill(past[PAST - 1], *e))
+            .collect()
+    } else if model.has_predictor() {
         p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
             .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?
             .iter()
@@ -92,6 +99,15 @@ pub fn predict_reference(
     k: usize,
 ) -> Prediction {
     let past = w.obs();
+    if model.config.tts_samples > 0 {
+        let ends = model.predict_set(&past, seed, k, sine).unwrap_or_default();
+        return Prediction {
+            trajectories: ends
+                .iter()
+                .map(|e| linear_fill(past[PAST - 1], *e))
+                .collect(),
+        };
+    }
     let p = model.predict(&past, seed, k, sine, !model.predictor.is_empty());
     let trajectories = if model.predictor.is_empty() {
         p.endpoints
@@ -183,4 +199,49 @@ pub(crate) fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> 
             .map_err(|e| anyhow!("{}#{}: {e:?}", w.scene, w.ped_id))?;
     }
     Ok(acc.finish())
+}
+
+/// The point forecast of one window through `gpecnet-core` (f32 with `sine`, or fixed point).
+fn point_core(model: &Model<'_>, sine: SineKind, w: &Window) -> Result<[[f32; 2]; FUTURE]> {
+    let past = w.obs();
+    let t = match (model.numeric(), sine) {
+        (gpecnet_core::NumericKind::Int16Q15, _) => {
+            gpecnet_core::FixedPredictor::<HOST_WIDTH>::new(model)
+                .map(Box::new)
+                .map_err(|e| anyhow!("{e}"))?
+                .predict_point(&past)
+        }
+        (_, SineKind::Libm) => Predictor::<LibmSine, HOST_WIDTH>::new(model)
+            .map(Box::new)
+            .map_err(|e| anyhow!("{e}"))?
+            .predict_point(&past),
+        (_, SineKind::Fast) => Predictor::<FastSine, HOST_WIDTH>::new(model)
+            .map(Box::new)
+            .map_err(|e| anyhow!("{e}"))?
+            .predict_point(&past),
+    }
+    .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
+    Ok(to_fixed(&t))
+}
+
+/// The point forecast (K = 1: `ade_k1`/`fde_k1` are its ADE/FDE) of a blob through
+/// `gpecnet-core` on every window of `ds`, and the forecasts; `None` for a blob without a
+/// point-forecast head. `sine` is ignored for fixed-point blobs.
+pub fn evaluate_point_core(
+    blob: &[u8],
+    sine: SineKind,
+    ds: &Dataset,
+) -> Result<Option<(Metrics, Vec<Prediction>)>> {
+    let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
+    if !model.has_point_head() {
+        return Ok(None);
+    }
+    let preds = parallel_map(ds.windows.len(), |i| {
+        Ok(Prediction::single(point_core(
+            &model,
+            sine,
+            &ds.windows[i],
+        )?))
+    })?;
+    Ok(Some((accumulate(ds, &preds)?, preds)))
 }

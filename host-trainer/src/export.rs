@@ -3,11 +3,12 @@
 
 use anyhow::{bail, Context, Result};
 use gpecnet_core::blob::{
-    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION,
-    MAGIC,
+    Activation, Extensions, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32,
+    FORMAT_VERSION, MAGIC, MIN_FORMAT_VERSION,
 };
 use gpecnet_core::golden::{
-    GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
+    GoldenCaseWire, GoldenCaseWireV2, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
+    GOLDEN_VERSION_POINT,
 };
 
 use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
@@ -53,32 +54,67 @@ pub(crate) fn wire_config(c: &RefConfig) -> Result<ModelConfig> {
     })
 }
 
-/// Serialises `model` as an f32 blob (format version 1), CRC included.
-pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
-    model.validate()?;
-    let config = wire_config(&model.config)?;
-    let mut out = Vec::new();
+/// The version-2 settings of a model's config.
+pub(crate) fn wire_extensions(c: &RefConfig) -> Result<Extensions> {
+    Ok(Extensions {
+        heading_steps: u8::try_from(c.heading_steps)?,
+        tts_samples: u16::try_from(c.tts_samples)?,
+        tts_iters: c.tts_iters,
+        tts_init: c.tts_init,
+    })
+}
+
+/// The head of every blob (shared by the f32 and fixed-point exporters): preamble, model info
+/// and, for a model that uses a version-2 setting, the extensions. Returns the version
+/// written: 1 whenever possible, so models without the new features keep their bytes.
+pub(crate) fn push_head(
+    out: &mut Vec<u8>,
+    numeric: NumericKind,
+    name: &str,
+    c: &RefConfig,
+    v2: bool,
+) -> Result<u16> {
+    let version = if v2 {
+        FORMAT_VERSION
+    } else {
+        MIN_FORMAT_VERSION
+    };
     push(
-        &mut out,
+        out,
         &Preamble {
             magic: MAGIC,
-            version: FORMAT_VERSION,
+            version,
         },
     )?;
     push(
-        &mut out,
+        out,
         &ModelInfo {
-            numeric: NumericKind::F32,
-            name: &model.name,
-            config,
+            numeric,
+            name,
+            config: wire_config(c)?,
         },
     )?;
-    for net in [
+    if v2 {
+        push(out, &wire_extensions(c)?)?;
+    }
+    Ok(version)
+}
+
+/// Serialises `model` as an f32 blob (format version 1, or 2 when it uses the heading frame,
+/// test-time sampling or a point head), CRC included.
+pub fn blob_bytes(model: &RefModel) -> Result<Vec<u8>> {
+    model.validate()?;
+    let mut out = Vec::new();
+    let v2 = model.needs_v2();
+    push_head(&mut out, NumericKind::F32, &model.name, &model.config, v2)?;
+    let nets = [
         &model.encoder_past,
         &model.decoder,
         &model.encoder_dest,
         &model.predictor,
-    ] {
+        &model.point_head,
+    ];
+    for net in nets.into_iter().take(if v2 { 5 } else { 4 }) {
         push(&mut out, &u8::try_from(net.len())?)?;
         for l in net {
             let (w, b) = (le_bytes(&l.w), le_bytes(&l.b));
@@ -133,11 +169,16 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
             initial_pos_divisor: c.initial_pos_divisor,
             w0: c.w0,
             hidden_act: act_from_wire(c.hidden_activation),
+            heading_steps: m.extensions().heading_steps as usize,
+            tts_samples: m.extensions().tts_samples as usize,
+            tts_iters: m.extensions().tts_iters,
+            tts_init: m.extensions().tts_init,
         },
         encoder_past: net(m.encoder_past()),
         decoder: net(m.decoder()),
         encoder_dest: net(m.encoder_dest()),
         predictor: net(m.predictor()),
+        point_head: net(m.point_head()),
     })
 }
 
@@ -152,6 +193,8 @@ pub struct GoldenCase {
     pub endpoints: Vec<[f32; 2]>,
     /// Sample 0's trajectory (empty for endpoint-only models).
     pub trajectory0: Vec<[f32; 2]>,
+    /// The point forecast (empty for models without a point head).
+    pub point: Vec<[f32; 2]>,
 }
 
 /// Computes golden cases with the canonical reference path.
@@ -160,22 +203,31 @@ pub fn golden_cases(
     inputs: &[(Vec<[f32; 2]>, u64)],
     k: usize,
     sine: SineKind,
-) -> Vec<GoldenCase> {
+) -> Result<Vec<GoldenCase>> {
     inputs
         .iter()
         .map(|(past, seed)| {
-            let p = model.predict(past, *seed, k, sine, !model.predictor.is_empty());
-            GoldenCase {
+            let (endpoints, trajectory0) = if model.config.tts_samples > 0 {
+                (model.predict_set(past, *seed, k, sine)?, Vec::new())
+            } else {
+                let p = model.predict(past, *seed, k, sine, !model.predictor.is_empty());
+                (
+                    p.endpoints,
+                    p.trajectories.first().cloned().unwrap_or_default(),
+                )
+            };
+            Ok(GoldenCase {
                 past: past.clone(),
                 seed: *seed,
-                endpoints: p.endpoints,
-                trajectory0: p.trajectories.first().cloned().unwrap_or_default(),
-            }
+                endpoints,
+                trajectory0,
+                point: model.predict_point(past, sine).unwrap_or_default(),
+            })
         })
         .collect()
 }
 
-/// Serialises golden cases for the blob whose CRC is `model_crc`.
+/// Serialises golden cases for the f32 blob whose CRC is `model_crc`.
 pub fn golden_bytes(
     model: &RefModel,
     model_crc: u32,
@@ -184,45 +236,79 @@ pub fn golden_bytes(
     cases: &[GoldenCase],
 ) -> Result<Vec<u8>> {
     let c = &model.config;
+    golden_file_bytes(
+        &model.name,
+        model_crc,
+        sine.core_name(),
+        (c.past_len, c.future_len),
+        k,
+        cases,
+    )
+}
+
+/// The one golden-file writer (f32 and fixed-point models): version 1, or version 2 when any
+/// case records a point forecast. `lens` = `(past_len, future_len)`.
+pub fn golden_file_bytes(
+    name: &str,
+    model_crc: u32,
+    sine: &str,
+    lens: (usize, usize),
+    k: usize,
+    cases: &[GoldenCase],
+) -> Result<Vec<u8>> {
+    let (past_len, future_len) = lens;
+    let with_point = cases.iter().any(|c| !c.point.is_empty());
     let mut out = Vec::new();
     push(
         &mut out,
         &GoldenPreamble {
             magic: GOLDEN_MAGIC,
-            version: GOLDEN_VERSION,
+            version: if with_point {
+                GOLDEN_VERSION_POINT
+            } else {
+                GOLDEN_VERSION
+            },
         },
     )?;
     let info = GoldenInfo {
-        model_name: &model.name,
+        model_name: name,
         model_crc,
-        sine: sine.core_name(),
-        past_len: u8::try_from(c.past_len)?,
-        future_len: u8::try_from(c.future_len)?,
+        sine,
+        past_len: u8::try_from(past_len)?,
+        future_len: u8::try_from(future_len)?,
         k: u8::try_from(k)?,
         n_cases: u32::try_from(cases.len())?,
     };
     push(&mut out, &info)?;
+    let flat =
+        |v: &[[f32; 2]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
     for case in cases {
-        if case.past.len() != c.past_len || case.endpoints.len() != k {
+        if case.past.len() != past_len || case.endpoints.len() != k {
             bail!("golden case shape does not match the model");
         }
-        let flat = |v: &[[f32; 2]]| -> Vec<u8> {
-            v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect()
-        };
-        let (p, e, t) = (
+        let (p, e, t, q) = (
             flat(&case.past),
             flat(&case.endpoints),
             flat(&case.trajectory0),
+            flat(&case.point),
         );
-        push(
-            &mut out,
-            &GoldenCaseWire {
-                past: &p,
-                seed: case.seed,
-                endpoints: &e,
-                trajectory0: &t,
-            },
-        )?;
+        let v1 = GoldenCaseWire {
+            past: &p,
+            seed: case.seed,
+            endpoints: &e,
+            trajectory0: &t,
+        };
+        if with_point {
+            push(
+                &mut out,
+                &GoldenCaseWireV2 {
+                    point: &q,
+                    ..v1.into()
+                },
+            )?;
+        } else {
+            push(&mut out, &v1)?;
+        }
     }
     let crc = CRC32.checksum(&out);
     out.extend(crc.to_le_bytes());

@@ -6,6 +6,7 @@ pub mod data;
 pub mod draw;
 pub mod eval;
 pub mod export;
+pub mod frame;
 pub mod model;
 pub mod optim;
 pub mod quantize;

@@ -151,6 +151,16 @@ struct EvalArgs {
     /// Number of test windows to draw.
     #[arg(long, default_value_t = 16)]
     n_draw: usize,
+    /// Print exactly one JSON object on stdout (name, n, k, min_ade, min_fde, ade_k1, fde_k1,
+    /// mean_ade, mean_fde, point_ade, point_fde, cv_n, cv_ade, cv_fde, cv_last_ade,
+    /// cv_last_fde, kde_nll, hit20, hit40, matches_card, ...) instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Add the distribution metrics (kde_nll, hit20, hit40) to the blob's existing model card
+    /// (.json and .md) if it lacks them; nothing else in the card, the blob or the golden file
+    /// changes. The card's ADE/FDE must be reproduced first.
+    #[arg(long)]
+    update_card: bool,
 }
 
 fn cmd_export(a: ExportArgs) -> Result<()> {
@@ -178,41 +188,105 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         Some(&a.draw),
         a.n_draw,
     )?;
-    let (m, cv) = (&r.metrics, &r.constant_velocity);
-    println!(
-        "model {} on the SDD test set ({} windows), through gpecnet-core, pixels",
-        r.name, m.n
-    );
-    println!("{:<34} {:>9} {:>9}", "", "ADE", "FDE");
-    println!(
-        "{:<34} {:>9.3} {:>9.3}",
-        format!("best of K = {}", m.k),
-        m.min_ade,
-        m.min_fde
-    );
-    println!(
-        "{:<34} {:>9.3} {:>9.3}",
-        "K = 1 (first sample)", m.ade_k1, m.fde_k1
-    );
-    println!(
-        "{:<34} {:>9.3} {:>9.3}",
-        format!("mean over the {} samples", m.k),
-        m.mean_ade,
-        m.mean_fde
-    );
-    println!(
-        "{:<34} {:>9.3} {:>9.3}",
-        "constant velocity (K = 1)", cv.ade_k1, cv.fde_k1
-    );
-    match r.matches_card {
-        Some(true) => println!("model card: reproduced exactly"),
-        Some(false) => println!("model card: NOT reproduced (different K, seed, sine or weights?)"),
-        None => println!("model card: none next to the blob"),
+    let update = if a.update_card {
+        Some(gpecnet_trainer::ship::update_card_dist(
+            &a.blob, &a.data, &r, a.k, a.seed,
+        )?)
+    } else {
+        None
+    };
+    let (m, cv, cvn, d) = (&r.metrics, &r.constant_velocity, &r.cv, &r.dist);
+    if a.json {
+        let o = serde_json::json!({
+            "name": r.name,
+            "blob": a.blob.display().to_string(),
+            "unit": "px",
+            "n": m.n,
+            "k": m.k,
+            "min_ade": m.min_ade,
+            "min_fde": m.min_fde,
+            "ade_k1": m.ade_k1,
+            "fde_k1": m.fde_k1,
+            "mean_ade": m.mean_ade,
+            "mean_fde": m.mean_fde,
+            "point_ade": r.point.map(|p| p.0),
+            "point_fde": r.point.map(|p| p.1),
+            "cv_n": r.cv_n,
+            "cv_ade": cvn.ade_k1,
+            "cv_fde": cvn.fde_k1,
+            "cv_last_ade": cv.ade_k1,
+            "cv_last_fde": cv.fde_k1,
+            "cv_val_fde": r.cv_val.iter().map(|v| v.fde_k1).collect::<Vec<_>>(),
+            "n_val": r.n_val,
+            "kde_nll": d.kde_nll,
+            "hit20": d.hit20,
+            "hit40": d.hit40,
+            "matches_card": r.matches_card,
+            "svg": r.svg.as_ref().map(|p| p.display().to_string()),
+        });
+        println!("{o}");
+    } else {
+        println!(
+            "model {} on the SDD test set ({} windows), through gpecnet-core, pixels",
+            r.name, m.n
+        );
+        println!("{:<44} {:>9} {:>9}", "", "ADE", "FDE");
+        let row = |label: String, ade: f64, fde: f64| {
+            println!("{label:<44} {ade:>9.3} {fde:>9.3}");
+        };
+        row(format!("best of K = {}", m.k), m.min_ade, m.min_fde);
+        row("K = 1 (first sample)".into(), m.ade_k1, m.fde_k1);
+        row(
+            format!("mean over the {} samples", m.k),
+            m.mean_ade,
+            m.mean_fde,
+        );
+        match r.point {
+            Some((ade, fde)) => row("point forecast".into(), ade, fde),
+            None => println!("{:<44} {:>9} {:>9}", "point forecast", "n/a", "n/a"),
+        }
+        row("constant velocity (K = 1)".into(), cv.ade_k1, cv.fde_k1);
+        row(
+            format!("constant velocity, n = {} (chosen on val)", r.cv_n),
+            cvn.ade_k1,
+            cvn.fde_k1,
+        );
+        println!(
+            "distribution of the K = {} endpoints: KDE NLL {:.3} nats (px), true endpoint within 20 px of a sample {:.2} %, within 40 px {:.2} %",
+            m.k,
+            d.kde_nll,
+            100.0 * d.hit20,
+            100.0 * d.hit40
+        );
+        println!(
+            "constant-velocity n: lowest FDE on {} SDD validation windows; val FDE for n = 1..7: {}",
+            r.n_val,
+            r.cv_val
+                .iter()
+                .map(|v| format!("{:.2}", v.fde_k1))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        match r.matches_card {
+            Some(true) => println!("model card: reproduced exactly"),
+            Some(false) => {
+                println!("model card: NOT reproduced (different K, seed, sine or weights?)")
+            }
+            None => println!("model card: none next to the blob"),
+        }
+        if let Some(p) = &r.svg {
+            println!("drew predictions to {}", p.display());
+        }
     }
-    if let Some(p) = r.svg {
-        println!("drew predictions to {}", p.display());
+    if let Some(u) = update {
+        eprintln!("{u}");
     }
-    if r.matches_card == Some(false) && a.k == 20 && a.seed == 0 && a.sine.is_none() {
+    if r.matches_card == Some(false)
+        && a.k == 20
+        && a.seed == 0
+        && a.sine.is_none()
+        && !a.update_card
+    {
         anyhow::bail!("the shipped numbers were not reproduced");
     }
     Ok(())
@@ -247,6 +321,12 @@ struct TrainArgs {
     /// The synthetic pool CSV written by `gpecnet synth` (overrides synthetic_pool).
     #[arg(long, value_name = "CSV")]
     pool: Option<PathBuf>,
+    /// Override the config's seed (new runs only): one config, several seeds.
+    #[arg(long, value_name = "N")]
+    seed: Option<u64>,
+    /// Override the config's heading_steps (new runs only; 0 = raw orientation).
+    #[arg(long, value_name = "M")]
+    heading_steps: Option<usize>,
 }
 
 fn cmd_train(a: TrainArgs) -> Result<()> {
@@ -258,9 +338,14 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         stop_after: None,
     };
     let summary = if a.resume {
-        if a.config.is_some() || a.augment.is_some() || a.pool.is_some() {
+        if a.config.is_some()
+            || a.augment.is_some()
+            || a.pool.is_some()
+            || a.seed.is_some()
+            || a.heading_steps.is_some()
+        {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool"
+                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps"
             );
         }
         train::train_resume(&opts)?
@@ -274,6 +359,12 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         }
         if let Some(p) = a.pool {
             cfg.synthetic_pool = Some(p.to_string_lossy().into_owned());
+        }
+        if let Some(s) = a.seed {
+            cfg.seed = s;
+        }
+        if let Some(m) = a.heading_steps {
+            cfg.heading_steps = m;
         }
         train::train_new(cfg, &opts)?
     };

@@ -65,6 +65,8 @@ pub struct ExportedNetworks {
     pub encoder_dest: Vec<ExportedLayer>,
     /// `2 * fdim + 2` -> `2 * (FUTURE - 1)`.
     pub predictor: Vec<ExportedLayer>,
+    /// The point-forecast head, `2 * PAST` -> `2 * FUTURE` (empty: the model has none).
+    pub point_head: Vec<ExportedLayer>,
 }
 
 /// One affine layer; weight `[out, in]` (PyTorch layout), bias `[out]`.
@@ -283,6 +285,9 @@ pub struct Loss {
     pub kld: f32,
     /// Intermediate-points MSE (mean over elements).
     pub adl: f32,
+    /// Point head: mean Euclidean displacement over the 12 steps plus the endpoint's
+    /// (model units; 0 without a head).
+    pub point: f32,
 }
 
 /// Outputs of the training-mode forward pass.
@@ -313,7 +318,10 @@ pub struct Model {
     pub predictor: Mlp,
     /// Non-local social pooling (only with `social_pooling = true`).
     pub social: Option<SocialPooling>,
+    /// The point-forecast head (only with a non-empty `point_head_size`).
+    pub point_head: Option<Mlp>,
     zdim: usize,
+    point_reg: f32,
     kld_reg: f32,
     adl_reg: f32,
 }
@@ -346,6 +354,15 @@ impl Model {
         } else {
             None
         };
+        // Drawn last: configs without a head keep their initialisation.
+        let point_head = if cfg.point_head_size.is_empty() {
+            None
+        } else {
+            Some(
+                Mlp::new(2 * PAST, &cfg.point_head_size, 2 * FUTURE, a, w0, rng)?
+                    .with_scales(cs, cs),
+            )
+        };
         Ok(Self {
             encoder_past,
             encoder_dest,
@@ -353,6 +370,8 @@ impl Model {
             decoder,
             predictor,
             social,
+            point_head,
+            point_reg: cfg.point_reg,
             zdim: cfg.zdim,
             kld_reg: cfg.kld_reg,
             adl_reg: cfg.adl_reg,
@@ -376,7 +395,25 @@ impl Model {
         .iter()
         .flat_map(|m| m.vars())
         .chain(self.social.iter().flat_map(|s| s.vars()))
+        .chain(self.point_head.iter().flat_map(|h| h.vars()))
         .collect()
+    }
+
+    /// Number of tensors of the point head at the end of [`Model::vars`] (0 without one).
+    pub fn point_head_tensors(&self) -> usize {
+        self.point_head.as_ref().map_or(0, |h| h.vars().len())
+    }
+
+    /// The point forecast `[B, FUTURE, 2]` in model space from `obs` `[B, 2 * PAST]`, or
+    /// `None` without a head.
+    pub fn point_forecast(&self, obs: &Tensor) -> candle_core::Result<Option<Tensor>> {
+        match &self.point_head {
+            Some(h) => {
+                let b = obs.dims()[0];
+                Ok(Some(h.forward(obs)?.reshape((b, FUTURE, 2))?))
+            }
+            None => Ok(None),
+        }
     }
 
     /// `true` when the model has social pooling (its forward passes need a group mask).
@@ -471,13 +508,29 @@ impl Model {
         // -0.5 * sum(1 + logvar - mu^2 - exp(logvar))
         let kld_terms = ((f.logvar.affine(1.0, 1.0)? - f.mu.sqr()?)? - f.logvar.exp()?)?;
         let kld = kld_terms.sum_all()?.affine(-0.5, 0.0)?;
-        let total = ((&rcl + kld.affine(f64::from(self.kld_reg), 0.0)?)?
+        let mut total = ((&rcl + kld.affine(f64::from(self.kld_reg), 0.0)?)?
             + adl.affine(f64::from(self.adl_reg), 0.0)?)?;
+        let mut point = 0.0;
+        if let Some(pred) = self.point_forecast(&batch.obs)? {
+            let b = batch.len();
+            let truth = Tensor::cat(&[&batch.future, &batch.dest], 1)?.reshape((b, FUTURE, 2))?;
+            // Euclidean distance per step; the tiny offset keeps the gradient finite at 0.
+            let dist = (&pred - &truth)?
+                .sqr()?
+                .sum(2)?
+                .affine(1.0, POINT_LOSS_EPS)?
+                .sqrt()?;
+            let last = dist.narrow(1, FUTURE - 1, 1)?;
+            let l = (dist.mean_all()? + last.mean_all()?)?;
+            point = l.to_scalar::<f32>()?;
+            total = (total + l.affine(f64::from(self.point_reg), 0.0)?)?;
+        }
         Ok(Loss {
             total,
             rcl: rcl.to_scalar::<f32>()?,
             kld: kld.to_scalar::<f32>()?,
             adl: adl.to_scalar::<f32>()?,
+            point,
         })
     }
 
@@ -566,9 +619,17 @@ impl Model {
             decoder: self.decoder.export()?,
             encoder_dest: self.encoder_dest.export()?,
             predictor: self.predictor.export()?,
+            point_head: match &self.point_head {
+                Some(h) => h.export()?,
+                None => Vec::new(),
+            },
         })
     }
 }
+
+/// Added under the square root of the point head's per-step squared distance (model units²),
+/// so the loss stays differentiable at zero error.
+pub const POINT_LOSS_EPS: f64 = 1e-4;
 
 /// `DType` of every tensor in the model.
 pub const DTYPE: DType = DType::F32;

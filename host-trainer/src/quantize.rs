@@ -18,18 +18,14 @@
 //!   compare the two bit for bit.
 
 use anyhow::{anyhow, bail, Context, Result};
-use gpecnet_core::blob::{
-    LayerWireQ, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION, MAGIC,
-};
-use gpecnet_core::golden::{
-    GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
-};
+use gpecnet_core::blob::{LayerWireQ, NumericKind, CRC32};
 use serde::{Deserialize, Serialize};
 
 use crate::core_eval::linear_fill;
 use crate::data::{Dataset, Window, PAST};
-use crate::eval::{Metrics, Prediction};
-use crate::reference::{Act, Normals, RefConfig, RefLayer, RefModel};
+use crate::eval::{dist_metrics, DistMetrics, Metrics, Prediction};
+use crate::export::GoldenCase;
+use crate::reference::{Act, Normals, RefConfig, RefFrame, RefLayer, RefModel};
 
 /// Headroom over the calibrated maximum of each activation vector.
 pub const MARGIN: f64 = 1.5;
@@ -74,6 +70,9 @@ pub struct QModel {
     pub encoder_dest: Vec<QLayer>,
     /// Trajectory predictor (empty for endpoint-only models).
     pub predictor: Vec<QLayer>,
+    /// Point-forecast head (empty when absent); reads encoder_past's quantised input.
+    #[serde(default)]
+    pub point_head: Vec<QLayer>,
 }
 
 // ---------------------------------------------------------------- calibration
@@ -83,8 +82,8 @@ pub struct QModel {
 pub struct Calibration {
     /// encoder_past input.
     pub input: f64,
-    /// Per network (enc, dec, dest, pred), per layer: max |output|.
-    pub layers: [Vec<f64>; 4],
+    /// Per network (enc, dec, dest, pred, point head), per layer: max |output|.
+    pub layers: [Vec<f64>; 5],
     /// The latent (`sigma · N(0, 1)`).
     pub z: f64,
     /// `initial_pos`.
@@ -123,6 +122,7 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
         &model.decoder,
         &model.encoder_dest,
         &model.predictor,
+        &model.point_head,
     ];
     let mut cal = Calibration {
         layers: nets.map(|n| vec![0.0; n.len()]),
@@ -130,20 +130,18 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
     };
     for (wi, w) in windows.iter().enumerate() {
         let past = w.obs();
-        let o = past[0];
+        let fr = model.frame(&past);
         let x: Vec<f64> = past
             .iter()
-            .flat_map(|p| {
-                [
-                    ((p[0] - o[0]) * c.data_scale) as f64,
-                    ((p[1] - o[1]) * c.data_scale) as f64,
-                ]
-            })
+            .flat_map(|p| fr.input(*p, c.data_scale).map(f64::from))
             .collect();
         cal.input = x.iter().fold(cal.input, |m, v| m.max(v.abs()));
         let f = run_f64(&model.encoder_past, &x, &mut cal.layers[0]);
+        if !model.point_head.is_empty() {
+            run_f64(&model.point_head, &x, &mut cal.layers[4]);
+        }
         let mut normals = Normals::new(wi as u64);
-        let last = past[PAST - 1];
+        let last = fr.predictor_position(past[PAST - 1]);
         for _ in 0..k {
             let mut input = f.clone();
             for _ in 0..c.zdim {
@@ -255,6 +253,7 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
         &model.decoder,
         &model.encoder_dest,
         &model.predictor,
+        &model.point_head,
     ] {
         if net.last().is_some_and(|l| l.act == Act::Sine) {
             bail!("a network ending in a sine layer is not supported by the fixed-point kind");
@@ -283,6 +282,12 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
         } else {
             vec![]
         },
+        point_head: quantize_net(
+            &model.point_head,
+            &cal.layers[4],
+            e_in,
+            exp_for(last_max(4)),
+        ),
     })
 }
 
@@ -383,22 +388,13 @@ impl QModel {
         k: usize,
     ) -> (Vec<[f32; 2]>, Vec<Vec<[f32; 2]>>) {
         let c = &self.config;
-        let e_in = self.encoder_past[0].in_exp;
         let e_f = self.decoder[0].in_exp;
         let e_d = self.decoder.last().map_or(0, |l| l.out_exp);
-        let o = past[0];
-        let x: Vec<i64> = past
-            .iter()
-            .flat_map(|p| {
-                [
-                    quantize_value((p[0] - o[0]) * c.data_scale, e_in),
-                    quantize_value((p[1] - o[1]) * c.data_scale, e_in),
-                ]
-            })
-            .collect();
+        let fr = self.frame(past);
+        let x = self.input(past);
         let f = run_q(&self.encoder_past, &x);
         let mut normals = Normals::new(seed);
-        let last = past[past.len() - 1];
+        let last = fr.predictor_position(past[past.len() - 1]);
         let (mut ends, mut trajs) = (Vec::with_capacity(k), Vec::new());
         for _ in 0..k {
             let mut input = f.clone();
@@ -406,10 +402,7 @@ impl QModel {
                 input.push(quantize_value(c.sigma * normals.next_normal(), e_f));
             }
             let d = run_q(&self.decoder, &input);
-            let e = [
-                deq(d[0], e_d) / c.data_scale + o[0],
-                deq(d[1], e_d) / c.data_scale + o[1],
-            ];
+            let e = fr.output([deq(d[0], e_d), deq(d[1], e_d)], c.data_scale);
             ends.push(e);
             if !self.predictor.is_empty() {
                 let mut pin = f.clone();
@@ -420,18 +413,50 @@ impl QModel {
                 let e_q = self.predictor.last().map_or(0, |l| l.out_exp);
                 let mut t: Vec<[f32; 2]> = q
                     .chunks(2)
-                    .map(|p| {
-                        [
-                            deq(p[0], e_q) / c.data_scale + o[0],
-                            deq(p[1], e_q) / c.data_scale + o[1],
-                        ]
-                    })
+                    .map(|p| fr.output([deq(p[0], e_q), deq(p[1], e_q)], c.data_scale))
                     .collect();
                 t.push(e);
                 trajs.push(t);
             }
         }
         (ends, trajs)
+    }
+
+    /// The frame of `past` (the same rule as the f32 reference).
+    fn frame(&self, past: &[[f32; 2]]) -> RefFrame {
+        RefFrame::of(past, self.config.heading_steps)
+    }
+
+    /// The quantised network input (encoder_past's exponent; the point head shares it).
+    fn input(&self, past: &[[f32; 2]]) -> Vec<i64> {
+        let (c, fr) = (&self.config, self.frame(past));
+        let e_in = self.encoder_past[0].in_exp;
+        past.iter()
+            .flat_map(|p| fr.input(*p, c.data_scale).map(|v| quantize_value(v, e_in)))
+            .collect()
+    }
+
+    /// The endpoint set by the blob's protocol (see [`RefModel::predict_set`]).
+    pub fn predict_set(&self, past: &[[f32; 2]], seed: u64, k: usize) -> Result<Vec<[f32; 2]>> {
+        let c = &self.config;
+        if c.tts_samples == 0 {
+            return Ok(self.predict(past, seed, k).0);
+        }
+        let samples = self.predict(past, seed, c.tts_samples).0;
+        crate::reference::tts_reduce(c, &samples, k)
+    }
+
+    /// The point head's forecast by the integer specification, or `None` without a head.
+    pub fn predict_point(&self, past: &[[f32; 2]]) -> Option<Vec<[f32; 2]>> {
+        let last = self.point_head.last()?;
+        let (c, fr) = (&self.config, self.frame(past));
+        let q = run_q(&self.point_head, &self.input(past));
+        let e = last.out_exp;
+        Some(
+            q.chunks(2)
+                .map(|p| fr.output([deq(p[0], e), deq(p[1], e)], c.data_scale))
+                .collect(),
+        )
     }
 
     /// Weights and biases.
@@ -441,6 +466,7 @@ impl QModel {
             &self.decoder,
             &self.encoder_dest,
             &self.predictor,
+            &self.point_head,
         ]
         .iter()
         .flat_map(|n| n.iter())
@@ -453,24 +479,17 @@ impl QModel {
 
 /// Serialises a fixed-point blob (checked by `gpecnet-core`'s reader).
 pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
-    let config = crate::export::wire_config(&m.config)?;
     let mut out = Vec::new();
-    crate::export::push(
-        &mut out,
-        &Preamble {
-            magic: MAGIC,
-            version: FORMAT_VERSION,
-        },
-    )?;
-    crate::export::push(
-        &mut out,
-        &ModelInfo {
-            numeric: NumericKind::Int16Q15,
-            name: &m.name,
-            config,
-        },
-    )?;
-    for net in [&m.encoder_past, &m.decoder, &m.encoder_dest, &m.predictor] {
+    let v2 = m.config.needs_v2() || !m.point_head.is_empty();
+    crate::export::push_head(&mut out, NumericKind::Int16Q15, &m.name, &m.config, v2)?;
+    let nets = [
+        &m.encoder_past,
+        &m.decoder,
+        &m.encoder_dest,
+        &m.predictor,
+        &m.point_head,
+    ];
+    for net in nets.into_iter().take(if v2 { 5 } else { 4 }) {
         crate::export::push(&mut out, &u8::try_from(net.len())?)?;
         for l in net {
             let w: Vec<u8> = l.w.iter().flat_map(|v| v.to_le_bytes()).collect();
@@ -506,45 +525,32 @@ pub fn qgolden_bytes(
     inputs: &[(Vec<[f32; 2]>, u64)],
 ) -> Result<Vec<u8>> {
     let c = &m.config;
-    let mut out = Vec::new();
-    crate::export::push(
-        &mut out,
-        &GoldenPreamble {
-            magic: GOLDEN_MAGIC,
-            version: GOLDEN_VERSION,
-        },
-    )?;
-    let info = GoldenInfo {
-        model_name: &m.name,
-        model_crc,
-        sine: SINE_NAME,
-        past_len: u8::try_from(c.past_len)?,
-        future_len: u8::try_from(c.future_len)?,
-        k: u8::try_from(k)?,
-        n_cases: u32::try_from(inputs.len())?,
-    };
-    crate::export::push(&mut out, &info)?;
-    let flat =
-        |v: &[[f32; 2]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
-    for (past, seed) in inputs {
-        let (ends, trajs) = m.predict(past, *seed, k);
-        let t0 = trajs.first().cloned().unwrap_or_default();
-        let (p, e, t) = (flat(past), flat(&ends), flat(&t0));
-        crate::export::push(
-            &mut out,
-            &GoldenCaseWire {
-                past: &p,
+    let cases: Vec<GoldenCase> = inputs
+        .iter()
+        .map(|(past, seed)| {
+            let (endpoints, trajectory0) = if c.tts_samples > 0 {
+                (m.predict_set(past, *seed, k)?, Vec::new())
+            } else {
+                let (ends, trajs) = m.predict(past, *seed, k);
+                (ends, trajs.first().cloned().unwrap_or_default())
+            };
+            Ok(GoldenCase {
+                past: past.clone(),
                 seed: *seed,
-                endpoints: &e,
-                trajectory0: &t,
-            },
-        )?;
-    }
-    let crc = CRC32.checksum(&out);
-    out.extend(crc.to_le_bytes());
-    gpecnet_core::golden::GoldenSet::parse(&out)
-        .map_err(|e| anyhow!("golden file rejected by gpecnet-core: {e}"))?;
-    Ok(out)
+                endpoints,
+                trajectory0,
+                point: m.predict_point(past).unwrap_or_default(),
+            })
+        })
+        .collect::<Result<_>>()?;
+    crate::export::golden_file_bytes(
+        &m.name,
+        model_crc,
+        SINE_NAME,
+        (c.past_len, c.future_len),
+        k,
+        &cases,
+    )
 }
 
 // -------------------------------------------------------------- evaluation
@@ -566,7 +572,14 @@ pub fn predict_core_fixed(
         gpecnet_core::FixedPredictor::<HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
     );
     let past = w.obs();
-    let trajectories = if model.has_predictor() {
+    let trajectories = if model.extensions().tts_samples > 0 {
+        let mut ends = vec![[0.0f32; 2]; k];
+        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(&past, seed, &mut ends)
+            .map_err(|e| anyhow!("{e}"))?;
+        ends.iter()
+            .map(|e| linear_fill(past[PAST - 1], *e))
+            .collect()
+    } else if model.has_predictor() {
         p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
             .map_err(|e| anyhow!("{e}"))?
             .iter()
@@ -585,8 +598,15 @@ pub fn predict_core_fixed(
 /// K samples for one window through the integer reference.
 pub fn predict_reference_fixed(m: &QModel, w: &Window, seed: u64, k: usize) -> Prediction {
     let past = w.obs();
-    let (ends, trajs) = m.predict(&past, seed, k);
-    let trajectories = if m.predictor.is_empty() {
+    let (ends, trajs) = if m.config.tts_samples > 0 {
+        (
+            m.predict_set(&past, seed, k).unwrap_or_default(),
+            Vec::new(),
+        )
+    } else {
+        m.predict(&past, seed, k)
+    };
+    let trajectories = if trajs.is_empty() {
         ends.iter()
             .map(|e| linear_fill(past[PAST - 1], *e))
             .collect()
@@ -683,6 +703,11 @@ pub struct QuantCard {
     pub test_fixed: Metrics,
     /// `FixedPredictor` scratch bytes at the smallest width the model allows.
     pub scratch_bytes: usize,
+    /// Distribution quality of the f32 source's K samples on SDD test (KDE NLL in nats/px,
+    /// hit rates at 20 / 40 px).
+    pub test_f32_dist: DistMetrics,
+    /// The same for the fixed-point blob.
+    pub test_fixed_dist: DistMetrics,
 }
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`).
@@ -765,8 +790,10 @@ pub fn quantize_blob_with(
         "evaluating f32 and fixed point on {} SDD test windows (K = {k}) ...",
         test.windows.len()
     );
-    let (test_f32, _) = crate::core_eval::evaluate_core(&src_bytes, sine, &test, k, base_seed)?;
+    let (test_f32, pf) = crate::core_eval::evaluate_core(&src_bytes, sine, &test, k, base_seed)?;
+    let test_f32_dist = dist_metrics(&test, &pf).context("empty SDD test set")?;
     let (test_fixed, pc) = evaluate_core_fixed(&blob, &test, k, base_seed)?;
+    let test_fixed_dist = dist_metrics(&test, &pc).context("empty SDD test set")?;
     let (ref_fixed, pr) = evaluate_reference_fixed(&q, &test, k, base_seed)?;
     if test_fixed != ref_fixed
         || pc
@@ -805,6 +832,8 @@ pub fn quantize_blob_with(
         test_f32,
         test_fixed,
         scratch_bytes: 16 * width,
+        test_f32_dist,
+        test_fixed_dist,
     };
     let dir = out.parent().unwrap_or(std::path::Path::new("."));
     let path = |ext: &str| dir.join(format!("{name}.{ext}"));
@@ -858,7 +887,8 @@ Latent seed of window `i` = {seed} + i.\n\n\
 | minADE, best of K = {k} | {fa:.3} | {xa:.3} | {da:+.3} |\n\
 | minFDE, best of K = {k} | {ff:.3} | {xf:.3} | {df:+.3} |\n\
 | ADE, K = 1 | {fa1:.3} | {xa1:.3} | {da1:+.3} |\n\
-| FDE, K = 1 | {ff1:.3} | {xf1:.3} | {df1:+.3} |\n\n\
+| FDE, K = 1 | {ff1:.3} | {xf1:.3} | {df1:+.3} |\n\
+{dist}\n\
 ## Data licence\n\n\
 Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
         name = c.name,
@@ -896,5 +926,25 @@ from the last observation to each endpoint, FDE is unaffected)"
         ff1 = f.fde_k1,
         xf1 = x.fde_k1,
         df1 = x.fde_k1 - f.fde_k1,
+        dist = quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, c.k),
+    )
+}
+
+/// The fixed-point model card's table rows for the distribution metrics of the f32 source
+/// (`f`) and the fixed-point blob (`x`); each row ends in a newline, after the "FDE, K = 1" row.
+pub fn quant_card_dist_rows(f: &DistMetrics, x: &DistMetrics, k: usize) -> String {
+    format!(
+        "| KDE NLL of the true endpoint, K = {k} (nats, px) | {fn_:.3} | {xn:.3} | {dn:+.3} |\n\
+| true endpoint within 20 px of a sample, K = {k} | {f20:.2} % | {x20:.2} % | {d20:+.2} % |\n\
+| true endpoint within 40 px of a sample, K = {k} | {f40:.2} % | {x40:.2} % | {d40:+.2} % |\n",
+        fn_ = f.kde_nll,
+        xn = x.kde_nll,
+        dn = x.kde_nll - f.kde_nll,
+        f20 = 100.0 * f.hit20,
+        x20 = 100.0 * x.hit20,
+        d20 = 100.0 * (x.hit20 - f.hit20),
+        f40 = 100.0 * f.hit40,
+        x40 = 100.0 * x.hit40,
+        d40 = 100.0 * (x.hit40 - f.hit40),
     )
 }

@@ -57,6 +57,25 @@ pub struct RefConfig {
     pub w0: f32,
     /// Hidden activation of the model.
     pub hidden_act: Act,
+    /// Heading-canonical frame over the last `m` observed steps (0 = raw orientation).
+    #[serde(default)]
+    pub heading_steps: usize,
+    /// Test-time sampling: `N` latent samples reduced to `K` by k-means (0 = off).
+    #[serde(default)]
+    pub tts_samples: usize,
+    /// Lloyd iterations of the test-time k-means.
+    #[serde(default)]
+    pub tts_iters: u8,
+    /// Its initialisation: 0 = first K samples, 1 = farthest point.
+    #[serde(default)]
+    pub tts_init: u8,
+}
+
+impl RefConfig {
+    /// Whether the blob needs format version 2 (any version-2 setting is used).
+    pub fn needs_v2(&self) -> bool {
+        self.heading_steps > 0 || self.tts_samples > 0
+    }
 }
 
 /// A whole model in memory, exactly what gets exported.
@@ -74,6 +93,9 @@ pub struct RefModel {
     pub encoder_dest: Vec<RefLayer>,
     /// `fdim + ddim + 2 → 2·(future_len − 1)`, empty for endpoint-only models.
     pub predictor: Vec<RefLayer>,
+    /// The point-forecast head `2·past_len → 2·future_len`, empty when absent.
+    #[serde(default)]
+    pub point_head: Vec<RefLayer>,
 }
 
 /// Which sine the SIREN layers use (must match the device's choice).
@@ -288,6 +310,68 @@ fn run(net: &[RefLayer], x: &[f32], kind: SineKind) -> Vec<f32> {
     cur
 }
 
+/// Reduces the `tts_samples` samples of a model with test-time sampling to `k` centres.
+pub(crate) fn tts_reduce(c: &RefConfig, samples: &[[f32; 2]], k: usize) -> Result<Vec<[f32; 2]>> {
+    if k > samples.len() {
+        bail!(
+            "k = {k} exceeds the model's {} test-time samples",
+            samples.len()
+        );
+    }
+    let init = if c.tts_init == 1 {
+        crate::tts::TtsInit::Farthest
+    } else {
+        crate::tts::TtsInit::First
+    };
+    crate::tts::kmeans(samples, k, u32::from(c.tts_iters), init)
+}
+
+/// The reference's frame of one track (see `gpecnet_core::frame` for the rule).
+pub(crate) enum RefFrame {
+    /// Origin shift only.
+    Raw([f32; 2]),
+    /// Origin shift and heading rotation.
+    Heading(crate::frame::Heading),
+}
+
+impl RefFrame {
+    /// The frame of `past` with the heading over its last `heading_steps` steps (0 = none).
+    pub(crate) fn of(past: &[[f32; 2]], heading_steps: usize) -> RefFrame {
+        if heading_steps == 0 {
+            RefFrame::Raw(past[0])
+        } else {
+            RefFrame::Heading(crate::frame::Heading::of(past, heading_steps))
+        }
+    }
+
+    /// A caller point as the networks see it.
+    pub(crate) fn input(&self, p: [f32; 2], ds: f32) -> [f32; 2] {
+        match self {
+            RefFrame::Raw(o) => [(p[0] - o[0]) * ds, (p[1] - o[1]) * ds],
+            RefFrame::Heading(h) => {
+                let r = h.to_canonical(p);
+                [r[0] * ds, r[1] * ds]
+            }
+        }
+    }
+
+    /// A network output in the caller's units.
+    pub(crate) fn output(&self, d: [f32; 2], ds: f32) -> [f32; 2] {
+        match self {
+            RefFrame::Raw(o) => [d[0] / ds + o[0], d[1] / ds + o[1]],
+            RefFrame::Heading(h) => h.to_world([d[0] / ds, d[1] / ds]),
+        }
+    }
+
+    /// The predictor's position input (before its divisor).
+    pub(crate) fn predictor_position(&self, last: [f32; 2]) -> [f32; 2] {
+        match self {
+            RefFrame::Raw(_) => last,
+            RefFrame::Heading(h) => h.to_canonical(last),
+        }
+    }
+}
+
 /// K predicted samples for one window (caller's units).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefPrediction {
@@ -344,7 +428,72 @@ impl RefModel {
                 Some(2 * (c.future_len - 1)),
             )?;
         }
+        if !self.point_head.is_empty() {
+            chain(
+                "point_head",
+                &self.point_head,
+                2 * c.past_len,
+                Some(2 * c.future_len),
+            )?;
+        }
+        if c.heading_steps >= c.past_len {
+            bail!(
+                "heading_steps {} must be below past_len {}",
+                c.heading_steps,
+                c.past_len
+            );
+        }
         Ok(())
+    }
+
+    /// Whether the blob needs format version 2.
+    pub fn needs_v2(&self) -> bool {
+        self.config.needs_v2() || !self.point_head.is_empty()
+    }
+
+    /// The frame of `past` under this model's `heading_steps`.
+    pub(crate) fn frame(&self, past: &[[f32; 2]]) -> RefFrame {
+        RefFrame::of(past, self.config.heading_steps)
+    }
+
+    /// The model's endpoint set (the blob's protocol, `gpecnet_core::sampling`): the first `k`
+    /// samples, or the k-means reduction ([`crate::tts::kmeans`], written independently of
+    /// the core) of the first `tts_samples` samples.
+    pub fn predict_set(
+        &self,
+        past: &[[f32; 2]],
+        seed: u64,
+        k: usize,
+        kind: SineKind,
+    ) -> Result<Vec<[f32; 2]>> {
+        let c = &self.config;
+        if c.tts_samples == 0 {
+            return Ok(self.predict(past, seed, k, kind, false).endpoints);
+        }
+        let samples = self
+            .predict(past, seed, c.tts_samples, kind, false)
+            .endpoints;
+        tts_reduce(c, &samples, k)
+    }
+
+    /// The deterministic point forecast of the point head (`future_len` points, caller's
+    /// units), or `None` without a head.
+    pub fn predict_point(&self, past: &[[f32; 2]], kind: SineKind) -> Option<Vec<[f32; 2]>> {
+        if self.point_head.is_empty() {
+            return None;
+        }
+        let c = &self.config;
+        let fr = self.frame(past);
+        let x: Vec<f32> = past
+            .iter()
+            .flat_map(|p| fr.input(*p, c.data_scale))
+            .collect();
+        let q = run(&self.point_head, &x, kind);
+        Some(
+            q.chunks(2)
+                .map(|p| fr.output([p[0], p[1]], c.data_scale))
+                .collect(),
+        )
     }
 
     /// The documented computation (see `gpecnet_core::predictor`), naively:
@@ -359,14 +508,14 @@ impl RefModel {
         trajectories: bool,
     ) -> RefPrediction {
         let c = &self.config;
-        let o = past[0];
+        let fr = self.frame(past);
         let x: Vec<f32> = past
             .iter()
-            .flat_map(|p| [(p[0] - o[0]) * c.data_scale, (p[1] - o[1]) * c.data_scale])
+            .flat_map(|p| fr.input(*p, c.data_scale))
             .collect();
         let f = run(&self.encoder_past, &x, kind);
         let mut normals = Normals::new(seed);
-        let last = past[past.len() - 1];
+        let last = fr.predictor_position(past[past.len() - 1]);
         let mut out = RefPrediction {
             endpoints: Vec::with_capacity(k),
             trajectories: Vec::new(),
@@ -378,7 +527,7 @@ impl RefModel {
                 input.push(c.sigma * normals.next_normal());
             }
             let d = run(&self.decoder, &input, kind);
-            let e = [d[0] / c.data_scale + o[0], d[1] / c.data_scale + o[1]];
+            let e = fr.output([d[0], d[1]], c.data_scale);
             out.endpoints.push(e);
             if trajectories && !self.predictor.is_empty() {
                 let g = run(&self.encoder_dest, &d, kind);
@@ -389,7 +538,7 @@ impl RefModel {
                 let q = run(&self.predictor, &pin, kind);
                 let mut t: Vec<[f32; 2]> = q
                     .chunks(2)
-                    .map(|p| [p[0] / c.data_scale + o[0], p[1] / c.data_scale + o[1]])
+                    .map(|p| fr.output([p[0], p[1]], c.data_scale))
                     .collect();
                 t.push(e);
                 out.trajectories.push(t);
@@ -405,6 +554,7 @@ impl RefModel {
             &self.decoder,
             &self.encoder_dest,
             &self.predictor,
+            &self.point_head,
         ]
         .iter()
         .flat_map(|n| n.iter())

@@ -13,8 +13,11 @@ use serde::{Deserialize, Serialize};
 use crate::checkpoint::{load_model, Which};
 use crate::config::{Activation, TrainConfig};
 use crate::core_eval::{evaluate_core, evaluate_reference};
-use crate::data::{load_sdd, Dataset, SddSplit, PAST};
-use crate::eval::{constant_velocity, evaluate_baseline, Metrics};
+use crate::data::{default_sdd_val_scenes, load_sdd, split_by_scene, Dataset, SddSplit, PAST};
+use crate::eval::{
+    constant_velocity, constant_velocity_n, dist_metrics, evaluate_baseline,
+    evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
+};
 use crate::export::{blob_bytes, golden_bytes, golden_cases, write_atomic};
 use crate::model::{Act as ModelAct, ExportedLayer};
 use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
@@ -52,6 +55,10 @@ pub struct ModelCard {
     pub endpoint_macs: usize,
     /// The training configuration (TOML).
     pub config_toml: String,
+    /// Distribution quality on the test set through gpecnet-core (same K and seeds as
+    /// `test`): KDE NLL of the true endpoint (nats, px) and the fraction of windows with a
+    /// sample within 20 / 40 px of the true endpoint.
+    pub test_dist: DistMetrics,
 }
 
 fn convert(layers: &[ExportedLayer]) -> Vec<RefLayer> {
@@ -90,11 +97,16 @@ pub fn model_from_run(run: &Path, name: &str) -> Result<(TrainConfig, RefModel, 
                 Activation::Sine => Act::Sine,
                 Activation::Relu => Act::Relu,
             },
+            heading_steps: cfg.heading_steps,
+            tts_samples: 0,
+            tts_iters: 0,
+            tts_init: 0,
         },
         encoder_past: convert(&nets.encoder_past),
         decoder: convert(&nets.decoder),
         encoder_dest: convert(&nets.encoder_dest),
         predictor: convert(&nets.predictor),
+        point_head: convert(&nets.point_head),
     };
     m.validate()?;
     Ok((cfg, m, epoch))
@@ -130,7 +142,8 @@ pub fn ship(
         "evaluating {name} on {} SDD test windows through gpecnet-core (K = {k}) ...",
         test.windows.len()
     );
-    let (metrics, _) = evaluate_core(&blob, sine, &test, k, base_seed)?;
+    let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
+    let test_dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
     let (ref_metrics, _) = evaluate_reference(&model, sine, &test, k, base_seed)?;
     if metrics != ref_metrics {
         bail!("gpecnet-core and the reference path disagree: {metrics:?} vs {ref_metrics:?}");
@@ -142,7 +155,7 @@ pub fn ship(
         .step_by(GOLDEN_STRIDE)
         .map(|(i, w)| (w.pos[..PAST].to_vec(), base_seed.wrapping_add(i as u64)))
         .collect();
-    let cases = golden_cases(&model, &inputs, k, sine);
+    let cases = golden_cases(&model, &inputs, k, sine)?;
     let golden = golden_bytes(&model, core_model.crc(), sine, k, &cases)?;
     let ckpt_val = crate::checkpoint::load(run)?.best.map(|b| b.val);
     let card = ModelCard {
@@ -159,6 +172,7 @@ pub fn ship(
         val: ckpt_val,
         endpoint_macs: core_model.endpoint_macs(k),
         config_toml: cfg.to_toml_string()?,
+        test_dist,
     };
     let [p_blob, p_golden, p_json, p_md] = artefact_paths(out_dir, name);
     write_atomic(&p_blob, &blob)?;
@@ -193,7 +207,8 @@ Latent seed of window `i` = {seed} + i. Reproduce: `cargo run --release -p gpecn
 | metric | this model | constant velocity |\n|---|---|---|\n\
 | minADE / minFDE, best of K = {k} | {a:.2} / {f:.2} | – |\n\
 | ADE / FDE, K = 1 (first sample) | {a1:.2} / {f1:.2} | {cva:.2} / {cvf:.2} |\n\
-| mean FDE over the K samples | {mf:.2} | – |\n\n\
+| mean FDE over the K samples | {mf:.2} | – |\n\
+{dist}\n\
 ## Configuration\n\n```toml\n{cfg}```\n\n\
 ## Data licence\n\n\
 Trained on the Stanford Drone Dataset (Robicquet et al., ECCV 2016), TrajNet split, which is licensed under \
@@ -218,7 +233,20 @@ from it: attribution is required, **no commercial use**, and derivatives must be
         cva = cv.ade_k1,
         cvf = cv.fde_k1,
         mf = m.mean_fde,
+        dist = model_card_dist_rows(&c.test_dist, c.k),
         cfg = c.config_toml,
+    )
+}
+
+/// The model card's table rows for [`DistMetrics`] (each ends in a newline; they follow the
+/// "mean FDE over the K samples" row).
+pub fn model_card_dist_rows(d: &DistMetrics, k: usize) -> String {
+    format!(
+        "| KDE NLL of the true endpoint under the K = {k} samples (nats, px; log-density floored at −20) | {nll:.3} | – |\n\
+| true endpoint within 20 / 40 px of a sample, K = {k} | {h20:.1} % / {h40:.1} % | – |\n",
+        nll = d.kde_nll,
+        h20 = 100.0 * d.hit20,
+        h40 = 100.0 * d.hit40,
     )
 }
 
@@ -229,9 +257,24 @@ pub struct EvalReport {
     pub name: String,
     /// Metrics through gpecnet-core.
     pub metrics: Metrics,
-    /// Constant-velocity baseline on the same windows.
+    /// Constant-velocity baseline (last step, `n = 1`) on the same windows.
     pub constant_velocity: Metrics,
-    /// `Some(true)` when the blob's model card exists and its numbers are reproduced exactly.
+    /// Distribution quality of the K samples on the test set (KDE NLL, hit rates at 20/40 px).
+    pub dist: DistMetrics,
+    /// The model's single point forecast (ADE, FDE) on the test set, when it has one; `None`
+    /// until a point forecast exists (printed as `null` / "n/a").
+    pub point: Option<(f64, f64)>,
+    /// Constant-velocity window `n` (1..=7 observed steps) chosen by the lowest FDE on the SDD
+    /// validation scenes.
+    pub cv_n: usize,
+    /// Constant velocity with `cv_n` on the test set.
+    pub cv: Metrics,
+    /// Constant velocity with `n = 1..=7` on the validation scenes (element `n - 1`).
+    pub cv_val: Vec<Metrics>,
+    /// Number of validation windows `cv_n` was chosen on.
+    pub n_val: usize,
+    /// `Some(true)` when the blob's model card exists and its numbers (ADE/FDE and the
+    /// distribution metrics) are reproduced exactly.
     pub matches_card: Option<bool>,
     /// Where the picture was written.
     pub svg: Option<PathBuf>,
@@ -264,23 +307,47 @@ pub fn eval_blob(
     let model = gpecnet_core::Model::from_blob(&blob)
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
     let test = load_sdd(data_root, SddSplit::Test)?;
+    if test.windows.is_empty() {
+        bail!(
+            "the SDD test set under {} has no window",
+            data_root.display()
+        );
+    }
+    let (_, val) = split_by_scene(
+        load_sdd(data_root, SddSplit::Train)?,
+        &default_sdd_val_scenes(),
+    );
+    let (cv_n, cv_val) = select_cv_n(&val).with_context(|| {
+        format!(
+            "no SDD validation window (scenes {:?}) under {}",
+            default_sdd_val_scenes(),
+            data_root.display()
+        )
+    })?;
     let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json"))
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok());
-    let (metrics, preds, matches_card) = if model.numeric() == gpecnet_core::NumericKind::F32 {
+    let (metrics, dist, preds, matches_card) = if model.numeric() == gpecnet_core::NumericKind::F32
+    {
         let sine = sine
             .or_else(|| sine_of_blob(blob_path))
             .unwrap_or(SineKind::Libm);
         let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
-        let card: Option<ModelCard> = card.and_then(|v| serde_json::from_value(v).ok());
-        let matches = card.map(|c| {
-            c.blob_crc == model.crc()
-                && c.k == k
-                && c.base_seed == base_seed
-                && c.sine == sine
-                && c.test == metrics
+        let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
+        let matches = card.map(|v| {
+            let want_dist: Option<DistMetrics> = v
+                .get("test_dist")
+                .and_then(|t| serde_json::from_value(t.clone()).ok());
+            let c: Option<ModelCard> = serde_json::from_value(v).ok();
+            c.is_some_and(|c| {
+                c.blob_crc == model.crc()
+                    && c.k == k
+                    && c.base_seed == base_seed
+                    && c.sine == sine
+                    && c.test == metrics
+            }) && want_dist == Some(dist)
         });
-        (metrics, preds, matches)
+        (metrics, dist, preds, matches)
     } else {
         if sine.is_some() {
             bail!(
@@ -289,15 +356,20 @@ pub fn eval_blob(
             );
         }
         let (metrics, preds) = crate::quantize::evaluate_core_fixed(&blob, &test, k, base_seed)?;
+        let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
         let matches = card.map(|c| {
             let want: Option<Metrics> = c
                 .get("test_fixed")
                 .and_then(|t| serde_json::from_value(t.clone()).ok());
+            let want_dist: Option<DistMetrics> = c
+                .get("test_fixed_dist")
+                .and_then(|t| serde_json::from_value(t.clone()).ok());
             c.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
                 && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
                 && want == Some(metrics)
+                && want_dist == Some(dist)
         });
-        (metrics, preds, matches)
+        (metrics, dist, preds, matches)
     };
     let svg = match svg {
         Some(path) => {
@@ -327,7 +399,177 @@ pub fn eval_blob(
         name: model.name().to_string(),
         metrics,
         constant_velocity: evaluate_baseline(&test, constant_velocity),
+        dist,
+        point: None,
+        cv_n,
+        cv: evaluate_baseline_with(&test, |w| constant_velocity_n(w, cv_n)),
+        cv_val,
+        n_val: val.windows.len(),
         matches_card,
         svg,
     })
+}
+
+/// Appends `fields` (in order) as the last members of the pretty-printed JSON object `text`,
+/// formatted as `serde_json::to_string_pretty` formats a struct whose last fields they are.
+fn append_json_fields(text: &str, fields: &[(&str, &DistMetrics)]) -> Result<String> {
+    let end = text
+        .rfind('}')
+        .context("model card JSON does not end with '}'")?;
+    let (body, tail) = (text[..end].trim_end(), &text[end..]);
+    let mut out = body.to_string();
+    for (name, d) in fields {
+        let v = serde_json::to_string_pretty(d)?.replace('\n', "\n  ");
+        out.push_str(&format!(",\n  {}: {v}", serde_json::to_string(name)?));
+    }
+    out.push('\n');
+    out.push_str(tail);
+    Ok(out)
+}
+
+/// Inserts `rows` after the first line of `md` that starts with `anchor`.
+fn insert_md_rows(md: &str, anchor: &str, rows: &str) -> Result<String> {
+    let start = md
+        .find(&format!("\n{anchor}"))
+        .with_context(|| format!("model card .md has no row starting with {anchor:?}"))?
+        + 1;
+    let eol = md[start..].find('\n').map_or(md.len(), |i| start + i + 1);
+    Ok(format!("{}{rows}{}", &md[..eol], &md[eol..]))
+}
+
+/// `gpecnet eval --update-card`: adds the distribution metrics ([`DistMetrics`], K and seeds
+/// of the card) to an **existing** model card (`<blob>.json` and `.md`) without touching
+/// anything else: no retraining, the blob and golden file are not rewritten, and the card's
+/// other bytes stay as they are. The card's ADE/FDE must be reproduced by `report` first (same
+/// K, seed and sine). An f32 card gets `test_dist`; a fixed-point card gets `test_f32_dist` (its
+/// f32 source, re-evaluated through gpecnet-core) and `test_fixed_dist`. A card that already
+/// has the fields is checked, not rewritten. Returns what was done, in words.
+pub fn update_card_dist(
+    blob_path: &Path,
+    data_root: &Path,
+    report: &EvalReport,
+    k: usize,
+    base_seed: u64,
+) -> Result<String> {
+    let p_json = blob_path.with_extension("json");
+    let p_md = blob_path.with_extension("md");
+    let text = std::fs::read_to_string(&p_json)
+        .with_context(|| format!("reading {}", p_json.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text)?;
+    let card_k = v.get("k").and_then(|x| x.as_u64());
+    let card_seed = v.get("base_seed").and_then(|x| x.as_u64());
+    if card_k != Some(k as u64) || card_seed != Some(base_seed) {
+        bail!(
+            "{}: card has K = {card_k:?}, seed = {card_seed:?}; run with its K and seed",
+            p_json.display()
+        );
+    }
+    let get = |key: &str| -> Option<Metrics> {
+        v.get(key)
+            .and_then(|t| serde_json::from_value(t.clone()).ok())
+    };
+    let getd = |key: &str| -> Option<DistMetrics> {
+        v.get(key)
+            .and_then(|t| serde_json::from_value(t.clone()).ok())
+    };
+    let fixed = v.get("test_fixed").is_some();
+    let (key, fields): (&str, Vec<(&str, DistMetrics)>) = if fixed {
+        if get("test_fixed") != Some(report.metrics) {
+            bail!("{}: test_fixed is not reproduced", p_json.display());
+        }
+        let source = v
+            .get("source")
+            .and_then(|x| x.as_str())
+            .context("fixed-point card without source")?;
+        let src_path = blob_path.with_file_name(source);
+        let src =
+            std::fs::read(&src_path).with_context(|| format!("reading {}", src_path.display()))?;
+        let sine = match v.get("source_sine").and_then(|x| x.as_str()) {
+            Some("libm") => SineKind::Libm,
+            Some("fast-f32") => SineKind::Fast,
+            other => bail!("{}: unknown source_sine {other:?}", p_json.display()),
+        };
+        let test = load_sdd(data_root, SddSplit::Test)?;
+        let (m, preds) = evaluate_core(&src, sine, &test, k, base_seed)?;
+        let want = get("test_f32").context("fixed-point card without test_f32")?;
+        if m != want {
+            bail!(
+                "{}: test_f32 of {source} is not reproduced",
+                p_json.display()
+            );
+        }
+        let f32_dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
+        (
+            "test_fixed_dist",
+            vec![
+                ("test_f32_dist", f32_dist),
+                ("test_fixed_dist", report.dist),
+            ],
+        )
+    } else {
+        if get("test") != Some(report.metrics)
+            || v.get("blob_crc").and_then(|x| x.as_u64()).is_none()
+        {
+            bail!("{}: test metrics are not reproduced", p_json.display());
+        }
+        ("test_dist", vec![("test_dist", report.dist)])
+    };
+    if v.get(key).is_some() {
+        for (name, d) in &fields {
+            match getd(name) {
+                Some(have) if have == *d => {}
+                have => bail!(
+                    "{}: {name} is {have:?} but the evaluation gives {d:?}",
+                    p_json.display()
+                ),
+            }
+        }
+        return Ok(format!(
+            "{}: already has {key}, reproduced",
+            p_json.display()
+        ));
+    }
+    let refs: Vec<(&str, &DistMetrics)> = fields.iter().map(|(n, d)| (*n, d)).collect();
+    let new_text = append_json_fields(&text, &refs)?;
+    // The result must be exactly what the card writers produce.
+    let canonical = if fixed {
+        serde_json::to_string_pretty(&serde_json::from_str::<crate::quantize::QuantCard>(
+            &new_text,
+        )?)?
+    } else {
+        serde_json::to_string_pretty(&serde_json::from_str::<ModelCard>(&new_text)?)?
+    };
+    if canonical != new_text {
+        bail!(
+            "{}: the updated card would not be byte-identical to the writer's output",
+            p_json.display()
+        );
+    }
+    let md =
+        std::fs::read_to_string(&p_md).with_context(|| format!("reading {}", p_md.display()))?;
+    let new_md = if fixed {
+        insert_md_rows(
+            &md,
+            "| FDE, K = 1 |",
+            &crate::quantize::quant_card_dist_rows(&fields[0].1, &fields[1].1, k),
+        )?
+    } else {
+        insert_md_rows(
+            &md,
+            "| mean FDE over the K samples |",
+            &model_card_dist_rows(&report.dist, k),
+        )?
+    };
+    write_atomic(&p_json, new_text.as_bytes())?;
+    write_atomic(&p_md, new_md.as_bytes())?;
+    Ok(format!(
+        "{}: added {}; {}: added the rows",
+        p_json.display(),
+        fields
+            .iter()
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>()
+            .join(", "),
+        p_md.display()
+    ))
 }

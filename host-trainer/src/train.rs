@@ -54,7 +54,7 @@ pub struct PreparedData {
     pub n_real: usize,
     /// Synthetic windows added by `augment_pct` (before time reversal).
     pub n_synthetic: usize,
-    /// Raw validation windows.
+    /// Validation windows (raw, or in the heading-canonical frame when the config asks).
     pub val: Vec<Window>,
     /// Unit of the raw coordinates.
     pub unit: Unit,
@@ -154,14 +154,25 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
     } else {
         Vec::new()
     };
+    // Heading-canonical frame: every window (each time-reversed copy by its own heading).
+    // ADE/FDE are rotation-invariant, so validation runs in the canonical frame too.
+    let canon = |ws: Vec<Window>| -> Vec<Window> {
+        if cfg.heading_steps == 0 {
+            ws
+        } else {
+            ws.iter()
+                .map(|w| crate::frame::canonical_window(w, cfg.heading_steps).0)
+                .collect()
+        }
+    };
+    let train_windows = canon(train.windows);
     Ok(PreparedData {
         groups,
-        train: train
-            .windows
+        train: train_windows
             .iter()
             .map(|w| data::normalize(w, cfg.data_scale))
             .collect(),
-        val: val.windows,
+        val: canon(val.windows),
         unit,
         n_real,
         n_synthetic,
@@ -179,6 +190,8 @@ pub struct TrainLoss {
     pub kld: f64,
     /// Intermediate-points MSE.
     pub adl: f64,
+    /// Point-head loss (0 without a head).
+    pub point: f64,
 }
 
 /// Model + optimizer + RNG + history: the whole mutable state of a run.
@@ -191,6 +204,7 @@ pub struct Trainer {
     epochs_done: usize,
     history: Vec<EpochMetrics>,
     best: Option<BestModel>,
+    best_point: Option<BestModel>,
 }
 
 impl Trainer {
@@ -210,6 +224,7 @@ impl Trainer {
             epochs_done: 0,
             history: Vec::new(),
             best: None,
+            best_point: None,
         })
     }
 
@@ -236,6 +251,7 @@ impl Trainer {
             epochs_done: ckpt.epochs_done,
             history: ckpt.history,
             best: ckpt.best,
+            best_point: ckpt.best_point,
         })
     }
 
@@ -326,6 +342,7 @@ impl Trainer {
             acc.rcl += f64::from(loss.rcl);
             acc.kld += f64::from(loss.kld);
             acc.adl += f64::from(loss.adl);
+            acc.point += f64::from(loss.point);
             nb += 1;
             if let Some(b) = bar {
                 b.inc(1);
@@ -337,6 +354,7 @@ impl Trainer {
             rcl: acc.rcl / n,
             kld: acc.kld / n,
             adl: acc.adl / n,
+            point: acc.point / n,
         })
     }
 
@@ -353,9 +371,27 @@ impl Trainer {
         let epoch = self.epochs_done;
         let due = epoch.is_multiple_of(self.cfg.eval_every) || epoch >= self.cfg.num_epochs;
         let val = if due { Some(self.validate()?) } else { None };
+        let val_point = if due {
+            validate_point(&self.model, &self.cfg, &self.data.val)?
+        } else {
+            None
+        };
         if let Some(v) = val {
             if self.best.as_ref().is_none_or(|b| v.min_fde < b.val.min_fde) {
                 self.best = Some(BestModel {
+                    epoch,
+                    val: v,
+                    weights: self.model.weights()?,
+                });
+            }
+        }
+        if let Some(v) = val_point {
+            if self
+                .best_point
+                .as_ref()
+                .is_none_or(|b| v.fde_k1 < b.val.fde_k1)
+            {
+                self.best_point = Some(BestModel {
                     epoch,
                     val: v,
                     weights: self.model.weights()?,
@@ -370,6 +406,8 @@ impl Trainer {
             train_adl: loss.adl,
             val,
             seconds: t0.elapsed().as_secs_f64(),
+            train_point: loss.point,
+            val_point,
         };
         self.history.push(m.clone());
         Ok(m)
@@ -385,8 +423,50 @@ impl Trainer {
             rng: self.rng.state(),
             best: self.best.clone(),
             history: self.history.clone(),
+            best_point: self.best_point.clone(),
         })
     }
+
+    /// Best epoch of the point head so far (by validation FDE), when the model has one.
+    pub fn best_point(&self) -> Option<&BestModel> {
+        self.best_point.as_ref()
+    }
+}
+
+/// Validation of the point head (K = 1 metrics of its deterministic forecast), or `None`
+/// when the model has no head.
+pub fn validate_point(
+    model: &Model,
+    cfg: &TrainConfig,
+    windows: &[Window],
+) -> Result<Option<Metrics>> {
+    if model.point_head.is_none() {
+        return Ok(None);
+    }
+    let mut acc = MetricsAccumulator::new();
+    for chunk in windows.chunks(VAL_CHUNK) {
+        let obs: Vec<f32> = chunk
+            .iter()
+            .flat_map(|w| {
+                let s = data::normalize(w, cfg.data_scale);
+                s.obs.into_iter().flatten()
+            })
+            .collect();
+        let obs = Tensor::from_vec(obs, (chunk.len(), 2 * PAST), &Device::Cpu)?;
+        let Some(pred) = model.point_forecast(&obs)? else {
+            return Ok(None);
+        };
+        let fut = pred.flatten_all()?.to_vec1::<f32>()?;
+        for (i, w) in chunk.iter().enumerate() {
+            let mut t = [[0.0f32; 2]; FUTURE];
+            for (s, p) in t.iter_mut().enumerate() {
+                let b = (i * FUTURE + s) * 2;
+                *p = data::denormalize_point([fut[b], fut[b + 1]], w.pos[0], cfg.data_scale);
+            }
+            acc.add(w, &Prediction::single(t))?;
+        }
+    }
+    Ok(Some(acc.finish()))
 }
 
 /// Best-of-K validation of `model` on raw `windows`: K = `cfg.k` futures per window with
@@ -648,6 +728,9 @@ fn epoch_line(m: &EpochMetrics, unit: Unit) -> String {
         "epoch {:4}  loss {:.4} (rcl {:.4} kld {:.4} adl {:.4})  {:.1}s",
         m.epoch, m.train_loss, m.train_rcl, m.train_kld, m.train_adl, m.seconds
     );
+    if let Some(p) = m.val_point {
+        s += &format!("  point ADE {:.2} FDE {:.2} {unit}", p.ade_k1, p.fde_k1);
+    }
     if let Some(v) = m.val {
         s += &format!(
             "  val minADE {:.2} minFDE {:.2} {unit} (K={})",

@@ -88,10 +88,46 @@ pub fn random_siren(
             initial_pos_divisor: 1000.0,
             w0,
             hidden_act: Act::Sine,
+            heading_steps: 0,
+            tts_samples: 0,
+            tts_iters: 0,
+            tts_init: 0,
         },
         encoder_past: net(with(16, enc, fdim)),
         decoder: net(with(fdim + zdim, dec, 2)),
         encoder_dest: net(with(2, &dest[..dest.len() - 1], ddim)),
         predictor: net(with(fdim + ddim + 2, pred, 22)),
+        point_head: Vec::new(),
     }
+}
+
+/// `m` with the format-2 features: the heading frame over `heading_steps`, a random point
+/// head of hidden widths `head`, and test-time sampling of `tts` samples (3 Lloyd
+/// iterations, first-K init; 0 = off).
+pub fn with_v2_features(
+    mut m: RefModel,
+    heading_steps: usize,
+    head: &[usize],
+    tts: usize,
+    seed: u32,
+) -> RefModel {
+    let donor = random_siren("donor", head, &[8], &[8, 16], &[8], seed);
+    // The donor's past encoder has the point head's input width; re-draw its output layer
+    // at the head's output width (2 · future_len) with the same bounds.
+    let mut layers = donor.encoder_past;
+    if let Some(last) = layers.last_mut() {
+        let out = 2 * m.config.future_len;
+        let i = last.in_dim;
+        last.out_dim = out;
+        last.w = (0..out * i)
+            .map(|j| last.w[j % last.w.len()] * if j % 3 == 0 { -1.0 } else { 1.0 })
+            .collect();
+        last.b = (0..out).map(|j| last.b[j % last.b.len()]).collect();
+    }
+    m.point_head = layers;
+    m.config.heading_steps = heading_steps;
+    m.config.tts_samples = tts;
+    m.config.tts_iters = if tts > 0 { 3 } else { 0 };
+    m.config.tts_init = 0;
+    m
 }

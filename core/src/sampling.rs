@@ -1,0 +1,58 @@
+//! The blob's endpoint protocol: what "predict `k` endpoints" means for a
+//! model, shared by the f32 and the fixed-point engines (one place for it).
+//!
+//! * Plain sampling (`tts_samples = 0`, every format-1 blob): the `k`
+//!   endpoints are the first `k` latent samples of the seeded sampler.
+//! * Test-time sampling (`tts_samples = N > 0`): the engine draws the first
+//!   `N` latent samples (the same stream, so sample `i` does not depend on
+//!   `N`), and [`crate::cluster::kmeans_reduce`] reduces them to `k` centres
+//!   with the blob's initialisation and iteration count. `k ≤ N` is required.
+//!
+//! The engines call [`endpoint_set`] with a closure that draws `n` samples
+//! into a caller-sized buffer of capacity `N` (a const generic: 8 bytes of
+//! stack per sample).
+
+use crate::blob::Extensions;
+use crate::cluster::{kmeans_reduce, Init};
+use crate::predictor::PredictError;
+
+/// Fills `out` (length `k`) by the protocol of `ext`, drawing samples with
+/// `draw(n, buffer)`; `N` is the most samples the buffer holds.
+pub(crate) fn endpoint_set<const N: usize>(
+    ext: &Extensions,
+    out: &mut [[f32; 2]],
+    mut draw: impl FnMut(usize, &mut heapless::Vec<[f32; 2], N>) -> Result<(), PredictError>,
+) -> Result<(), PredictError> {
+    let k = out.len();
+    let n = match ext.tts_samples as usize {
+        0 => k,
+        n => n,
+    };
+    if k == 0 || k > n || n > N {
+        return Err(PredictError::BadSampleCount);
+    }
+    let mut buf = heapless::Vec::<[f32; 2], N>::new();
+    draw(n, &mut buf)?;
+    if buf.len() != n {
+        return Err(PredictError::BadSampleCount);
+    }
+    if ext.tts_samples == 0 {
+        out.copy_from_slice(&buf);
+        return Ok(());
+    }
+    let init = if ext.tts_init == 1 {
+        Init::Farthest
+    } else {
+        Init::First
+    };
+    kmeans_reduce(&buf, out, ext.tts_iters, init).map_err(|_| PredictError::BadSampleCount)
+}
+
+/// Samples a prediction of `k` endpoints draws under the protocol of `ext`
+/// (the capacity `N` it needs): `k` for plain sampling, `tts_samples` otherwise.
+pub fn samples_needed(ext: &Extensions, k: usize) -> usize {
+    match ext.tts_samples as usize {
+        0 => k,
+        n => n,
+    }
+}
