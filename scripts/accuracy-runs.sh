@@ -4,6 +4,7 @@
 # unfinished runs and skips finished ones. Usage:
 #   scripts/accuracy-runs.sh CONFIG NAME "HEADINGS" "SEEDS" [EPOCHS]
 # e.g. scripts/accuracy-runs.sh host-trainer/configs/sdd-tiny-point.toml tiny "0 1 3" "1 2 3"
+# EXTRA="--mirror" adds flags to new runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cfg=$1 name=$2 headings=$3 seeds=$4 epochs=${5:-}
@@ -18,7 +19,7 @@ run_one() {
     "$bin" train --resume --out "$out" --quiet "${ep[@]}" >"$out.log" 2>&1 || { echo "FAILED $out (see $out.log)"; return 1; }
   else
     mkdir -p runs/acc
-    "$bin" train --config "$cfg" --seed "$s" --heading-steps "$h" --out "$out" --quiet "${ep[@]}" >"$out.log" 2>&1 || { echo "FAILED $out (see $out.log)"; return 1; }
+    "$bin" train --config "$cfg" --seed "$s" --heading-steps "$h" --out "$out" --quiet ${EXTRA:-} "${ep[@]}" >"$out.log" 2>&1 || { echo "FAILED $out (see $out.log)"; return 1; }
   fi
   echo "done $out: $(tail -1 "$out.log")"
 }

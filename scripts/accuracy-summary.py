@@ -3,11 +3,17 @@
 matching the prefixes given, the best validation epoch of the CVAE (min FDE, K = 20) and of the
 point head (FDE, K = 1), then mean ± std over the seeds of each variant.
 
-Usage: scripts/accuracy-summary.py [PREFIX ...]   (default: every run)
+Usage: scripts/accuracy-summary.py [--epochs N] [PREFIX ...]   (default: every run, all epochs)
+--epochs N: only the first N epochs of each run's history (a run extended to 600 epochs
+still reports its 300-epoch result).
 """
 import glob, json, os, re, statistics, sys
 
-prefixes = sys.argv[1:] or [""]
+args = sys.argv[1:]
+max_epoch = None
+if args[:1] == ["--epochs"]:
+    max_epoch, args = int(args[1]), args[2:]
+prefixes = args or [""]
 rows = {}
 for d in sorted(glob.glob("runs/acc/*/metrics.jsonl")):
     run = os.path.basename(os.path.dirname(d))
@@ -19,6 +25,8 @@ for d in sorted(glob.glob("runs/acc/*/metrics.jsonl")):
     best, bestp, epochs = None, None, 0
     for line in open(d):
         e = json.loads(line)
+        if max_epoch is not None and e["epoch"] > max_epoch:
+            break
         epochs = e["epoch"]
         v, p = e.get("val"), e.get("val_point")
         if v and (best is None or v["min_fde"] < best[1]):

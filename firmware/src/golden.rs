@@ -17,7 +17,9 @@
 
 use gpecnet_core::golden::{fnv1a, GoldenCase, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
-use gpecnet_core::{fixed, FixedPredictor, Model, NumericKind, PredictError, Predictor};
+use gpecnet_core::{
+    fixed, FixedPredictor, Model, NumericKind, PredictError, Predictor, Trajectory,
+};
 use heapless::Vec;
 
 /// Scratch width of the predictor: the widest layer the firmware supports
@@ -26,6 +28,9 @@ use heapless::Vec;
 pub const SCRATCH: usize = 128;
 /// Maximum endpoints per golden case / prediction.
 pub const MAX_K: usize = 20;
+/// Most latent samples one prediction draws (test-time sampling reduces them to K):
+/// 8 bytes of stack each.
+pub const MAX_SAMPLES: usize = 128;
 
 /// One model compiled into the image.
 pub struct EmbeddedModel {
@@ -100,31 +105,55 @@ macro_rules! with_sine {
     };
 }
 
-/// Endpoints of one prediction.
-type Ends = Vec<[f32; 2], MAX_K>;
+/// Endpoints of one prediction, and the point forecast (empty for models without one).
+type Output = (Vec<[f32; 2], MAX_K>, Trajectory);
 
-/// Output fingerprint + bit-equality with the sidecar, for each case, of `predict`.
+/// Output fingerprint + bit-equality with the sidecar, for each case, of `predict`. The hash
+/// covers the endpoints, then the point forecast's points.
 fn check_cases(
     set: &GoldenSet<'_>,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
-    predict: &mut dyn FnMut(&GoldenCase<'_>) -> Result<Ends, PredictError>,
+    predict: &mut dyn FnMut(&GoldenCase<'_>) -> Result<Output, PredictError>,
 ) {
     for (i, case) in set.cases().enumerate() {
         let k = case.k();
         let r = match predict(&case) {
-            Ok(ends) => {
-                let hash = fnv1a(ends.iter().flat_map(|e| [e[0].to_bits(), e[1].to_bits()]));
+            Ok((ends, point)) => {
+                let bits = |p: &[f32; 2]| [p[0].to_bits(), p[1].to_bits()];
+                let hash = fnv1a(ends.iter().chain(point.iter()).flat_map(bits));
                 let ok = ends.len() == k
                     && ends
                         .iter()
                         .enumerate()
-                        .all(|(j, e)| case.endpoint_bits(j) == [e[0].to_bits(), e[1].to_bits()]);
+                        .all(|(j, e)| case.endpoint_bits(j) == bits(e))
+                    && point.len() == case.point_len()
+                    && point
+                        .iter()
+                        .enumerate()
+                        .all(|(t, q)| case.point_bits(t) == Some(bits(q)));
                 Ok((hash, ok))
             }
             Err(_) => Err(()),
         };
         emit(i as u32, r);
     }
+}
+
+/// One prediction as the golden files record it: the model's endpoint set of `k` endpoints
+/// (plain or test-time sampling, as the blob says) and, when the model has a point head,
+/// its point forecast. One macro for both engines, whose methods share names and shapes.
+macro_rules! predict_case {
+    ($p:expr, $model:expr, $c:expr) => {{
+        let mut ends: Vec<[f32; 2], MAX_K> = Vec::new();
+        let _ = ends.resize($c.k().min(MAX_K), [0.0; 2]);
+        $p.predict_endpoint_set::<MAX_SAMPLES>(&$c.past, $c.seed, &mut ends)?;
+        let point = if $model.has_point_head() {
+            $p.predict_point(&$c.past)?
+        } else {
+            Trajectory::new()
+        };
+        Ok((ends, point))
+    }};
 }
 
 /// The f32 path with sine `S`.
@@ -137,9 +166,7 @@ fn cases_with<S: Sine>(
         emit(u32::MAX, Err(()));
         return;
     };
-    check_cases(set, emit, &mut |c| {
-        p.predict_endpoints::<MAX_K>(&c.past, c.seed, c.k())
-    });
+    check_cases(set, emit, &mut |c| predict_case!(p, model, c));
 }
 
 /// The fixed-point path (`Int16Q15` blobs).
@@ -152,9 +179,7 @@ fn cases_fixed(
         emit(u32::MAX, Err(()));
         return;
     };
-    check_cases(set, emit, &mut |c| {
-        p.predict_endpoints::<MAX_K>(&c.past, c.seed, c.k())
-    });
+    check_cases(set, emit, &mut |c| predict_case!(p, model, c));
 }
 
 /// Scratch width `model` needs beyond [`SCRATCH`], if any.

@@ -8,10 +8,10 @@
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
-use gpecnet_core::{Model, PredictError};
+use gpecnet_core::{Model, PredictError, Trajectory};
 use heapless::Vec;
 
-use crate::golden::SCRATCH;
+use crate::golden::{MAX_SAMPLES, SCRATCH};
 
 #[cfg(prof_sine = "libm")]
 type ProfSine = gpecnet_core::sine::LibmSine;
@@ -49,15 +49,25 @@ pub extern "C" fn bench_end() {
 }
 
 /// The measured function: out of line, so its instruction count does not
-/// depend on what LTO inlines around it.
+/// depend on what LTO inlines around it. One call of what a planner asks for:
+/// the point forecast (when the model has a point head) and the model's set of
+/// K = 20 endpoints (plain samples, or test-time sampling when the blob says so).
 #[inline(never)]
 #[no_mangle]
 pub fn gpecnet_predict_k20(
     p: &mut ProfPredictor<'_, '_>,
     past: &[[f32; 2]; 8],
     seed: u64,
-) -> Result<Vec<[f32; 2], K>, PredictError> {
-    p.predict_endpoints::<K>(past, seed, K)
+) -> Result<(Vec<[f32; 2], K>, Trajectory), PredictError> {
+    let point = if p.model().has_point_head() {
+        p.predict_point(past)?
+    } else {
+        Trajectory::new()
+    };
+    let mut ends: Vec<[f32; 2], K> = Vec::new();
+    let _ = ends.resize(K, [0.0; 2]);
+    p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
+    Ok((ends, point))
 }
 
 /// A pedestrian walking ~2.5 px per step (pixel units, like the SDD models).
@@ -114,16 +124,20 @@ pub fn run() -> bool {
         }
         let used = crate::stack::high_water().saturating_sub(base);
         match r {
-            Ok(ends) => {
+            Ok((ends, point)) => {
                 let hash = gpecnet_core::golden::fnv1a(
-                    ends.iter().flat_map(|e| [e[0].to_bits(), e[1].to_bits()]),
+                    ends.iter()
+                        .chain(point.iter())
+                        .flat_map(|e| [e[0].to_bits(), e[1].to_bits()]),
                 );
+                let samples = gpecnet_core::sampling::samples_needed(model.extensions(), K);
+                let macs = model.endpoint_macs(samples) + model.point_head().macs();
                 defmt::println!(
                     "profile {=str} sine={=str} k={=usize} macs={=usize} predict_stack={=u32} predictor_size={=u32} hash={=u32:08x}",
                     name,
                     PATH_NAME,
                     ends.len(),
-                    model.endpoint_macs(K),
+                    macs,
                     used as u32,
                     core::mem::size_of_val(&p) as u32,
                     hash

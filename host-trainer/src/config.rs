@@ -171,6 +171,10 @@ pub struct TrainConfig {
     /// blob. Empty (the default) = no head. Omitted from the TOML when empty.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub point_head_size: Vec<usize>,
+    /// Reflection augmentation: append a mirrored copy (y negated, after the heading frame)
+    /// of every training window. Omitted from the TOML when false.
+    #[serde(skip_serializing_if = "is_false")]
+    pub mirror: bool,
     /// Weight of the point head's loss (its parameters are disjoint from the CVAE's, so this
     /// only scales its effective learning rate under Adam's normalisation: keep 1).
     #[serde(skip_serializing_if = "is_one_f32")]
@@ -249,6 +253,7 @@ impl Default for TrainConfig {
             dist_thresh: 100.0,
             heading_steps: 0,
             point_head_size: Vec::new(),
+            mirror: false,
             point_reg: 1.0,
         }
     }
@@ -350,6 +355,9 @@ impl TrainConfig {
                 self.past_length,
                 self.heading_steps
             );
+        }
+        if self.mirror && self.social_pooling {
+            bail!("mirror and social_pooling cannot be combined (mirrored copies have no social groups)");
         }
         if self.heading_steps > 0 && self.social_pooling {
             bail!("heading_steps and social_pooling cannot be combined (each pedestrian would be rotated into its own frame before pooling)");

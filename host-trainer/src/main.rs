@@ -33,6 +33,9 @@ enum Command {
     /// trainer's reference path gives the same bits) and writes <name>.gpec, <name>.golden,
     /// <name>.json and <name>.md.
     Export(ExportArgs),
+    /// Choose inference settings (latent sigma, test-time samples N) on the run's VALIDATION
+    /// windows through gpecnet-core; prints a table (the test set is never read).
+    Select(SelectArgs),
     /// Evaluate a shipped blob on the SDD test set through gpecnet-core; print ADE/FDE and draw.
     ///
     /// This is what runs on the drone, on the real test set: best-of-K and K = 1 errors in
@@ -293,6 +296,57 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
 }
 
 #[derive(clap::Args, Debug)]
+struct SelectArgs {
+    /// Run directory written by `gpecnet train` (its best validation epoch is used).
+    #[arg(long, value_name = "DIR")]
+    run: PathBuf,
+    /// Data root holding sdd/ and eth_ucy/ (see shared/data/README.md).
+    #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
+    data: PathBuf,
+    /// Latent standard deviations to try.
+    #[arg(long, value_delimiter = ',', default_value = "0.8,1.0,1.3")]
+    sigmas: Vec<f32>,
+    /// Test-time samples N to try (0 = plain sampling; N >= K reduces N samples to K by k-means).
+    #[arg(long, value_delimiter = ',', default_value = "0,60,80,100")]
+    tts: Vec<usize>,
+    /// Endpoints per window.
+    #[arg(long, default_value_t = 20)]
+    k: usize,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    json: bool,
+}
+
+fn cmd_select(a: SelectArgs) -> Result<()> {
+    let (rows, point) = gpecnet_trainer::select::select(
+        &a.run,
+        &a.data,
+        &a.sigmas,
+        &a.tts,
+        a.k,
+        gpecnet_trainer::reference::SineKind::Libm,
+    )?;
+    if a.json {
+        let v = serde_json::json!({ "run": a.run, "rows": rows, "point": point });
+        println!("{v}");
+        return Ok(());
+    }
+    println!("validation, through gpecnet-core, K = {}:", a.k);
+    println!("| sigma | N | minADE | minFDE |");
+    println!("|---|---|---|---|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.2} | {:.2} |",
+            r.sigma, r.tts, r.val.min_ade, r.val.min_fde
+        );
+    }
+    if let Some(p) = point {
+        println!("point forecast: ADE {:.2} FDE {:.2}", p.ade_k1, p.fde_k1);
+    }
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
 struct TrainArgs {
     /// Training config (TOML; see host-trainer/configs/). Required for a new run; with
     /// --resume the config stored in the checkpoint is used and this must be omitted.
@@ -327,6 +381,9 @@ struct TrainArgs {
     /// Override the config's heading_steps (new runs only; 0 = raw orientation).
     #[arg(long, value_name = "M")]
     heading_steps: Option<usize>,
+    /// Turn on reflection augmentation (new runs only; see `mirror` in the config).
+    #[arg(long)]
+    mirror: bool,
 }
 
 fn cmd_train(a: TrainArgs) -> Result<()> {
@@ -343,9 +400,10 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
             || a.pool.is_some()
             || a.seed.is_some()
             || a.heading_steps.is_some()
+            || a.mirror
         {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps"
+                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps/--mirror"
             );
         }
         train::train_resume(&opts)?
@@ -365,6 +423,9 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         }
         if let Some(m) = a.heading_steps {
             cfg.heading_steps = m;
+        }
+        if a.mirror {
+            cfg.mirror = true;
         }
         train::train_new(cfg, &opts)?
     };
@@ -566,6 +627,7 @@ fn main() -> Result<()> {
         Command::Train(a) => cmd_train(a),
         Command::Export(a) => cmd_export(a),
         Command::Eval(a) => cmd_eval(a),
+        Command::Select(a) => cmd_select(a),
         Command::Quantize(a) => cmd_quantize(a),
         Command::Abscore(a) => cmd_abscore(a),
         Command::Classify(a) => cmd_classify(a),

@@ -165,7 +165,20 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
                 .collect()
         }
     };
-    let train_windows = canon(train.windows);
+    let mut train_windows = canon(train.windows);
+    if cfg.mirror {
+        let mirrored: Vec<Window> = train_windows
+            .iter()
+            .map(|w| {
+                let mut m = w.clone();
+                for p in m.pos.iter_mut() {
+                    p[1] = -p[1];
+                }
+                m
+            })
+            .collect();
+        train_windows.extend(mirrored);
+    }
     Ok(PreparedData {
         groups,
         train: train_windows

@@ -1,0 +1,83 @@
+//! `gpecnet select`: inference settings chosen on **validation** through `gpecnet-core`.
+//!
+//! A trained run's best model is exported in memory once per setting — latent spread `sigma`
+//! and test-time sampling `N` (0 = plain sampling; otherwise `N` samples reduced to K by
+//! k-means, first-K initialisation, 3 Lloyd iterations: the best of the grid in `docs/tts.md`)
+//! — and evaluated through `gpecnet-core` on the run's validation windows (seed of window `i`
+//! is `i`). The point forecast does not depend on either setting and is reported once. The
+//! test set is never read.
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+
+use crate::config::DatasetSpec;
+use crate::core_eval::{evaluate_core, evaluate_point_core};
+use crate::data::{self, Dataset};
+use crate::eval::Metrics;
+use crate::export::blob_bytes;
+use crate::reference::SineKind;
+use crate::ship::model_from_run;
+
+/// One evaluated setting.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SelectRow {
+    /// Latent standard deviation.
+    pub sigma: f32,
+    /// Test-time samples (0 = plain).
+    pub tts: usize,
+    /// Validation metrics of the K endpoints.
+    pub val: Metrics,
+}
+
+/// The validation windows of a run's config (raw coordinates).
+pub fn validation_set(cfg: &crate::config::TrainConfig, data_root: &Path) -> Result<Dataset> {
+    Ok(match cfg.dataset_spec()? {
+        DatasetSpec::Sdd => {
+            let all = data::load_sdd(data_root, data::SddSplit::Train)?;
+            data::split_by_scene(all, &cfg.val_scenes).1
+        }
+        DatasetSpec::EthUcy(scene) => {
+            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Val)?
+        }
+    })
+}
+
+/// Evaluates every `(sigma, tts)` of the grid; returns the rows and the point forecast's
+/// validation metrics (when the model has a head).
+pub fn select(
+    run: &Path,
+    data_root: &Path,
+    sigmas: &[f32],
+    tts: &[usize],
+    k: usize,
+    sine: SineKind,
+) -> Result<(Vec<SelectRow>, Option<Metrics>)> {
+    let (cfg, model, _) = model_from_run(run, "select")?;
+    let val = validation_set(&cfg, data_root)?;
+    if val.is_empty() {
+        bail!("the run's validation split is empty");
+    }
+    let mut rows = Vec::new();
+    for &sigma in sigmas {
+        for &n in tts {
+            if n != 0 && n < k {
+                bail!("test-time samples N = {n} must be 0 or at least K = {k}");
+            }
+            let mut m = model.clone();
+            m.config.sigma = sigma;
+            m.config.tts_samples = n;
+            m.config.tts_iters = if n > 0 { 3 } else { 0 };
+            m.config.tts_init = 0;
+            let blob = blob_bytes(&m)?;
+            let (val_m, _) = evaluate_core(&blob, sine, &val, k, 0)?;
+            rows.push(SelectRow {
+                sigma,
+                tts: n,
+                val: val_m,
+            });
+        }
+    }
+    let point = evaluate_point_core(&blob_bytes(&model)?, sine, &val)?.map(|(m, _)| m);
+    Ok((rows, point))
+}
