@@ -7,6 +7,7 @@ use gpecnet_core::golden::GoldenSet;
 use gpecnet_core::{FixedPredictor, Model};
 use gpecnet_tests::{data_root, shipped_blobs};
 use gpecnet_trainer::data::{load_sdd, SddSplit};
+use gpecnet_trainer::eval::dist_metrics;
 use gpecnet_trainer::quantize::{evaluate_core_fixed, QuantCard};
 
 fn fixed_blobs() -> Vec<std::path::PathBuf> {
@@ -86,7 +87,32 @@ fn fixed_cards_are_reproduced() {
         let card: QuantCard =
             serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
         assert_eq!(card.blob_crc, Model::from_blob(&blob).unwrap().crc());
-        let (m, _) = evaluate_core_fixed(&blob, &test, card.k, card.base_seed).unwrap();
+        let (m, preds) = evaluate_core_fixed(&blob, &test, card.k, card.base_seed).unwrap();
+        assert_eq!(
+            dist_metrics(&test, &preds),
+            Some(card.test_fixed_dist),
+            "{}: KDE NLL / hit rates through gpecnet-core differ from the card",
+            path.display()
+        );
+        // The f32 source's distribution metrics are those of its own card (re-computed by
+        // shipped_blobs.rs) when that card has the same K, seeds and sine.
+        let src: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(path.with_file_name(&card.source).with_extension("json")).unwrap(),
+        )
+        .unwrap();
+        let same_protocol = src["k"].as_u64() == Some(card.k as u64)
+            && src["base_seed"].as_u64() == Some(card.base_seed)
+            && serde_json::from_value::<gpecnet_trainer::reference::SineKind>(src["sine"].clone())
+                .is_ok_and(|s| s.core_name() == card.source_sine);
+        if same_protocol {
+            assert_eq!(
+                serde_json::from_value(src["test_dist"].clone()).ok(),
+                Some(card.test_f32_dist),
+                "{}: test_f32_dist differs from {}'s card",
+                path.display(),
+                card.source
+            );
+        }
         // JSON keeps f64 to within an ulp or so (serde_json without `float_roundtrip`).
         let c = &card.test_fixed;
         assert_eq!((m.n, m.k), (c.n, c.k));

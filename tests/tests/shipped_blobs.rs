@@ -7,6 +7,7 @@ use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine};
 use gpecnet_tests::{data_root, shipped_blobs};
 use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
+use gpecnet_trainer::eval::dist_metrics;
 use gpecnet_trainer::export::read_blob;
 use gpecnet_trainer::reference::SineKind;
 use gpecnet_trainer::ship::ModelCard;
@@ -116,11 +117,17 @@ fn sdd_test_set_reproduces_model_cards() {
         let blob = std::fs::read(&path).unwrap();
         let card: ModelCard =
             serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
-        let (m, _) = evaluate_core(&blob, card.sine, &test, card.k, card.base_seed).unwrap();
+        let (m, preds) = evaluate_core(&blob, card.sine, &test, card.k, card.base_seed).unwrap();
         assert_eq!(
             m,
             card.test,
             "{}: SDD test metrics through gpecnet-core differ from the model card",
+            path.display()
+        );
+        assert_eq!(
+            dist_metrics(&test, &preds),
+            Some(card.test_dist),
+            "{}: KDE NLL / hit rates through gpecnet-core differ from the model card",
             path.display()
         );
         assert!(
