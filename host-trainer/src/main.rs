@@ -182,7 +182,7 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
 }
 
 fn cmd_eval(a: EvalArgs) -> Result<()> {
-    let r = gpecnet_trainer::ship::eval_blob(
+    let mut r = gpecnet_trainer::ship::eval_blob(
         &a.blob,
         &a.data,
         a.sine,
@@ -192,9 +192,10 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         a.n_draw,
     )?;
     let update = if a.update_card {
-        Some(gpecnet_trainer::ship::update_card_dist(
-            &a.blob, &a.data, &r, a.k, a.seed,
-        )?)
+        let u = gpecnet_trainer::ship::update_card_dist(&a.blob, &a.data, &r, a.k, a.seed)?;
+        // update_card_dist checked the card's ADE/FDE and wrote (or checked) the rest.
+        r.matches_card = Some(true);
+        Some(u)
     } else {
         None
     };
