@@ -21,7 +21,7 @@ use embassy_sync::signal::Signal;
 use gpecnet_core::{FixedPredictor, LibmSine, Model, NumericKind, PredictError, Predictor};
 use heapless::Vec;
 
-use crate::golden::{MAX_K, SCRATCH};
+use crate::golden::{MAX_K, MAX_SAMPLES, SCRATCH};
 use crate::tracks::{Observation, TrackTable, HISTORY};
 
 /// Table capacity (tracks).
@@ -52,15 +52,34 @@ impl<'m> AnyPredictor<'m> {
         })
     }
 
-    fn predict_endpoints(
+    /// The model's K endpoints (its protocol: plain or test-time sampling) and its point
+    /// forecast's endpoint (`None` for a model without a point head).
+    fn predict(
         &mut self,
         past: &[[f32; 2]],
         seed: u64,
-    ) -> Result<Vec<[f32; 2], K>, PredictError> {
-        match self {
-            AnyPredictor::F32(p) => p.predict_endpoints::<K>(past, seed, K),
-            AnyPredictor::Fixed(p) => p.predict_endpoints::<K>(past, seed, K),
-        }
+    ) -> Result<(Vec<[f32; 2], K>, Option<[f32; 2]>), PredictError> {
+        let mut ends: Vec<[f32; 2], K> = Vec::new();
+        let _ = ends.resize(K, [0.0; 2]);
+        let point = match self {
+            AnyPredictor::F32(p) => {
+                p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
+                if p.model().has_point_head() {
+                    p.predict_point(past)?.last().copied()
+                } else {
+                    None
+                }
+            }
+            AnyPredictor::Fixed(p) => {
+                p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
+                if p.model().has_point_head() {
+                    p.predict_point(past)?.last().copied()
+                } else {
+                    None
+                }
+            }
+        };
+        Ok((ends, point))
     }
 }
 
@@ -89,6 +108,8 @@ pub enum Report {
         id: u32,
         last: [f32; 2],
         endpoints: Vec<[f32; 2], K>,
+        /// The point forecast's endpoint, when the model has a point head.
+        point: Option<[f32; 2]>,
     },
     Failed {
         frame: u32,
@@ -210,12 +231,13 @@ async fn predict(model: Model<'static>) {
         for (id, past) in ready {
             // Seed: frame and id, so every run (and the host) reproduces it.
             let seed = ((frame as u64) << 32) | id as u64;
-            let r = match p.predict_endpoints(&past, seed) {
-                Ok(endpoints) => Report::Prediction {
+            let r = match p.predict(&past, seed) {
+                Ok((endpoints, point)) => Report::Prediction {
                     frame,
                     id,
                     last: past[HISTORY - 1],
                     endpoints,
+                    point,
                 },
                 Err(_) => Report::Failed { frame, id },
             };
@@ -254,8 +276,18 @@ async fn report() {
                 id,
                 last,
                 endpoints,
+                point,
             } => {
                 n += 1;
+                if let Some(q) = point {
+                    defmt::info!(
+                        "  frame {=u32} track {=u32}: point forecast 4.8 s ahead ({=f32}, {=f32})",
+                        frame,
+                        id,
+                        q[0],
+                        q[1]
+                    );
+                }
                 // mean endpoint and spread as a compact summary of the K samples
                 let k = endpoints.len() as f32;
                 let mx = endpoints.iter().map(|e| e[0]).sum::<f32>() / k;

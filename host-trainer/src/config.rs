@@ -171,6 +171,11 @@ pub struct TrainConfig {
     /// blob. Empty (the default) = no head. Omitted from the TOML when empty.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub point_head_size: Vec<usize>,
+    /// Learning-rate schedule over `num_epochs`: `"constant"` (the default; omitted from the
+    /// TOML) or `"cosine"` (epoch `e` of `E` trains at
+    /// `lr · (0.05 + 0.95 · (1 + cos(π e / E)) / 2)`, from `lr` down to 5 % of it).
+    #[serde(skip_serializing_if = "LrSchedule::is_constant")]
+    pub lr_schedule: LrSchedule,
     /// Reflection augmentation: append a mirrored copy (y negated, after the heading frame)
     /// of every training window. Omitted from the TOML when false.
     #[serde(skip_serializing_if = "is_false")]
@@ -179,6 +184,34 @@ pub struct TrainConfig {
     /// only scales its effective learning rate under Adam's normalisation: keep 1).
     #[serde(skip_serializing_if = "is_one_f32")]
     pub point_reg: f32,
+}
+
+/// Learning-rate schedule (see [`TrainConfig::lr_schedule`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LrSchedule {
+    /// `learning_rate` throughout.
+    #[default]
+    Constant,
+    /// Cosine decay from `learning_rate` to 5 % of it over `num_epochs`.
+    Cosine,
+}
+
+impl LrSchedule {
+    fn is_constant(&self) -> bool {
+        *self == LrSchedule::Constant
+    }
+
+    /// Learning rate of 0-based epoch `epoch` of `total`, from base rate `lr`.
+    pub fn lr(self, lr: f64, epoch: usize, total: usize) -> f64 {
+        match self {
+            LrSchedule::Constant => lr,
+            LrSchedule::Cosine => {
+                let t = epoch as f64 / total.max(1) as f64;
+                lr * (0.05 + 0.95 * 0.5 * (1.0 + (std::f64::consts::PI * t).cos()))
+            }
+        }
+    }
 }
 
 fn is_zero_usize(x: &usize) -> bool {
@@ -254,6 +287,7 @@ impl Default for TrainConfig {
             heading_steps: 0,
             point_head_size: Vec::new(),
             mirror: false,
+            lr_schedule: LrSchedule::Constant,
             point_reg: 1.0,
         }
     }

@@ -385,6 +385,9 @@ struct TrainArgs {
     /// Turn on reflection augmentation (new runs only; see `mirror` in the config).
     #[arg(long)]
     mirror: bool,
+    /// Cosine learning-rate decay over the run (new runs only; see `lr_schedule`).
+    #[arg(long)]
+    cosine: bool,
 }
 
 fn cmd_train(a: TrainArgs) -> Result<()> {
@@ -402,9 +405,10 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
             || a.seed.is_some()
             || a.heading_steps.is_some()
             || a.mirror
+            || a.cosine
         {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps/--mirror"
+                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps/--mirror/--cosine"
             );
         }
         train::train_resume(&opts)?
@@ -427,6 +431,9 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         }
         if a.mirror {
             cfg.mirror = true;
+        }
+        if a.cosine {
+            cfg.lr_schedule = gpecnet_trainer::config::LrSchedule::Cosine;
         }
         train::train_new(cfg, &opts)?
     };

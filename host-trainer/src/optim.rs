@@ -108,6 +108,11 @@ impl Adam {
         self.params
     }
 
+    /// Sets the learning rate of the next steps (a schedule's job).
+    pub fn set_lr(&mut self, lr: f64) {
+        self.params.lr = lr;
+    }
+
     /// Backpropagate `loss` and apply one update.
     pub fn backward_step(&mut self, loss: &Tensor) -> candle_core::Result<()> {
         let grads = loss.backward()?;

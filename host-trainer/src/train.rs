@@ -311,6 +311,12 @@ impl Trainer {
     /// One pass over the shuffled training set. Does not advance `epochs_done`
     /// (see [`Trainer::run_epoch`]).
     pub fn train_epoch(&mut self, bar: Option<&ProgressBar>) -> Result<TrainLoss> {
+        let lr = self.cfg.lr_schedule.lr(
+            self.cfg.learning_rate,
+            self.epochs_done,
+            self.cfg.num_epochs,
+        );
+        self.adam.set_lr(lr);
         let mut order: Vec<u32> = (0..self.data.train.len() as u32).collect();
         self.rng.shuffle(&mut order);
         let zdim = self.model.zdim();
