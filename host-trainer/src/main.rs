@@ -129,6 +129,14 @@ struct ExportArgs {
     /// Latent seed of test window i is SEED + i.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Latent sigma written into the blob (default: the training config's). Choose it on
+    /// validation with `gpecnet select`.
+    #[arg(long)]
+    sigma: Option<f32>,
+    /// Test-time sampling written into the blob: N latent samples reduced to K by k-means
+    /// (3 Lloyd iterations, first-K init); 0 = plain sampling. Choose it with `gpecnet select`.
+    #[arg(long, value_name = "N")]
+    tts: Option<usize>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -167,7 +175,13 @@ struct EvalArgs {
 }
 
 fn cmd_export(a: ExportArgs) -> Result<()> {
-    let card = gpecnet_trainer::ship::ship(&a.run, &a.name, &a.out, &a.data, a.sine, a.k, a.seed)?;
+    let settings = gpecnet_trainer::ship::ExportSettings {
+        sigma: a.sigma,
+        tts: a.tts,
+    };
+    let card = gpecnet_trainer::ship::ship(
+        &a.run, &a.name, &a.out, &a.data, a.sine, a.k, a.seed, settings,
+    )?;
     let m = card.test;
     println!(
         "exported {} (epoch {}, {} parameters, {} bytes) to {}",
@@ -178,6 +192,12 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
         a.out.display()
     );
     println!("SDD test through gpecnet-core: minADE {:.3} px  minFDE {:.3} px (K={})  ADE/FDE K=1 {:.3}/{:.3} px", m.min_ade, m.min_fde, m.k, m.ade_k1, m.fde_k1);
+    if let Some(p) = card.test_point {
+        println!(
+            "point forecast: ADE {:.3} px  FDE {:.3} px",
+            p.ade_k1, p.fde_k1
+        );
+    }
     Ok(())
 }
 
@@ -382,6 +402,10 @@ struct TrainArgs {
     /// Override the config's heading_steps (new runs only; 0 = raw orientation).
     #[arg(long, value_name = "M")]
     heading_steps: Option<usize>,
+    /// Override the config's dataset (new runs only): `sdd` or `eth_ucy:<scene>`, one config
+    /// for every leave-one-scene-out split.
+    #[arg(long, value_name = "SPEC")]
+    dataset: Option<String>,
     /// Turn on reflection augmentation (new runs only; see `mirror` in the config).
     #[arg(long)]
     mirror: bool,
@@ -404,11 +428,12 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
             || a.pool.is_some()
             || a.seed.is_some()
             || a.heading_steps.is_some()
+            || a.dataset.is_some()
             || a.mirror
             || a.cosine
         {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps/--mirror/--cosine"
+                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine"
             );
         }
         train::train_resume(&opts)?
@@ -428,6 +453,9 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         }
         if let Some(m) = a.heading_steps {
             cfg.heading_steps = m;
+        }
+        if let Some(d) = a.dataset {
+            cfg.dataset = d;
         }
         if a.mirror {
             cfg.mirror = true;

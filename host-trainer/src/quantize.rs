@@ -708,6 +708,18 @@ pub struct QuantCard {
     pub test_f32_dist: DistMetrics,
     /// The same for the fixed-point blob.
     pub test_fixed_dist: DistMetrics,
+    /// Format-2 inference settings (absent for format-1 models).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inference: Option<crate::ship::Inference>,
+    /// The f32 source's point forecast on SDD test (K = 1 metrics), for models with a head.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_f32_point: Option<Metrics>,
+    /// The fixed-point point forecast on SDD test.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_fixed_point: Option<Metrics>,
+    /// Constant velocity with its window chosen on validation, on SDD test.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_cv: Option<crate::ship::CvBaseline>,
 }
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`).
@@ -811,6 +823,22 @@ pub fn quantize_blob_with(
         .map(|(i, w)| (w.obs().to_vec(), base_seed.wrapping_add(i as u64)))
         .collect();
     let golden = qgolden_bytes(&q, core.crc(), k, &inputs)?;
+    let test_f32_point = crate::core_eval::evaluate_point_core(&src_bytes, sine, &test)?;
+    let test_fixed_point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?;
+    if let Some((_, pc)) = &test_fixed_point {
+        let same = pc.iter().zip(&test.windows).all(|(p, w)| {
+            q.predict_point(&w.obs())
+                .is_some_and(|r| p.trajectories[0].as_slice() == r.as_slice())
+        });
+        if !same {
+            bail!("gpecnet-core's fixed point forecast and the integer reference disagree");
+        }
+    }
+    let inference = crate::ship::Inference::of(&model);
+    let test_cv = match inference {
+        Some(_) => Some(crate::ship::cv_baseline(data_root, &test)?),
+        None => None,
+    };
     let c = core.config();
     let width = core.max_width().max(c.fdim as usize + c.zdim as usize);
     let card = QuantCard {
@@ -834,6 +862,10 @@ pub fn quantize_blob_with(
         scratch_bytes: 16 * width,
         test_f32_dist,
         test_fixed_dist,
+        inference,
+        test_f32_point: test_f32_point.map(|p| p.0),
+        test_fixed_point: test_fixed_point.map(|p| p.0),
+        test_cv,
     };
     let dir = out.parent().unwrap_or(std::path::Path::new("."));
     let path = |ext: &str| dir.join(format!("{name}.{ext}"));
@@ -847,6 +879,33 @@ pub fn quantize_blob_with(
     Ok(card)
 }
 
+/// Rows for the format-2 features of a fixed-point card (empty for format-1 models): the
+/// point forecast in f32 and fixed point beside the validation-chosen constant velocity, and
+/// the inference settings.
+fn quant_card_v2_rows(c: &QuantCard) -> String {
+    let mut s = String::new();
+    if let (Some(f), Some(x), Some(cv)) = (&c.test_f32_point, &c.test_fixed_point, &c.test_cv) {
+        s += &format!(
+            "| point forecast ADE | {:.3} | {:.3} | {:+.3} |\n| point forecast FDE | {:.3} | {:.3} | {:+.3} |\n\
+| constant velocity, last {} steps (chosen on validation), ADE / FDE | {:.3} / {:.3} | same | – |\n",
+            f.ade_k1,
+            x.ade_k1,
+            x.ade_k1 - f.ade_k1,
+            f.fde_k1,
+            x.fde_k1,
+            x.fde_k1 - f.fde_k1,
+            cv.n,
+            cv.test.ade_k1,
+            cv.test.fde_k1
+        );
+    }
+    if c.inference.is_some() {
+        let rows = crate::ship::card_v2_rows(c.inference.as_ref(), None, None);
+        s += &rows.replace(" | – |\n", " | same | – |\n");
+    }
+    s
+}
+
 fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
     let (f, x) = (&c.test_f32, &c.test_fixed);
     let exps: Vec<String> = [
@@ -854,6 +913,7 @@ fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
         ("decoder", &q.decoder),
         ("encoder_dest", &q.encoder_dest),
         ("predictor", &q.predictor),
+        ("point_head", &q.point_head),
     ]
     .iter()
     .filter(|(_, n)| !n.is_empty())
@@ -926,7 +986,8 @@ from the last observation to each endpoint, FDE is unaffected)"
         ff1 = f.fde_k1,
         xf1 = x.fde_k1,
         df1 = x.fde_k1 - f.fde_k1,
-        dist = quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, c.k),
+        dist = quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, c.k)
+            + &quant_card_v2_rows(c),
     )
 }
 

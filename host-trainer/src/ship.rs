@@ -59,6 +59,111 @@ pub struct ModelCard {
     /// `test`): KDE NLL of the true endpoint (nats, px) and the fraction of windows with a
     /// sample within 20 / 40 px of the true endpoint.
     pub test_dist: DistMetrics,
+    /// Format-2 inference settings (absent for format-1 models).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inference: Option<Inference>,
+    /// The point forecast on the test set (K = 1: `ade_k1`/`fde_k1`), for models with a head.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_point: Option<Metrics>,
+    /// The point forecast on validation at its selected epoch (from training).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_point: Option<Metrics>,
+    /// Constant velocity with its window chosen on validation, on the test set.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_cv: Option<CvBaseline>,
+}
+
+/// The inference settings a format-2 blob carries (see `gpecnet_core::blob::Extensions`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Inference {
+    /// Heading-canonical frame over the last `heading_steps` observed steps (0 = off).
+    pub heading_steps: usize,
+    /// Latent standard deviation.
+    pub sigma: f32,
+    /// Test-time samples reduced to K by k-means (0 = plain sampling).
+    pub tts_samples: usize,
+    /// Lloyd iterations.
+    pub tts_iters: u8,
+    /// k-means initialisation: 0 = first K samples, 1 = farthest point.
+    pub tts_init: u8,
+    /// Whether the blob has a point-forecast head.
+    pub point_head: bool,
+}
+
+impl Inference {
+    /// The settings of `m` when it uses any format-2 feature.
+    pub fn of(m: &RefModel) -> Option<Inference> {
+        m.needs_v2().then(|| Inference {
+            heading_steps: m.config.heading_steps,
+            sigma: m.config.sigma,
+            tts_samples: m.config.tts_samples,
+            tts_iters: m.config.tts_iters,
+            tts_init: m.config.tts_init,
+            point_head: !m.point_head.is_empty(),
+        })
+    }
+}
+
+/// Constant velocity from the mean velocity of the last `n` observed steps, `n` chosen on
+/// the SDD validation scenes ([`crate::eval::select_cv_n`]), evaluated on the test set.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CvBaseline {
+    /// Observed steps averaged.
+    pub n: usize,
+    /// Test metrics (K = 1).
+    pub test: Metrics,
+}
+
+/// [`CvBaseline`] on `test`, `n` chosen on the SDD validation scenes under `data_root`.
+pub fn cv_baseline(data_root: &Path, test: &Dataset) -> Result<CvBaseline> {
+    let (_, val) = split_by_scene(
+        load_sdd(data_root, SddSplit::Train)?,
+        &default_sdd_val_scenes(),
+    );
+    let (n, _) = select_cv_n(&val).context("no SDD validation window")?;
+    Ok(CvBaseline {
+        n,
+        test: evaluate_baseline_with(test, |w| constant_velocity_n(w, n)),
+    })
+}
+
+/// The model-card rows of the format-2 features (each ends in a newline): the point forecast
+/// beside the validation-chosen constant velocity, and the inference settings. Empty for
+/// format-1 models, whose cards keep their bytes.
+pub fn card_v2_rows(
+    inf: Option<&Inference>,
+    point: Option<&Metrics>,
+    cv: Option<&CvBaseline>,
+) -> String {
+    let mut s = String::new();
+    if let (Some(p), Some(cv)) = (point, cv) {
+        s += &format!(
+            "| point forecast (deterministic head), ADE / FDE | {:.2} / {:.2} | {:.2} / {:.2} (constant velocity, last {} steps, chosen on validation) |\n",
+            p.ade_k1, p.fde_k1, cv.test.ade_k1, cv.test.fde_k1, cv.n
+        );
+    }
+    if let Some(i) = inf {
+        s += &format!(
+            "| inference | heading frame over {} step(s); sigma {}; {} | – |\n",
+            i.heading_steps,
+            i.sigma,
+            if i.tts_samples > 0 {
+                format!(
+                    "{} latent samples reduced to K by k-means ({} Lloyd iterations, {} init)",
+                    i.tts_samples,
+                    i.tts_iters,
+                    if i.tts_init == 1 {
+                        "farthest-point"
+                    } else {
+                        "first-K"
+                    }
+                )
+            } else {
+                "plain sampling".to_string()
+            }
+        );
+    }
+    s
 }
 
 fn convert(layers: &[ExportedLayer]) -> Vec<RefLayer> {
@@ -126,6 +231,7 @@ pub fn ship(
     sine: SineKind,
     k: usize,
     base_seed: u64,
+    settings: ExportSettings,
 ) -> Result<ModelCard> {
     if name.is_empty()
         || !name
@@ -134,7 +240,8 @@ pub fn ship(
     {
         bail!("model name {name:?}: use letters, digits, '-' and '_'");
     }
-    let (cfg, model, epoch) = model_from_run(run, name)?;
+    let (cfg, mut model, epoch) = model_from_run(run, name)?;
+    settings.apply(&mut model, k)?;
     let blob = blob_bytes(&model)?;
     let core_model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{e}"))?;
     let test = load_sdd(data_root, SddSplit::Test)?;
@@ -157,7 +264,28 @@ pub fn ship(
         .collect();
     let cases = golden_cases(&model, &inputs, k, sine)?;
     let golden = golden_bytes(&model, core_model.crc(), sine, k, &cases)?;
-    let ckpt_val = crate::checkpoint::load(run)?.best.map(|b| b.val);
+    let ckpt = crate::checkpoint::load(run)?;
+    let ckpt_val = ckpt.best.map(|b| b.val);
+    let val_point = ckpt.best_point.map(|b| b.val);
+    let test_point = match crate::core_eval::evaluate_point_core(&blob, sine, &test)? {
+        Some((m, preds)) => {
+            let r: Vec<_> = test
+                .windows
+                .iter()
+                .map(|w| model.predict_point(&w.obs(), sine))
+                .collect();
+            let same = preds.iter().zip(&r).all(|(p, r)| {
+                r.as_ref()
+                    .is_some_and(|r| p.trajectories[0].as_slice() == r.as_slice())
+            });
+            if !same {
+                bail!("gpecnet-core and the reference path disagree on the point forecast");
+            }
+            Some(m)
+        }
+        None => None,
+    };
+    let test_cv = Some(cv_baseline(data_root, &test)?).filter(|_| model.needs_v2());
     let card = ModelCard {
         name: name.to_string(),
         blob_crc: core_model.crc(),
@@ -173,6 +301,10 @@ pub fn ship(
         endpoint_macs: core_model.endpoint_macs(k),
         config_toml: cfg.to_toml_string()?,
         test_dist,
+        inference: Inference::of(&model),
+        test_point,
+        val_point: val_point.filter(|_| test_point.is_some()),
+        test_cv,
     };
     let [p_blob, p_golden, p_json, p_md] = artefact_paths(out_dir, name);
     write_atomic(&p_blob, &blob)?;
@@ -233,9 +365,44 @@ from it: attribution is required, **no commercial use**, and derivatives must be
         cva = cv.ade_k1,
         cvf = cv.fde_k1,
         mf = m.mean_fde,
-        dist = model_card_dist_rows(&c.test_dist, c.k),
+        dist = model_card_dist_rows(&c.test_dist, c.k)
+            + &card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref()),
         cfg = c.config_toml,
     )
+}
+
+/// Inference settings `gpecnet export` writes into a blob (format 2 when any is used).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExportSettings {
+    /// Latent sigma (default: the training config's).
+    pub sigma: Option<f32>,
+    /// Test-time samples N (0 / `None` = plain sampling); 3 Lloyd iterations, first-K init
+    /// (the best of the validation grid in `docs/tts.md`).
+    pub tts: Option<usize>,
+}
+
+impl ExportSettings {
+    /// Writes the settings into `m` (checked: `N >= k`, finite positive sigma).
+    pub fn apply(&self, m: &mut RefModel, k: usize) -> Result<()> {
+        if let Some(s) = self.sigma {
+            if !(s.is_finite() && s > 0.0) {
+                bail!("--sigma must be a positive number, got {s}");
+            }
+            m.config.sigma = s;
+        }
+        if let Some(n) = self.tts.filter(|&n| n > 0) {
+            if n < k || n > gpecnet_core::blob::MAX_TTS_SAMPLES {
+                bail!(
+                    "--tts {n}: test-time samples must be at least K = {k} and at most {}",
+                    gpecnet_core::blob::MAX_TTS_SAMPLES
+                );
+            }
+            m.config.tts_samples = n;
+            m.config.tts_iters = 3;
+            m.config.tts_init = 0;
+        }
+        Ok(())
+    }
 }
 
 /// The model card's table rows for [`DistMetrics`] (each ends in a newline; they follow the
@@ -327,14 +494,19 @@ pub fn eval_blob(
     let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json"))
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok());
-    let (metrics, dist, preds, matches_card) = if model.numeric() == gpecnet_core::NumericKind::F32
+    let (metrics, dist, preds, matches_card, point) = if model.numeric()
+        == gpecnet_core::NumericKind::F32
     {
         let sine = sine
             .or_else(|| sine_of_blob(blob_path))
             .unwrap_or(SineKind::Libm);
         let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
         let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
+        let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?.map(|p| p.0);
         let matches = card.map(|v| {
+            let want_point: Option<Metrics> = v
+                .get("test_point")
+                .and_then(|t| serde_json::from_value(t.clone()).ok());
             let want_dist: Option<DistMetrics> = v
                 .get("test_dist")
                 .and_then(|t| serde_json::from_value(t.clone()).ok());
@@ -346,8 +518,9 @@ pub fn eval_blob(
                     && c.sine == sine
                     && c.test == metrics
             }) && want_dist == Some(dist)
+                && want_point == point
         });
-        (metrics, dist, preds, matches)
+        (metrics, dist, preds, matches, point)
     } else {
         if sine.is_some() {
             bail!(
@@ -357,7 +530,12 @@ pub fn eval_blob(
         }
         let (metrics, preds) = crate::quantize::evaluate_core_fixed(&blob, &test, k, base_seed)?;
         let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
+        let point =
+            crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?.map(|p| p.0);
         let matches = card.map(|c| {
+            let want_point: Option<Metrics> = c
+                .get("test_fixed_point")
+                .and_then(|t| serde_json::from_value(t.clone()).ok());
             let want: Option<Metrics> = c
                 .get("test_fixed")
                 .and_then(|t| serde_json::from_value(t.clone()).ok());
@@ -368,8 +546,9 @@ pub fn eval_blob(
                 && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
                 && want == Some(metrics)
                 && want_dist == Some(dist)
+                && want_point == point
         });
-        (metrics, dist, preds, matches)
+        (metrics, dist, preds, matches, point)
     };
     let svg = match svg {
         Some(path) => {
@@ -400,7 +579,7 @@ pub fn eval_blob(
         metrics,
         constant_velocity: evaluate_baseline(&test, constant_velocity),
         dist,
-        point: None,
+        point: point.map(|p| (p.ade_k1, p.fde_k1)),
         cv_n,
         cv: evaluate_baseline_with(&test, |w| constant_velocity_n(w, cv_n)),
         cv_val,
