@@ -298,7 +298,10 @@ pub fn ship(
         test_constant_velocity: evaluate_baseline(&test, constant_velocity),
         epoch,
         val: ckpt_val,
-        endpoint_macs: core_model.endpoint_macs(k),
+        endpoint_macs: core_model.endpoint_macs(gpecnet_core::sampling::samples_needed(
+            core_model.extensions(),
+            k,
+        )) + core_model.point_head().macs(),
         config_toml: cfg.to_toml_string()?,
         test_dist,
         inference: Inference::of(&model),
@@ -329,11 +332,11 @@ G-PECNet endpoint predictor (PECNet CVAE with SIREN sine MLPs), exported for `gp
 | | |\n|---|---|\n\
 | blob | `weights/{name}.gpec`, {bytes} bytes, CRC-32 `{crc:#010x}`, f32 |\n\
 | parameters | {params} |\n\
-| MACs, K = {k} endpoints | {macs} |\n\
+| MACs, K = {k} endpoints{macs_note} | {macs} |\n\
 | sine for the numbers below | `{sine}` |\n\
 | training data | SDD TrajNet split, 30 train scenes minus the validation scenes, with time-reversed copies |\n\
 | model selection | epoch {epoch} by validation minFDE ({val}); the test set was never used in training or selection |\n\
-| produced by | `gpecnet export --run {run} --name {name}` |\n\n\
+| produced by | `gpecnet export --run {run} --name {name}{flags}` |\n\n\
 ## SDD test set ({n} windows, pixels), through `gpecnet-core`\n\n\
 Latent seed of window `i` = {seed} + i. Reproduce: `cargo run --release -p gpecnet-trainer -- eval --blob weights/{name}.gpec`.\n\n\
 | metric | this model | constant velocity |\n|---|---|---|\n\
@@ -352,6 +355,11 @@ from it: attribution is required, **no commercial use**, and derivatives must be
         params = c.parameters,
         k = c.k,
         macs = c.endpoint_macs,
+        macs_note = if c.inference.is_some() {
+            " (all samples drawn, and the point head)"
+        } else {
+            ""
+        },
         sine = c.sine.core_name(),
         epoch = c.epoch,
         val = val,
@@ -365,6 +373,14 @@ from it: attribution is required, **no commercial use**, and derivatives must be
         cva = cv.ade_k1,
         cvf = cv.fde_k1,
         mf = m.mean_fde,
+        flags = c.inference.map_or(String::new(), |i| {
+            let tts = if i.tts_samples > 0 {
+                format!(" --tts {}", i.tts_samples)
+            } else {
+                String::new()
+            };
+            format!(" --sigma {}{tts}", i.sigma)
+        }),
         dist = model_card_dist_rows(&c.test_dist, c.k)
             + &card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref()),
         cfg = c.config_toml,
