@@ -81,9 +81,17 @@ fn main() {
         );
     }
     src += "];\n";
-    // The demo tracker's model: GPECNET_DEMO_MODEL=<name> (empty = the first one).
+    // The demo tracker's model: GPECNET_DEMO_MODEL=<name>; unset = the shipped MCU model
+    // (sdd-tiny-v2-qe) when embedded, else the first one.
     println!("cargo:rerun-if-env-changed=GPECNET_DEMO_MODEL");
-    let demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_default();
+    let demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_else(|_| {
+        let default = "sdd-tiny-v2-qe";
+        if names.iter().any(|n| n == default) {
+            default.to_string()
+        } else {
+            String::new()
+        }
+    });
     src += &format!("pub static DEMO_MODEL: &str = {:?};\n", demo.trim());
     // Numeric path of the profile build (one sine per image, so flash/RAM are per path).
     println!("cargo:rerun-if-env-changed=GPECNET_SINE");

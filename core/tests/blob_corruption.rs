@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use gpecnet_core::blob::{Activation, NetworkId, FORMAT_VERSION, MAX_LAYERS};
+use gpecnet_core::blob::{Activation, NetworkId, MAX_LAYERS, MIN_FORMAT_VERSION};
 use gpecnet_core::{BlobError, Model};
 
 #[test]
@@ -125,7 +125,7 @@ fn with(
     config_edit(&mut c);
     let mut nets = small_nets(Activation::Sine);
     nets_edit(&mut nets);
-    let blob = encode("edited", c, &nets, FORMAT_VERSION);
+    let blob = encode("edited", c, &nets, MIN_FORMAT_VERSION);
     Model::from_blob(&blob).map(|_| ())
 }
 
@@ -138,11 +138,17 @@ fn error_paths() {
     assert_eq!(Model::from_blob(b"GPE").unwrap_err(), BlobError::Truncated);
     assert_eq!(Model::from_blob(b"GPX").unwrap_err(), BlobError::BadMagic);
     assert_eq!(Model::from_blob(b"GPEC").unwrap_err(), BlobError::Truncated);
+    // Version 1 is the layout `encode` writes (4 networks); 2 adds extensions and a fifth
+    // network, so the same bytes labelled 2 fail to decode; 0 and 3 are not versions.
+    for v in [0u16, 3, 0xffff] {
+        let b = encode("vx", config(), &small_nets(Activation::Sine), v);
+        assert_eq!(
+            Model::from_blob(&b).unwrap_err(),
+            BlobError::UnsupportedVersion(v)
+        );
+    }
     let v2 = encode("v2", config(), &small_nets(Activation::Sine), 2);
-    assert_eq!(
-        Model::from_blob(&v2).unwrap_err(),
-        BlobError::UnsupportedVersion(2)
-    );
+    assert!(Model::from_blob(&v2).is_err());
 
     let mut bad_crc = small_blob();
     let n = bad_crc.len();
@@ -312,4 +318,40 @@ fn print_format_example() {
         println!("{:04x}: {}", i * 8, hex.join(" "));
     }
     println!("len {}", b.len());
+}
+
+/// Format 2 (extensions + point head): it parses, every truncation and every single bit flip
+/// (with and without a re-computed CRC) gives `Ok` or a typed error, and whatever parses
+/// predicts without panicking.
+#[test]
+fn format2_blob_survives_truncation_and_bit_flips() {
+    use gpecnet_core::{LibmSine, Predictor};
+    let blob = encode_v2("v2", &small_nets(Activation::Sine), 1, 24);
+    let m = Model::from_blob(&blob).unwrap();
+    assert!(m.has_point_head());
+    assert_eq!(m.extensions().heading_steps, 1);
+    assert_eq!(m.extensions().tts_samples, 24);
+    let past: Vec<[f32; 2]> = (0..8).map(|t| [3.0 * t as f32, 1.0 - t as f32]).collect();
+    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
+    assert_eq!(p.predict_point(&past).unwrap().len(), 12);
+    let mut ends = [[0.0f32; 2]; 20];
+    p.predict_endpoint_set::<32>(&past, 3, &mut ends).unwrap();
+    assert!(ends.iter().flatten().all(|v| v.is_finite()));
+    // Fewer samples than the blob asks for: refused, not truncated silently.
+    assert!(p.predict_endpoint_set::<16>(&past, 3, &mut ends).is_err());
+    for n in 0..blob.len() {
+        assert!(Model::from_blob(&blob[..n]).is_err(), "len {n}");
+        let _ = Model::from_blob(&seal(blob[..n.saturating_sub(4)].to_vec()));
+    }
+    for i in 0..blob.len() * 8 {
+        let mut b = blob.clone();
+        b[i / 8] ^= 1 << (i % 8);
+        assert!(Model::from_blob(&b).is_err(), "bit {i}");
+        if let Ok(m) = Model::from_blob(&reseal(&b)) {
+            if let Ok(mut p) = Predictor::<LibmSine, 32>::new(&m) {
+                let _ = p.predict_point(&past);
+                let _ = p.predict_endpoint_set::<64>(&past, 1, &mut ends);
+            }
+        }
+    }
 }

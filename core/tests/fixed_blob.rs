@@ -3,8 +3,8 @@
 //! bytes and each error path give a typed error, never a panic; and the
 //! fixed predictor runs on what the reader accepts.
 use gpecnet_core::blob::{
-    Activation, LayerWireQ, ModelConfig, ModelInfo, NetworkId, NumericKind, Preamble, CRC32,
-    FORMAT_VERSION, MAGIC,
+    Activation, LayerWireQ, ModelConfig, ModelInfo, NetworkId, NumericKind, Preamble, CRC32, MAGIC,
+    MIN_FORMAT_VERSION,
 };
 use gpecnet_core::{BlobError, Error, FixedPredictor, Model, PredictError};
 
@@ -95,7 +95,7 @@ fn seal(mut body: Vec<u8>) -> Vec<u8> {
 fn encode(nets: &[Vec<QLayer>; 4], config: ModelConfig) -> Vec<u8> {
     let mut out = postcard::to_stdvec(&Preamble {
         magic: MAGIC,
-        version: FORMAT_VERSION,
+        version: MIN_FORMAT_VERSION,
     })
     .unwrap();
     out.extend(
@@ -355,7 +355,7 @@ fn f32_models_are_refused_by_the_fixed_predictor() {
     use gpecnet_core::blob::LayerWire;
     let mut out = postcard::to_stdvec(&Preamble {
         magic: MAGIC,
-        version: FORMAT_VERSION,
+        version: MIN_FORMAT_VERSION,
     })
     .unwrap();
     out.extend(

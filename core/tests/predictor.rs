@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use gpecnet_core::blob::{Activation, FORMAT_VERSION};
+use gpecnet_core::blob::{Activation, MIN_FORMAT_VERSION};
 use gpecnet_core::prng::Gaussian;
 use gpecnet_core::{FastSine, LibmSine, Model, PredictError, Predictor, Sine};
 
@@ -123,7 +123,7 @@ fn hand_computed_single_sine_layer() {
         dec.w[7 + i] = if i == 0 { 1.0 } else { 0.0 }; // endpoint y = feature 0
     }
     nets[1] = vec![dec];
-    let blob = encode("hand", config(), &nets, FORMAT_VERSION);
+    let blob = encode("hand", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
     let e = p.predict_endpoints::<1>(&PAST, 0, 1).unwrap()[0];
@@ -154,7 +154,7 @@ fn relu_layer_and_nan_propagation() {
         l.b.iter_mut().for_each(|b| *b = -1.0);
         l.act = Activation::Relu;
     }
-    let blob = encode("relu", config(), &nets, FORMAT_VERSION);
+    let blob = encode("relu", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
     let got = p.predict_endpoints::<4>(&PAST, 3, 4).unwrap();
@@ -166,7 +166,7 @@ fn relu_layer_and_nan_propagation() {
 
 fn check_bit_exact<S: Sine>(act: Activation) {
     let nets = small_nets(act);
-    let blob = encode("exact", config(), &nets, FORMAT_VERSION);
+    let blob = encode("exact", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<S, 32>::new(&m).unwrap();
     for seed in [0u64, 1, 42, u64::MAX] {
@@ -202,7 +202,7 @@ fn bit_exact_with_naive_pass_fast_sine() {
 #[test]
 fn close_to_f64() {
     let nets = small_nets(Activation::Sine);
-    let blob = encode("f64", config(), &nets, FORMAT_VERSION);
+    let blob = encode("f64", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
     let ends = p.predict_endpoints::<5>(&PAST, 9, 5).unwrap();
@@ -296,7 +296,7 @@ fn input_errors() {
     let mut nets = small_nets(Activation::Sine);
     nets[2].clear();
     nets[3].clear();
-    let blob = encode("ends", config(), &nets, FORMAT_VERSION);
+    let blob = encode("ends", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
     assert!(p.predict_endpoints::<4>(&PAST, 0, 4).is_ok());

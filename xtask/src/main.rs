@@ -31,7 +31,7 @@ const TARGET_INSNS: u64 = 300_000;
 const TARGET_CODE_WEIGHTS: u32 = 64 * 1024;
 
 const USAGE: &str = "usage: cargo xtask <command>
-  demo               the main job from scratch: setup, then the shipped embedded model (weights/sdd-small)
+  demo               the main job from scratch: setup, then the shipped embedded model (weights/sdd-tiny-v2-qe)
                      on the SDD test set through gpecnet-core (ADE/FDE + out/predictions.svg), then the
                      same model on the STM32F405 in QEMU, bit-exact with the host
   setup              install missing prerequisites (apt: Debian rust toolchain, lld-22, qemu; cargo: defmt-print)
@@ -1095,7 +1095,7 @@ fn demo(o: &Opts) -> i32 {
     ]);
     c.args([
         "--blob",
-        "weights/sdd-small.gpec",
+        "weights/sdd-tiny-v2-qe.gpec",
         "--draw",
         "out/predictions.svg",
     ]);

@@ -2,8 +2,8 @@
 #![allow(dead_code)]
 
 use gpecnet_core::blob::{
-    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION,
-    MAGIC,
+    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, MAGIC,
+    MIN_FORMAT_VERSION,
 };
 
 pub struct TestLayer {
@@ -108,6 +108,60 @@ pub fn encode(
     seal(out)
 }
 
+/// A format-2 blob: `nets` plus a point head (16 → 8 → 24), heading frame over
+/// `heading_steps`, `tts` test-time samples (3 Lloyd iterations, first-K init).
+pub fn encode_v2(name: &str, nets: &[Vec<TestLayer>; 4], heading_steps: u8, tts: u16) -> Vec<u8> {
+    let v1 = encode(name, config(), nets, MIN_FORMAT_VERSION);
+    // Re-assemble: preamble (version 2), model info, extensions, 4 networks, point head.
+    let mut out = postcard::to_stdvec(&Preamble {
+        magic: MAGIC,
+        version: 2,
+    })
+    .unwrap();
+    let head_len = postcard::to_stdvec(&Preamble {
+        magic: MAGIC,
+        version: MIN_FORMAT_VERSION,
+    })
+    .unwrap()
+    .len();
+    let info = postcard::to_stdvec(&ModelInfo {
+        numeric: NumericKind::F32,
+        name,
+        config: config(),
+    })
+    .unwrap();
+    out.extend(&info);
+    out.extend(
+        postcard::to_stdvec(&gpecnet_core::blob::Extensions {
+            heading_steps,
+            tts_samples: tts,
+            tts_iters: 3,
+            tts_init: 0,
+        })
+        .unwrap(),
+    );
+    out.extend(&v1[head_len + info.len()..v1.len() - 4]);
+    let head = [
+        layer(16, 8, Activation::Sine, 21, 0.5),
+        layer(8, 24, Activation::Linear, 22, 0.5),
+    ];
+    out.extend(postcard::to_stdvec(&(head.len() as u8)).unwrap());
+    for l in &head {
+        let (w, b) = (bytes(&l.w), bytes(&l.b));
+        out.extend(
+            postcard::to_stdvec(&LayerWire {
+                in_dim: l.in_dim as u16,
+                out_dim: l.out_dim as u16,
+                activation: l.act,
+                weights: &w,
+                bias: &b,
+            })
+            .unwrap(),
+        );
+    }
+    seal(out)
+}
+
 /// Appends the CRC-32 of `body`.
 pub fn seal(mut body: Vec<u8>) -> Vec<u8> {
     let crc = CRC32.checksum(&body);
@@ -125,6 +179,6 @@ pub fn small_blob() -> Vec<u8> {
         "test-small",
         config(),
         &small_nets(Activation::Sine),
-        FORMAT_VERSION,
+        MIN_FORMAT_VERSION,
     )
 }

@@ -4,7 +4,7 @@
 //! firmware pipeline (embedding, golden replay, host comparison, profiling)
 //! before trained weights exist. Never ship its output in weights/.
 use gpecnet_core::blob::{
-    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, FORMAT_VERSION,
+    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, MIN_FORMAT_VERSION,
     MAGIC,
 };
 use gpecnet_core::golden::{
@@ -81,7 +81,7 @@ fn main() {
         &mut blob,
         &Preamble {
             magic: MAGIC,
-            version: FORMAT_VERSION,
+            version: MIN_FORMAT_VERSION,
         },
     );
     let config = ModelConfig {
