@@ -93,30 +93,6 @@ fn dist_evals(s: Setting) -> usize {
     }
 }
 
-/// Maps `f` over `0..n` on all cores, results in index order.
-fn par_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(n.max(1));
-    let chunk = n.div_ceil(threads);
-    let parts: Vec<Result<Vec<T>>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..threads)
-            .map(|t| {
-                let f = &f;
-                s.spawn(move || (t * chunk..((t + 1) * chunk).min(n)).map(f).collect())
-            })
-            .collect();
-        hs.into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| Err(anyhow!("worker panicked"))))
-            .collect()
-    });
-    let mut out = Vec::with_capacity(n);
-    for p in parts {
-        out.extend(p?);
-    }
-    Ok(out)
-}
-
 /// The blob with its latent sigma replaced (byte-identical when unchanged).
 fn blob_with_sigma(orig: &[u8], sigma: f32) -> Result<Vec<u8>> {
     let mut m = read_blob(orig)?;
@@ -132,36 +108,39 @@ fn sweep(blob: &[u8], val: &Dataset, settings: &[Setting]) -> Result<Vec<Metrics
     let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
     let refm = read_blob(blob)?;
     // Per window: the K centres of every setting.
-    let per_window: Vec<Vec<Vec<[f32; 2]>>> = par_map(val.windows.len(), |i| {
-        let w = &val.windows[i];
-        let past = w.obs();
-        let mut p =
-            Box::new(Predictor::<LibmSine, HOST_WIDTH>::new(&model).map_err(|e| anyhow!("{e}"))?);
-        let samples = p
-            .predict_endpoints::<NMAX>(&past, i as u64, NMAX)
-            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
-        if i < REF_CHECK {
-            let r = refm.predict(&past, i as u64, NMAX, SineKind::Libm, false);
-            let same = r.endpoints.len() == samples.len()
-                && r.endpoints.iter().zip(samples.iter()).all(|(a, b)| {
-                    a[0].to_bits() == b[0].to_bits() && a[1].to_bits() == b[1].to_bits()
-                });
-            if !same {
-                bail!("window {i}: core and reference path differ");
-            }
-        }
-        settings
-            .iter()
-            .map(|s| match s.km {
-                None => Ok(samples[..s.n].to_vec()),
-                Some((init, it)) => {
-                    let mut c = vec![[0.0f32; 2]; K];
-                    kmeans_reduce(&samples[..s.n], &mut c, it, init).map_err(|e| anyhow!("{e}"))?;
-                    Ok(c)
+    let per_window: Vec<Vec<Vec<[f32; 2]>>> =
+        gpecnet_trainer::core_eval::parallel_map(val.windows.len(), |i| {
+            let w = &val.windows[i];
+            let past = w.obs();
+            let mut p = Box::new(
+                Predictor::<LibmSine, HOST_WIDTH>::new(&model).map_err(|e| anyhow!("{e}"))?,
+            );
+            let samples = p
+                .predict_endpoints::<NMAX>(&past, i as u64, NMAX)
+                .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
+            if i < REF_CHECK {
+                let r = refm.predict(&past, i as u64, NMAX, SineKind::Libm, false);
+                let same = r.endpoints.len() == samples.len()
+                    && r.endpoints.iter().zip(samples.iter()).all(|(a, b)| {
+                        a[0].to_bits() == b[0].to_bits() && a[1].to_bits() == b[1].to_bits()
+                    });
+                if !same {
+                    bail!("window {i}: core and reference path differ");
                 }
-            })
-            .collect()
-    })?;
+            }
+            settings
+                .iter()
+                .map(|s| match s.km {
+                    None => Ok(samples[..s.n].to_vec()),
+                    Some((init, it)) => {
+                        let mut c = vec![[0.0f32; 2]; K];
+                        kmeans_reduce(&samples[..s.n], &mut c, it, init)
+                            .map_err(|e| anyhow!("{e}"))?;
+                        Ok(c)
+                    }
+                })
+                .collect()
+        })?;
     let mut out = Vec::with_capacity(settings.len());
     for si in 0..settings.len() {
         let mut acc = MetricsAccumulator::new();

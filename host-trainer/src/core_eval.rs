@@ -120,10 +120,9 @@ pub fn predict_reference(
     Prediction { trajectories }
 }
 
-pub(crate) fn parallel_map<T: Send>(
-    n: usize,
-    f: impl Fn(usize) -> Result<T> + Sync,
-) -> Result<Vec<T>> {
+/// Maps `f` over `0..n` on all cores (scoped threads, contiguous chunks); results in index
+/// order, so anything accumulated from them is independent of the thread count.
+pub fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) -> Result<Vec<T>> {
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(n.max(1));

@@ -51,11 +51,22 @@ fn fixed_golden_vectors_replay_bit_exact() {
         let mut p = Box::new(FixedPredictor::<1024>::new(&model).unwrap());
         let mut bad = 0usize;
         for case in golden.cases() {
-            let ends = p
-                .predict_endpoints::<64>(&case.past, case.seed, case.k())
-                .unwrap();
+            // The model's endpoint set (test-time sampling when the blob asks for it).
+            let mut ends = vec![[0.0f32; 2]; case.k()];
+            p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(
+                &case.past, case.seed, &mut ends,
+            )
+            .unwrap();
             for (i, e) in ends.iter().enumerate() {
                 bad += usize::from(e.map(f32::to_bits) != case.endpoint_bits(i));
+            }
+            // The point forecast, recorded for models with a point head (golden version 2).
+            assert_eq!(model.has_point_head(), case.point_len() > 0);
+            if model.has_point_head() {
+                let t = p.predict_point(&case.past).unwrap();
+                for (j, pt) in t.iter().enumerate() {
+                    bad += usize::from(Some(pt.map(f32::to_bits)) != case.point_bits(j));
+                }
             }
             if case.trajectory0_len() > 0 {
                 let t = p

@@ -28,6 +28,9 @@ const SINES: &[&str] = &["libm", "fast-f32", "micromath"];
 const FIXED_PATH: &str = "q15-table";
 /// Issue 6 targets for the small model in fixed point.
 const TARGET_INSNS: u64 = 300_000;
+/// Issue 10's budget for one call of a model with a point head: the point forecast plus the
+/// model's 20 endpoints (test-time sampling included), fixed point.
+const TARGET_INSNS_POINT: u64 = 1_500_000;
 const TARGET_CODE_WEIGHTS: u32 = 64 * 1024;
 
 const USAGE: &str = "usage: cargo xtask <command>
@@ -843,6 +846,18 @@ fn fold_profile(prof: &Path, funcs: &[(u32, u32, String)]) -> (Vec<(String, u64)
     (hot, code)
 }
 
+/// Whether the blob at `path` has a point-forecast head (format 2).
+fn blob_has_point_head(path: &std::path::Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .and_then(|b| {
+            gpecnet_core::Model::from_blob(&b)
+                .ok()
+                .map(|m| m.has_point_head())
+        })
+        .unwrap_or(false)
+}
+
 fn profile(o: &Opts) -> i32 {
     require(true);
     let dir = weights_dir(o);
@@ -1027,14 +1042,25 @@ fn profile(o: &Opts) -> i32 {
         let _ = writeln!(t, "- {} / {}: {}", r.model, r.sine, top.join(", "));
     }
     for r in rows.iter().filter(|r| r.sine == FIXED_PATH) {
-        let insns_ok = r.insns.is_some_and(|i| i < TARGET_INSNS);
+        // A format-2 model with a point head is held to issue 10's budget for the whole call.
+        let with_point = blob_has_point_head(&dir.join(format!("{}.gpec", r.model)));
+        let (target, what) = if with_point {
+            (
+                TARGET_INSNS_POINT,
+                "issue 10, fixed point, point forecast + 20 endpoints",
+            )
+        } else {
+            (TARGET_INSNS, "issue 6, fixed point, K = 20")
+        };
+        let insns_ok = r.insns.is_some_and(|i| i < target);
         let size_ok = r
             .exec_code
             .is_some_and(|c| c + r.blob < TARGET_CODE_WEIGHTS);
         let _ = writeln!(
             t,
-            "\nTarget (issue 6, fixed point, K = 20): < {TARGET_INSNS} instructions: {} ({}); \
+            "\nTarget of {} ({what}): < {target} instructions: {} ({}); \
              code + weights < {TARGET_CODE_WEIGHTS} B: {} ({} B = {} B blob + {} B predict code; whole image {} B incl. runtime, defmt, vector table).",
+            r.model,
             if insns_ok { "MET" } else { "NOT MET" },
             opt(r.insns),
             if size_ok { "MET" } else { "NOT MET" },
