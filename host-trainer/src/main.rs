@@ -176,12 +176,13 @@ struct EvalArgs {
 
 fn cmd_export(a: ExportArgs) -> Result<()> {
     let settings = gpecnet_trainer::ship::ExportSettings {
+        sine: a.sine,
+        k: a.k,
+        base_seed: a.seed,
         sigma: a.sigma,
         tts: a.tts,
     };
-    let card = gpecnet_trainer::ship::ship(
-        &a.run, &a.name, &a.out, &a.data, a.sine, a.k, a.seed, settings,
-    )?;
+    let card = gpecnet_trainer::ship::ship(&a.run, &a.name, &a.out, &a.data, settings)?;
     let m = card.test;
     println!(
         "exported {} (epoch {}, {} parameters, {} bytes) to {}",

@@ -93,7 +93,7 @@ pub struct Inference {
 impl Inference {
     /// The settings of `m` when it uses any format-2 feature.
     pub fn of(m: &RefModel) -> Option<Inference> {
-        m.needs_v2().then(|| Inference {
+        m.needs_v2().then_some(Inference {
             heading_steps: m.config.heading_steps,
             sigma: m.config.sigma,
             tts_samples: m.config.tts_samples,
@@ -228,11 +228,11 @@ pub fn ship(
     name: &str,
     out_dir: &Path,
     data_root: &Path,
-    sine: SineKind,
-    k: usize,
-    base_seed: u64,
     settings: ExportSettings,
 ) -> Result<ModelCard> {
+    let ExportSettings {
+        sine, k, base_seed, ..
+    } = settings;
     if name.is_empty()
         || !name
             .chars()
@@ -387,9 +387,16 @@ from it: attribution is required, **no commercial use**, and derivatives must be
     )
 }
 
-/// Inference settings `gpecnet export` writes into a blob (format 2 when any is used).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// What `gpecnet export` evaluates with (sine, K, seeds) and the inference settings it
+/// writes into the blob (format 2 when any is used).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExportSettings {
+    /// Sine of the reported numbers and golden vectors.
+    pub sine: SineKind,
+    /// Samples per window.
+    pub k: usize,
+    /// Test window `i` uses latent seed `base_seed + i`.
+    pub base_seed: u64,
     /// Latent sigma (default: the training config's).
     pub sigma: Option<f32>,
     /// Test-time samples N (0 / `None` = plain sampling); 3 Lloyd iterations, first-K init
