@@ -113,7 +113,9 @@ fn golden_vectors_replay_bit_exact() {
             SineKind::Fast
         };
         for case in golden.cases() {
-            let ends = r.predict_set(&case.past, case.seed, case.k(), sine).unwrap();
+            let ends = r
+                .predict_set(&case.past, case.seed, case.k(), sine)
+                .unwrap();
             for (i, e) in ends.iter().enumerate() {
                 assert_eq!(e.map(f32::to_bits), case.endpoint_bits(i));
             }
