@@ -36,7 +36,9 @@
 //! # Boundaries
 //!
 //! - Input: `x[2t+c] = (p_t[c] − p_0[c]) · data_scale` in f32 as in the f32
-//!   path, then [`quantize`]`(x, in_exp)` of `encoder_past`.
+//!   path (rotated into the heading frame first when the model has one,
+//!   [`crate::frame`]), then [`quantize`]`(x, in_exp)` of `encoder_past`; the
+//!   point-forecast head reads the same quantised vector.
 //! - Latent: `z_i = sigma · Gaussian::next()` (f32, [`crate::prng`]), then
 //!   `quantize(z_i, in_exp of decoder)`.
 //! - The vectors passed between networks share exponents (checked by the
@@ -45,7 +47,8 @@
 //!   reads the decoder output as is. `initial_pos = last / divisor` (f32) is
 //!   quantised with the feature exponent.
 //! - Output: `d_c = (y_c as f32) · 2^-out_exp`, endpoint `d_c / data_scale + p_0[c]`
-//!   (as in the f32 path); trajectory points likewise.
+//!   (as in the f32 path, through [`crate::frame`]); trajectory and point-forecast
+//!   points likewise.
 //!
 //! The decoder's feature columns are summed once per call into an `i64`
 //! partial sum and the latent columns added per sample; with integers this

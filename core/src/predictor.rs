@@ -4,7 +4,9 @@
 //!
 //! For observed positions `p_0 .. p_{P-1}` (caller's units, P = `past_len`):
 //!
-//! 1. `x[2t + c] = (p_t[c] - p_0[c]) · data_scale` (two f32 roundings).
+//! 1. `x[2t + c] = (p_t[c] - p_0[c]) · data_scale` (two f32 roundings); for a
+//!    model with a heading frame the shifted point is rotated first
+//!    ([`crate::frame`] gives the exact rule, shared by both engines).
 //! 2. `f = encoder_past(x)` (width `fdim`).
 //! 3. The decoder's first layer sees `[f, z]`. Its feature part is summed
 //!    once per call: `a_j = b_j + Σ_{i<fdim} W_ji f_i`, strictly in `i` order.
@@ -13,10 +15,16 @@
 //!    first layer continues the same sum `a_j + Σ_i W_j,fdim+i z_i` (so the
 //!    result equals one sequential pass over `[f, z]`), then the activation
 //!    and the remaining decoder layers give `d` (normalised endpoint).
-//! 5. Endpoint `e[c] = d[c] / data_scale + p_0[c]`.
+//! 5. Endpoint `e[c] = d[c] / data_scale + p_0[c]` (rotated back first in the
+//!    heading frame, see [`crate::frame`]). The K endpoints a model reports
+//!    follow its protocol ([`crate::sampling`]): plain samples, or test-time
+//!    sampling reduced by k-means.
 //! 6. Optionally, the intermediate points: `g = encoder_dest(d)`, `q =
 //!    predictor([f, g, p_{P-1} / initial_pos_divisor])`, point `t` =
 //!    `q[2t + c] / data_scale + p_0[c]`, and the last point is `e`.
+//!
+//! The point forecast ([`Predictor::predict_point`]) runs the point-forecast
+//! head on the same input `x` and maps each output pair like an endpoint.
 //!
 //! Every dense layer computes `y_j = act(b_j + W_j0 x_0 + W_j1 x_1 + ...)`,
 //! accumulating left to right in f32 with separate multiply and add (no FMA).
