@@ -8,7 +8,7 @@
 //!   `N`), and [`crate::cluster::kmeans_reduce`] reduces them to `k` centres
 //!   with the blob's initialisation and iteration count. `k ≤ N` is required.
 //!
-//! The engines call [`endpoint_set`] with a closure that draws `n` samples
+//! The engines call `endpoint_set` (crate-private) with a closure that draws `n` samples
 //! into a caller-sized buffer of capacity `N` (a const generic: 8 bytes of
 //! stack per sample).
 
