@@ -513,18 +513,10 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
         let p = self.input(past, &mut x)?;
         let eq = out_exp(self.model.point_head());
         let q = run_network_q(self.model.point_head(), &x[..p], &mut self.a, &mut self.b);
-        let mut t = Trajectory::new();
-        for pair in q.chunks_exact(2) {
-            let d = [
-                dequantize(pair[0].into(), eq),
-                dequantize(pair[1].into(), eq),
-            ];
-            let pt = self.frame.output(d, c.data_scale);
-            if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
-                return Err(PredictError::NonFiniteOutput);
-            }
-        }
-        Ok(t)
+        let pairs = q
+            .chunks_exact(2)
+            .map(|p| [dequantize(p[0].into(), eq), dequantize(p[1].into(), eq)]);
+        self.frame.points(pairs, c.data_scale)
     }
 
     fn encode(&mut self, past: &[[f32; 2]]) -> Result<(), PredictError> {
@@ -689,17 +681,10 @@ impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
             &mut self.a,
             &mut self.b,
         );
-        let mut t = Trajectory::new();
-        for pair in q.chunks_exact(2) {
-            let d = [
-                dequantize(pair[0].into(), eq),
-                dequantize(pair[1].into(), eq),
-            ];
-            let pt = self.frame.output(d, c.data_scale);
-            if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
-                return Err(PredictError::NonFiniteOutput);
-            }
-        }
+        let pairs = q
+            .chunks_exact(2)
+            .map(|p| [dequantize(p[0].into(), eq), dequantize(p[1].into(), eq)]);
+        let mut t = self.frame.points(pairs, c.data_scale)?;
         if t.push(e).is_err() {
             return Err(PredictError::NonFiniteOutput);
         }

@@ -26,7 +26,7 @@
 //! No trigonometry is involved, so the f32 and the fixed-point engines apply
 //! the same rule, bit for bit, on every target.
 
-use crate::predictor::PredictError;
+use crate::predictor::{PredictError, Trajectory};
 
 /// A track's frame: its origin and, when the model asks, its heading.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -139,6 +139,25 @@ impl Frame {
                 s * u[0] + c * u[1] + self.origin[1],
             ],
         }
+    }
+
+    /// Network output pairs (model space) as caller points, in order: the
+    /// shared tail of every trajectory and point forecast. Refuses a
+    /// non-finite point or more than [`crate::blob::MAX_FUTURE`] of them
+    /// ([`PredictError::NonFiniteOutput`]).
+    pub fn points(
+        &self,
+        pairs: impl IntoIterator<Item = [f32; 2]>,
+        data_scale: f32,
+    ) -> Result<Trajectory, PredictError> {
+        let mut t = Trajectory::new();
+        for d in pairs {
+            let pt = self.output(d, data_scale);
+            if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
+                return Err(PredictError::NonFiniteOutput);
+            }
+        }
+        Ok(t)
     }
 
     /// The trajectory predictor's position input before its divisor: the raw

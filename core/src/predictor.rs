@@ -276,15 +276,8 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
         let mut x = [0.0f32; 2 * crate::blob::MAX_PAST];
         let p = self.input(past, &mut x)?;
         let q = run_network::<S>(self.model.point_head(), &x[..p], &mut self.a, &mut self.b);
-        let mut t = Trajectory::new();
-        for pair in q.chunks_exact(2) {
-            let pt = self.frame.output([pair[0], pair[1]], c.data_scale);
-            if !(pt[0].is_finite() && pt[1].is_finite()) {
-                return Err(PredictError::NonFiniteOutput);
-            }
-            t.push(pt).map_err(|_| PredictError::NonFiniteOutput)?;
-        }
-        Ok(t)
+        let pairs = q.chunks_exact(2).map(|p| [p[0], p[1]]);
+        self.frame.points(pairs, c.data_scale)
     }
 
     /// Step 4 for one latent already in `self.z`: the normalised endpoint.
@@ -429,16 +422,8 @@ impl<'m, 'a, S: Sine, const W: usize> Predictor<'m, 'a, S, W> {
             &mut self.a,
             &mut self.b,
         );
-        let mut t = Trajectory::new();
-        for pair in q.chunks_exact(2) {
-            let pt = self.frame.output([pair[0], pair[1]], c.data_scale);
-            if !(pt[0].is_finite() && pt[1].is_finite()) {
-                return Err(PredictError::NonFiniteOutput);
-            }
-            if t.push(pt).is_err() {
-                return Err(PredictError::NonFiniteOutput);
-            }
-        }
+        let pairs = q.chunks_exact(2).map(|p| [p[0], p[1]]);
+        let mut t = self.frame.points(pairs, c.data_scale)?;
         if t.push(e).is_err() {
             return Err(PredictError::NonFiniteOutput);
         }
