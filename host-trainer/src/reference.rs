@@ -476,6 +476,12 @@ impl RefModel {
         tts_reduce(c, &samples, k)
     }
 
+    /// The network input `x` of `past` in frame `fr` (shared by the encoder and the point head).
+    fn input(&self, fr: &RefFrame, past: &[[f32; 2]]) -> Vec<f32> {
+        let ds = self.config.data_scale;
+        past.iter().flat_map(|p| fr.input(*p, ds)).collect()
+    }
+
     /// The deterministic point forecast of the point head (`future_len` points, caller's
     /// units), or `None` without a head.
     pub fn predict_point(&self, past: &[[f32; 2]], kind: SineKind) -> Option<Vec<[f32; 2]>> {
@@ -484,10 +490,7 @@ impl RefModel {
         }
         let c = &self.config;
         let fr = self.frame(past);
-        let x: Vec<f32> = past
-            .iter()
-            .flat_map(|p| fr.input(*p, c.data_scale))
-            .collect();
+        let x = self.input(&fr, past);
         let q = run(&self.point_head, &x, kind);
         Some(
             q.chunks(2)
@@ -509,10 +512,7 @@ impl RefModel {
     ) -> RefPrediction {
         let c = &self.config;
         let fr = self.frame(past);
-        let x: Vec<f32> = past
-            .iter()
-            .flat_map(|p| fr.input(*p, c.data_scale))
-            .collect();
+        let x = self.input(&fr, past);
         let f = run(&self.encoder_past, &x, kind);
         let mut normals = Normals::new(seed);
         let last = fr.predictor_position(past[past.len() - 1]);
