@@ -22,7 +22,7 @@ use gpecnet_core::{FixedPredictor, LibmSine, Model, NumericKind, PredictError, P
 use heapless::Vec;
 
 use crate::golden::{MAX_K, MAX_SAMPLES, SCRATCH};
-use crate::tracks::{Observation, TrackTable, HISTORY};
+use gpecnet_core::tracks::{Observation, TrackTable, HISTORY};
 
 /// Table capacity (tracks).
 pub const MAX_TRACKS: usize = 16;

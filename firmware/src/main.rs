@@ -19,8 +19,6 @@ mod golden;
 #[cfg(feature = "profile")]
 mod profile;
 mod stack;
-#[allow(dead_code)] // a library-style API for integrators; the demo uses part of it
-mod tracks;
 
 use defmt_semihosting as _; // global defmt logger over semihosting SYS_WRITE
 use embassy_executor::{Executor, Spawner};

@@ -4,8 +4,5 @@
 //! verification code of the firmware (`golden-host`, used by `cargo xtask qemu`).
 #![cfg_attr(not(test), no_std)]
 
-#[path = "../../src/tracks.rs"]
-pub mod tracks;
-
 #[path = "../../src/golden.rs"]
 pub mod golden;
