@@ -4,7 +4,7 @@
 //! Drawing `n > k` latent samples and clustering them into `k` centres (the
 //! "test-time sampling trick" of PECNet/Y-Net) covers the endpoint
 //! distribution more evenly than `k` raw samples. On a device, call
-//! [`crate::Predictor::predict_endpoints`] with `n` samples, then
+//! [`crate::Predictor::predict_samples`] with `n` samples, then
 //! [`kmeans_reduce`] into a `k`-element buffer.
 //!
 //! ```

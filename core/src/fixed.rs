@@ -56,8 +56,8 @@
 //!
 //! # Memory
 //!
-//! `FixedPredictor<W>` holds four `i16` rows and one `i64` row of `W`
-//! (`16·W` bytes). The sine table is 514 bytes of flash.
+//! [`crate::engine::Engine`]`<Q15, W>` holds four `i16` rows and one `i64`
+//! row of `W` (`16·W` bytes). The sine table is 514 bytes of flash.
 //!
 //! # Speed (Cortex-M4)
 //!
@@ -74,11 +74,12 @@
 
 use core::ops::RangeInclusive;
 
-use crate::blob::{Activation, Layer, Model, Network, NumericKind, MAX_PAST};
-use crate::frame::Frame;
-use crate::predictor::{PredictError, Trajectory};
-use crate::prng::Gaussian;
-use crate::{BlobError, Error};
+use crate::blob::{Activation, Layer, NumericKind};
+use crate::engine::{Backend, Sealed};
+
+/// The fixed-point backend ([`NumericKind::Int16Q15`] blobs; see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Q15;
 
 /// Allowed shifts of `Linear`/`Relu` channels.
 pub const AFFINE_SHIFTS: RangeInclusive<i8> = 0..=62;
@@ -319,6 +320,7 @@ fn dense_with(
     );
 }
 
+/// One fixed-point dense layer (see the module docs).
 fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
     if x.len() & 7 == 0 && layer.activation() == Activation::Sine {
         return dense_with(
@@ -415,279 +417,52 @@ fn latent_with(
     }
 }
 
-fn run_network_q<'s>(
-    net: &Network<'_>,
-    input: &[i16],
-    a: &'s mut [i16],
-    b: &'s mut [i16],
-) -> &'s [i16] {
-    let n = input.len().min(a.len());
-    a[..n].copy_from_slice(&input[..n]);
-    let (mut src, mut dst) = (a, b);
-    let mut width = n;
-    for layer in net.layers() {
-        let out = layer.out_dim().min(dst.len());
-        dense_q(layer, &src[..width], &mut dst[..out]);
-        core::mem::swap(&mut src, &mut dst);
-        width = out;
-    }
-    &src[..width]
-}
+impl Sealed for Q15 {}
 
-fn in_exp(net: &Network<'_>) -> i8 {
-    net.layer(0).map_or(0, |l| l.in_exp())
-}
+impl Backend for Q15 {
+    type Act = i16;
+    type Acc = i64;
+    const KIND: NumericKind = NumericKind::Int16Q15;
+    const SINE: &'static str = SINE_NAME;
 
-fn out_exp(net: &Network<'_>) -> i8 {
-    net.layers().last().map_or(0, |l| l.out_exp())
-}
-
-/// Predicts endpoints (and trajectories) of a fixed-point model with scratch width `W`.
-pub struct FixedPredictor<'m, 'a, const W: usize> {
-    model: &'m Model<'a>,
-    a: [i16; W],
-    b: [i16; W],
-    feat: [i16; W],
-    z: [i16; W],
-    part: [i64; W],
-    frame: Frame,
-}
-
-impl<'m, 'a, const W: usize> FixedPredictor<'m, 'a, W> {
-    /// A predictor for `model`: fails with [`BlobError::UnsupportedNumeric`]
-    /// for an f32 model and [`PredictError::ScratchTooSmall`] if it is wider than `W`.
-    pub fn new(model: &'m Model<'a>) -> Result<Self, Error> {
-        if model.numeric() != NumericKind::Int16Q15 {
-            return Err(Error::Blob(BlobError::UnsupportedNumeric));
-        }
-        let c = model.config();
-        let needed = model.max_width().max(c.fdim as usize + c.zdim as usize);
-        if needed > W {
-            return Err(Error::Predict(PredictError::ScratchTooSmall {
-                needed,
-                capacity: W,
-            }));
-        }
-        Ok(Self {
-            model,
-            a: [0; W],
-            b: [0; W],
-            feat: [0; W],
-            z: [0; W],
-            part: [0; W],
-            frame: Frame::raw(),
-        })
+    #[inline]
+    fn from_f32(v: f32, exp: i8) -> i16 {
+        quantize(v, exp) as i16
     }
 
-    /// The model.
-    pub fn model(&self) -> &'m Model<'a> {
-        self.model
+    #[inline]
+    fn to_f32(v: i16, exp: i8) -> f32 {
+        dequantize(v.into(), exp)
     }
 
-    /// Checks `past`, sets the frame and writes the quantised network input into `x`
-    /// (the exponent of encoder_past's input, which the point head shares).
-    fn input(
-        &mut self,
-        past: &[[f32; 2]],
-        x: &mut [i16; 2 * MAX_PAST],
-    ) -> Result<usize, PredictError> {
-        let c = *self.model.config();
-        self.frame = Frame::checked(past, self.model)?;
-        let e = in_exp(self.model.encoder_past());
-        for (t, pt) in past.iter().enumerate() {
-            let v = self.frame.input(*pt, c.data_scale);
-            x[2 * t] = quantize(v[0], e) as i16;
-            x[2 * t + 1] = quantize(v[1], e) as i16;
-        }
-        Ok(2 * past.len())
+    #[inline]
+    fn dense(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
+        dense_q(layer, x, out);
     }
 
-    /// The model's deterministic point forecast (see
-    /// [`crate::Predictor::predict_point`]), in fixed point.
-    pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        if !self.model.has_point_head() {
-            return Err(PredictError::NoPointHead);
-        }
-        let c = *self.model.config();
-        let mut x = [0i16; 2 * MAX_PAST];
-        let p = self.input(past, &mut x)?;
-        let eq = out_exp(self.model.point_head());
-        let q = run_network_q(self.model.point_head(), &x[..p], &mut self.a, &mut self.b);
-        let pairs = q
-            .chunks_exact(2)
-            .map(|p| [dequantize(p[0].into(), eq), dequantize(p[1].into(), eq)]);
-        self.frame.points(pairs, c.data_scale)
+    fn partial(layer: &Layer<'_>, x: &[i16], part: &mut [i64]) {
+        accumulate(
+            layer,
+            0,
+            x,
+            part,
+            |_, b| i64::from(b),
+            |p, acc, _| *p = acc,
+            dot1,
+        );
     }
 
-    fn encode(&mut self, past: &[[f32; 2]]) -> Result<(), PredictError> {
-        let c = *self.model.config();
-        let mut x = [0i16; 2 * MAX_PAST];
-        let p = self.input(past, &mut x)?;
-        let fdim = c.fdim as usize;
-        let f = run_network_q(self.model.encoder_past(), &x[..p], &mut self.a, &mut self.b);
-        self.feat[..fdim].copy_from_slice(&f[..fdim]);
-        if let Some(l0) = self.model.decoder().layer(0) {
-            accumulate(
-                l0,
-                0,
-                &self.feat[..fdim],
-                &mut self.part,
-                |_, b| i64::from(b),
-                |p, acc, _| *p = acc,
-                dot1,
-            );
-        }
-        Ok(())
-    }
-
-    fn decode(&mut self) -> [i16; 2] {
-        let c = self.model.config();
-        let (fdim, zdim) = (c.fdim as usize, c.zdim as usize);
-        let dec = self.model.decoder();
-        let Some(l0) = dec.layer(0) else {
-            return [0; 2];
-        };
-        let out0 = l0.out_dim().min(W);
-        let (z, part, out) = (&self.z[..zdim], &self.part, &mut self.a[..out0]);
-        match l0.activation() {
-            Activation::Linear => latent_with(l0, fdim, z, part, out, |a, s| {
+    fn latent(layer: &Layer<'_>, skip: usize, z: &[i16], part: &[i64], out: &mut [i16]) {
+        match layer.activation() {
+            Activation::Linear => latent_with(layer, skip, z, part, out, |a, s| {
                 activate_q(Activation::Linear, a, s)
             }),
-            Activation::Relu => latent_with(l0, fdim, z, part, out, |a, s| {
+            Activation::Relu => latent_with(layer, skip, z, part, out, |a, s| {
                 activate_q(Activation::Relu, a, s)
             }),
-            Activation::Sine => latent_with(l0, fdim, z, part, out, |a, s| {
+            Activation::Sine => latent_with(layer, skip, z, part, out, |a, s| {
                 activate_q(Activation::Sine, a, s)
             }),
         }
-        let (mut src, mut dst) = (&mut self.a, &mut self.b);
-        let mut width = out0;
-        for layer in dec.layers().skip(1) {
-            let out = layer.out_dim();
-            dense_q(layer, &src[..width], &mut dst[..out]);
-            core::mem::swap(&mut src, &mut dst);
-            width = out;
-        }
-        [src[0], src[1]]
-    }
-
-    /// The model's endpoint set (see [`crate::sampling`]): `out.len()` endpoints,
-    /// plain latent samples or, when the blob asks for test-time sampling,
-    /// the k-means reduction of its `tts_samples` samples. `N` bounds the
-    /// samples drawn (8 bytes of stack each); it must be at least
-    /// [`crate::sampling::samples_needed`].
-    pub fn predict_endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        let ext = *self.model.extensions();
-        crate::sampling::endpoint_set::<N>(&ext, out, |n, buf| {
-            self.run::<N>(past, seed, n, |e, _| buf.push(e).is_ok())
-        })
-    }
-
-    /// Predicts `k` endpoints (`k <= K`) in the caller's units; same inputs,
-    /// same bits, on every target.
-    pub fn predict_endpoints<const K: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        k: usize,
-    ) -> Result<heapless::Vec<[f32; 2], K>, PredictError> {
-        let mut out = heapless::Vec::new();
-        self.run::<K>(past, seed, k, |e, _| out.push(e).is_ok())?;
-        Ok(out)
-    }
-
-    /// Predicts `k` full trajectories (the last point of each is its endpoint).
-    pub fn predict_trajectories<const K: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        k: usize,
-    ) -> Result<heapless::Vec<Trajectory, K>, PredictError> {
-        if !self.model.has_predictor() {
-            return Err(PredictError::NoPredictor);
-        }
-        let mut pending = heapless::Vec::<([f32; 2], [i16; 2]), K>::new();
-        self.run::<K>(past, seed, k, |e, d| pending.push((e, d)).is_ok())?;
-        let last = past.last().copied().unwrap_or([0.0; 2]);
-        let mut out: heapless::Vec<Trajectory, K> = heapless::Vec::new();
-        for (e, d) in pending {
-            let t = self.trajectory(last, e, d)?;
-            if out.push(t).is_err() {
-                return Err(PredictError::BadSampleCount);
-            }
-        }
-        Ok(out)
-    }
-
-    fn run<const K: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        k: usize,
-        mut sink: impl FnMut([f32; 2], [i16; 2]) -> bool,
-    ) -> Result<(), PredictError> {
-        if k == 0 || k > K {
-            return Err(PredictError::BadSampleCount);
-        }
-        self.encode(past)?;
-        let c = *self.model.config();
-        let zdim = c.zdim as usize;
-        let ez = in_exp(self.model.decoder());
-        let eo = out_exp(self.model.decoder());
-        let mut g = Gaussian::new(seed);
-        for _ in 0..k {
-            for zi in self.z[..zdim].iter_mut() {
-                *zi = quantize(c.sigma * g.next(), ez) as i16;
-            }
-            let d = self.decode();
-            let dd = [dequantize(d[0].into(), eo), dequantize(d[1].into(), eo)];
-            let e = self.frame.output(dd, c.data_scale);
-            if !(e[0].is_finite() && e[1].is_finite()) {
-                return Err(PredictError::NonFiniteOutput);
-            }
-            if !sink(e, d) {
-                return Err(PredictError::BadSampleCount);
-            }
-        }
-        Ok(())
-    }
-
-    fn trajectory(
-        &mut self,
-        last: [f32; 2],
-        e: [f32; 2],
-        d: [i16; 2],
-    ) -> Result<Trajectory, PredictError> {
-        let c = *self.model.config();
-        let fdim = c.fdim as usize;
-        let ef = out_exp(self.model.encoder_past());
-        let g = run_network_q(self.model.encoder_dest(), &d, &mut self.a, &mut self.b);
-        let ddim = g.len();
-        self.z[..fdim].copy_from_slice(&self.feat[..fdim]);
-        self.z[fdim..fdim + ddim].copy_from_slice(g);
-        let last = self.frame.predictor_position(last);
-        self.z[fdim + ddim] = quantize(last[0] / c.initial_pos_divisor, ef) as i16;
-        self.z[fdim + ddim + 1] = quantize(last[1] / c.initial_pos_divisor, ef) as i16;
-        let n_in = fdim + ddim + 2;
-        let eq = out_exp(self.model.predictor());
-        let q = run_network_q(
-            self.model.predictor(),
-            &self.z[..n_in],
-            &mut self.a,
-            &mut self.b,
-        );
-        let pairs = q
-            .chunks_exact(2)
-            .map(|p| [dequantize(p[0].into(), eq), dequantize(p[1].into(), eq)]);
-        let mut t = self.frame.points(pairs, c.data_scale)?;
-        if t.push(e).is_err() {
-            return Err(PredictError::NonFiniteOutput);
-        }
-        Ok(t)
     }
 }

@@ -26,7 +26,30 @@
 //! No trigonometry is involved, so the f32 and the fixed-point engines apply
 //! the same rule, bit for bit, on every target.
 
+use crate::blob::MAX_PAST;
 use crate::predictor::{PredictError, Trajectory};
+
+/// The largest accepted magnitude of an input coordinate (caller's units).
+///
+/// At 10^6 an f32 resolves 1/16 of a unit, so the first step of the
+/// computation (`p − p_0`) loses at most 1/32 of a unit (a pixel or a metre)
+/// to rounding; beyond it the loss grows to whole units (1 at 1.7·10^7, 8 at
+/// 10^8) and the forecast would shift silently, so such inputs are refused
+/// with [`PredictError::InputOutOfRange`]. Shift your coordinates to a
+/// nearby origin first.
+pub const MAX_COORDINATE: f32 = 1.0e6;
+
+/// The largest accepted magnitude of a network input (`(p_t − p_0) ·
+/// data_scale`, normalised units) for every model; fixed-point models may
+/// accept less ([`crate::blob::Model::input_limit`]).
+///
+/// 2^12. The shipped SDD models (`data_scale` 1.86 per pixel) see at most
+/// 1,834 in their training data (a 986 px displacement in 3.2 s; the test set's
+/// largest is 1,297), so 4,096 (2,202 px; 57 m for the ETH/UCY recipe's
+/// `data_scale` of 72 per metre) leaves room for fast movers while a
+/// corrupted track (a teleporting detection, a coordinate in the wrong unit) is
+/// refused instead of forecast from.
+pub const MAX_INPUT: f32 = 4096.0;
 
 /// A track's frame: its origin and, when the model asks, its heading.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,7 +70,8 @@ impl Frame {
     }
 
     /// Checks `past` against `model` (length `past_len`, every coordinate
-    /// finite) and returns its frame under the model's `heading_steps`.
+    /// finite and within ±[`MAX_COORDINATE`]) and returns its frame under the
+    /// model's `heading_steps`.
     pub fn checked(
         past: &[[f32; 2]],
         model: &crate::blob::Model<'_>,
@@ -62,7 +86,34 @@ impl Frame {
         if past.iter().flatten().any(|v| !v.is_finite()) {
             return Err(PredictError::NonFiniteInput);
         }
+        if past.iter().flatten().any(|v| v.abs() > MAX_COORDINATE) {
+            return Err(PredictError::InputOutOfRange);
+        }
         Frame::new(past, model.extensions().heading_steps)
+    }
+
+    /// [`Frame::checked`], then every point as the networks see it
+    /// ([`Frame::input`]), each coordinate within ±[`Model::input_limit`]
+    /// ([`PredictError::InputOutOfRange`] otherwise). The guard every engine
+    /// runs before touching a network, so both numeric kinds refuse the same
+    /// inputs with the same error.
+    ///
+    /// [`Model::input_limit`]: crate::blob::Model::input_limit
+    pub fn inputs(
+        past: &[[f32; 2]],
+        model: &crate::blob::Model<'_>,
+    ) -> Result<(Frame, [[f32; 2]; MAX_PAST]), PredictError> {
+        let frame = Frame::checked(past, model)?;
+        let (scale, limit) = (model.config().data_scale, model.input_limit());
+        let mut x = [[0.0f32; 2]; MAX_PAST];
+        for (dst, p) in x.iter_mut().zip(past) {
+            *dst = frame.input(*p, scale);
+            // `!(a <= b)` also refuses NaN.
+            if !(dst[0].abs() <= limit && dst[1].abs() <= limit) {
+                return Err(PredictError::InputOutOfRange);
+            }
+        }
+        Ok((frame, x))
     }
 
     /// The frame of `past` (already checked finite and at least 2 long) with

@@ -11,37 +11,6 @@
 //! exports weight blobs that this crate reads **in place** — a blob linked
 //! into flash with `include_bytes!` is never copied into RAM.
 //!
-//! ```
-//! # fn demo(blob: &'static [u8]) -> Result<(), gpecnet_core::Error> {
-//! use gpecnet_core::{LibmSine, Model, Predictor};
-//!
-//! let model = Model::from_blob(blob)?;                 // validates magic, CRC, shapes, weights
-//! let mut p = Predictor::<LibmSine, 128>::new(&model)?; // 128 = scratch width (stack/static)
-//! let past = [[512.0, 300.0], [514.0, 301.0], [516.5, 302.0], [519.0, 303.5],
-//!             [521.0, 304.5], [523.5, 305.0], [526.0, 306.0], [528.0, 307.5]];
-//! let endpoints = p.predict_endpoints::<20>(&past, /* seed */ 1, /* k */ 20)?;
-//! for e in &endpoints {
-//!     // pixel (or metre) coordinates, same frame as `past`
-//!     let _ = (e[0], e[1]);
-//! }
-//! # Ok(()) }
-//! ```
-//!
-//! ## Modules
-//! - [`blob`]: the weight-blob reader (format: `weights/FORMAT.md`) and [`Model`].
-//! - [`predictor`]: the inference path and its exact arithmetic order.
-//! - [`prng`]: the specified latent sampler (SplitMix64 → xoshiro128++ → Box–Muller).
-//! - [`sine`]: reference (`libm`), fast fixed-order f32, and micromath sines.
-//! - [`math`]: fixed-order single-precision `sin`/`ln` used by the above.
-//! - [`golden`]: golden-vector sidecar files for bit-exact verification.
-//!
-//! ## Features
-//! - `defmt`: `defmt::Format` on public types, for logging on a device.
-//! - `micromath`: `sine::MicromathSine`, micromath's approximate sine.
-//!
-//! ## Resource use
-//! `Model` is a ~500-byte view. `Predictor<S, W>` holds `20·W` bytes of
-//! scratch (the widest layer must fit in `W`). See [`predictor`] for stack use.
 #![no_std]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
@@ -53,18 +22,25 @@
 )]
 
 pub mod blob;
+#[doc(hidden)]
 pub mod cluster;
+pub mod engine;
 pub mod fixed;
+pub mod float;
 pub mod frame;
+#[doc(hidden)]
 pub mod golden;
+#[doc(hidden)]
 pub mod math;
 pub mod predictor;
+#[doc(hidden)]
 pub mod prng;
 pub mod sampling;
 pub mod sine;
+pub mod tracks;
 
 pub use blob::{Activation, BlobError, Model, ModelConfig, NumericKind};
-pub use fixed::FixedPredictor;
+pub use engine::Engine;
 pub use predictor::{PredictError, Predictor, Trajectory};
 pub use sine::{FastSine, LibmSine, Sine};
 

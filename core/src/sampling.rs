@@ -28,13 +28,16 @@ pub(crate) fn endpoint_set<const N: usize>(
         0 => k,
         n => n,
     };
-    if k == 0 || k > n || n > N {
+    if k == 0 || k > n {
         return Err(PredictError::BadSampleCount);
+    }
+    if n > N {
+        return Err(PredictError::CapacityExceeded);
     }
     let mut buf = heapless::Vec::<[f32; 2], N>::new();
     draw(n, &mut buf)?;
     if buf.len() != n {
-        return Err(PredictError::BadSampleCount);
+        return Err(PredictError::CapacityExceeded);
     }
     if ext.tts_samples == 0 {
         out.copy_from_slice(&buf);

@@ -332,7 +332,7 @@ fn format2_blob_survives_truncation_and_bit_flips() {
     assert_eq!(m.extensions().heading_steps, 1);
     assert_eq!(m.extensions().tts_samples, 24);
     let past: Vec<[f32; 2]> = (0..8).map(|t| [3.0 * t as f32, 1.0 - t as f32]).collect();
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     assert_eq!(p.predict_point(&past).unwrap().len(), 12);
     let mut ends = [[0.0f32; 2]; 20];
     p.predict_endpoint_set::<32>(&past, 3, &mut ends).unwrap();
@@ -348,7 +348,7 @@ fn format2_blob_survives_truncation_and_bit_flips() {
         b[i / 8] ^= 1 << (i % 8);
         assert!(Model::from_blob(&b).is_err(), "bit {i}");
         if let Ok(m) = Model::from_blob(&reseal(&b)) {
-            if let Ok(mut p) = Predictor::<LibmSine, 32>::new(&m) {
+            if let Ok(mut p) = Predictor::<LibmSine, 32>::new(m) {
                 let _ = p.predict_point(&past);
                 let _ = p.predict_endpoint_set::<64>(&past, 1, &mut ends);
             }

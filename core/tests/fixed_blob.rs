@@ -6,7 +6,11 @@ use gpecnet_core::blob::{
     Activation, LayerWireQ, ModelConfig, ModelInfo, NetworkId, NumericKind, Preamble, CRC32, MAGIC,
     MIN_FORMAT_VERSION,
 };
-use gpecnet_core::{BlobError, Error, FixedPredictor, Model, PredictError};
+mod common;
+
+use common::{samples, trajectories};
+use gpecnet_core::fixed::Q15;
+use gpecnet_core::{BlobError, Engine, Error, LibmSine, Model, PredictError, Predictor};
 
 #[derive(Clone)]
 struct QLayer {
@@ -154,36 +158,36 @@ fn valid_fixed_blob_parses_and_predicts() {
     assert_eq!((l.in_exp(), l.out_exp()), (10, 15));
     assert_eq!(l.weight_q(0, 0), nets()[1][0].w[0]);
     assert_eq!(l.bias_q(4), nets()[1][0].b[4]);
-    let mut p = FixedPredictor::<32>::new(&m).unwrap();
-    let e1 = p.predict_endpoints::<8>(&PAST, 3, 8).unwrap();
-    let e2 = p.predict_endpoints::<8>(&PAST, 3, 8).unwrap();
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    let e1 = samples(&mut p, &PAST, 3, 8).unwrap();
+    let e2 = samples(&mut p, &PAST, 3, 8).unwrap();
     assert_eq!(e1, e2);
     assert!(e1.iter().flatten().all(|v| v.is_finite()));
-    let t = p.predict_trajectories::<8>(&PAST, 3, 8).unwrap();
+    let t = trajectories(&mut p, &PAST, 3, 8).unwrap();
     assert_eq!(t.len(), 8);
     for (tr, e) in t.iter().zip(&e1) {
         assert_eq!(tr.len(), 12);
         assert_eq!(tr[11], *e);
     }
     assert!(matches!(
-        FixedPredictor::<8>::new(&m),
+        Predictor::<LibmSine, 8>::new(m),
         Err(Error::Predict(PredictError::ScratchTooSmall { .. }))
     ));
     assert_eq!(
-        p.predict_endpoints::<8>(&PAST[..7], 3, 8).unwrap_err(),
+        samples(&mut p, &PAST[..7], 3, 8).unwrap_err(),
         PredictError::WrongPastLength {
             expected: 8,
             got: 7
         }
     );
     assert_eq!(
-        p.predict_endpoints::<8>(&PAST, 3, 9).unwrap_err(),
+        samples(&mut p, &PAST, 3, 0).unwrap_err(),
         PredictError::BadSampleCount
     );
     let mut bad = PAST;
     bad[3][1] = f32::NAN;
     assert_eq!(
-        p.predict_endpoints::<8>(&bad, 3, 1).unwrap_err(),
+        samples(&mut p, &bad, 3, 1).unwrap_err(),
         PredictError::NonFiniteInput
     );
 }
@@ -240,9 +244,9 @@ fn every_bit_flip_with_valid_checksum_never_panics() {
             if let Ok(m) = Model::from_blob(&seal(c)) {
                 accepted += 1;
                 // Whatever the reader accepts, the predictor runs without panicking.
-                if let Ok(mut p) = FixedPredictor::<64>::new(&m) {
-                    let _ = p.predict_endpoints::<4>(&PAST, 1, 4);
-                    let _ = p.predict_trajectories::<2>(&PAST, 1, 2);
+                if let Ok(mut p) = Predictor::<LibmSine, 64>::new(m) {
+                    let _ = samples(&mut p, &PAST, 1, 4);
+                    let _ = trajectories(&mut p, &PAST, 1, 2);
                 }
             }
         }
@@ -350,7 +354,7 @@ fn error_paths() {
 }
 
 #[test]
-fn f32_models_are_refused_by_the_fixed_predictor() {
+fn f32_models_are_refused_by_the_fixed_engine_and_run_by_the_predictor() {
     // Same config, f32 layers: build via the f32 wire with zero weights.
     use gpecnet_core::blob::LayerWire;
     let mut out = postcard::to_stdvec(&Preamble {
@@ -383,7 +387,11 @@ fn f32_models_are_refused_by_the_fixed_predictor() {
     let b = seal(out);
     let m = Model::from_blob(&b).unwrap();
     assert!(matches!(
-        FixedPredictor::<32>::new(&m),
+        Engine::<Q15, 32>::new(m),
         Err(Error::Blob(BlobError::UnsupportedNumeric))
     ));
+    // The run-time dispatching predictor takes it (the f32 engine).
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    assert_eq!(p.sine_name(), "libm");
+    assert_eq!(samples(&mut p, &PAST, 1, 2).unwrap().len(), 2);
 }

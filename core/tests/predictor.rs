@@ -125,8 +125,8 @@ fn hand_computed_single_sine_layer() {
     nets[1] = vec![dec];
     let blob = encode("hand", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
-    let e = p.predict_endpoints::<1>(&PAST, 0, 1).unwrap()[0];
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    let e = samples(&mut p, &PAST, 0, 1).unwrap()[0];
     // By hand: x = (p - p0) * 1.86 flattened; f_j = sin(sum_i 0.01 (i+1)(j+1) x_i - 0.1 j).
     let x: Vec<f64> = PAST
         .iter()
@@ -156,8 +156,8 @@ fn relu_layer_and_nan_propagation() {
     }
     let blob = encode("relu", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
-    let got = p.predict_endpoints::<4>(&PAST, 3, 4).unwrap();
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    let got = samples(&mut p, &PAST, 3, 4).unwrap();
     let want = naive::<LibmSine>(&nets, 3, 4);
     for (g, w) in got.iter().zip(&want) {
         assert_eq!(g.map(f32::to_bits), w[11].map(f32::to_bits));
@@ -168,11 +168,11 @@ fn check_bit_exact<S: Sine>(act: Activation) {
     let nets = small_nets(act);
     let blob = encode("exact", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
-    let mut p = Predictor::<S, 32>::new(&m).unwrap();
+    let mut p = Predictor::<S, 32>::new(m).unwrap();
     for seed in [0u64, 1, 42, u64::MAX] {
         let want = naive::<S>(&nets, seed, 20);
-        let ends = p.predict_endpoints::<20>(&PAST, seed, 20).unwrap();
-        let trajs = p.predict_trajectories::<20>(&PAST, seed, 20).unwrap();
+        let ends = samples(&mut p, &PAST, seed, 20).unwrap();
+        let trajs = trajectories(&mut p, &PAST, seed, 20).unwrap();
         assert_eq!(ends.len(), 20);
         for s in 0..20 {
             assert_eq!(
@@ -204,8 +204,8 @@ fn close_to_f64() {
     let nets = small_nets(Activation::Sine);
     let blob = encode("f64", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
-    let ends = p.predict_endpoints::<5>(&PAST, 9, 5).unwrap();
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    let ends = samples(&mut p, &PAST, 9, 5).unwrap();
     let c = config();
     let o = PAST[0];
     let x: Vec<f64> = PAST
@@ -234,14 +234,14 @@ fn close_to_f64() {
 fn seeds_and_determinism() {
     let blob = small_blob();
     let m = Model::from_blob(&blob).unwrap();
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
-    let a = p.predict_endpoints::<20>(&PAST, 5, 20).unwrap();
-    let b = p.predict_endpoints::<20>(&PAST, 5, 20).unwrap();
-    let c = p.predict_endpoints::<20>(&PAST, 6, 20).unwrap();
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    let a = samples(&mut p, &PAST, 5, 20).unwrap();
+    let b = samples(&mut p, &PAST, 5, 20).unwrap();
+    let c = samples(&mut p, &PAST, 6, 20).unwrap();
     assert_eq!(a, b);
     assert_ne!(a, c);
     // The first k samples do not depend on how many are asked for.
-    let d = p.predict_endpoints::<20>(&PAST, 5, 3).unwrap();
+    let d = samples(&mut p, &PAST, 5, 3).unwrap();
     assert_eq!(&a[..3], &d[..]);
     // Samples differ from each other.
     assert_ne!(a[0], a[1]);
@@ -252,45 +252,43 @@ fn input_errors() {
     let blob = small_blob();
     let m = Model::from_blob(&blob).unwrap();
     assert_eq!(
-        Predictor::<LibmSine, 8>::new(&m).err(),
-        Some(PredictError::ScratchTooSmall {
-            needed: 22,
-            capacity: 8
-        })
+        Predictor::<LibmSine, 8>::new(m).err(),
+        Some(gpecnet_core::Error::Predict(
+            PredictError::ScratchTooSmall {
+                needed: 22,
+                capacity: 8
+            }
+        ))
     );
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     assert_eq!(
-        p.predict_endpoints::<4>(&PAST[..7], 0, 4),
+        samples(&mut p, &PAST[..7], 0, 4),
         Err(PredictError::WrongPastLength {
             expected: 8,
             got: 7
         })
     );
     assert_eq!(
-        p.predict_endpoints::<4>(&PAST, 0, 5),
-        Err(PredictError::BadSampleCount)
-    );
-    assert_eq!(
-        p.predict_endpoints::<4>(&PAST, 0, 0),
+        samples(&mut p, &PAST, 0, 0),
         Err(PredictError::BadSampleCount)
     );
     let mut bad = PAST;
     bad[3][1] = f32::NAN;
     assert_eq!(
-        p.predict_endpoints::<4>(&bad, 0, 4),
+        samples(&mut p, &bad, 0, 4),
         Err(PredictError::NonFiniteInput)
     );
     bad[3][1] = f32::INFINITY;
     assert_eq!(
-        p.predict_endpoints::<4>(&bad, 0, 4),
+        samples(&mut p, &bad, 0, 4),
         Err(PredictError::NonFiniteInput)
     );
-    // Finite but absurd inputs overflow inside the model: reported, not returned as numbers.
+    // Finite but absurd inputs are refused before any network runs.
     let mut huge = PAST;
     huge[7] = [3.0e38, -3.0e38];
     assert_eq!(
-        p.predict_endpoints::<4>(&huge, 0, 4),
-        Err(PredictError::NonFiniteOutput)
+        samples(&mut p, &huge, 0, 4),
+        Err(PredictError::InputOutOfRange)
     );
     // Endpoint-only model: trajectories are refused.
     let mut nets = small_nets(Activation::Sine);
@@ -298,10 +296,10 @@ fn input_errors() {
     nets[3].clear();
     let blob = encode("ends", config(), &nets, MIN_FORMAT_VERSION);
     let m = Model::from_blob(&blob).unwrap();
-    let mut p = Predictor::<LibmSine, 32>::new(&m).unwrap();
-    assert!(p.predict_endpoints::<4>(&PAST, 0, 4).is_ok());
+    let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
+    assert!(samples(&mut p, &PAST, 0, 4).is_ok());
     assert_eq!(
-        p.predict_trajectories::<4>(&PAST, 0, 4).err(),
+        trajectories(&mut p, &PAST, 0, 4).err(),
         Some(PredictError::NoPredictor)
     );
 }

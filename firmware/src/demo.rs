@@ -18,7 +18,7 @@ use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::{raw::ThreadModeRawMutex, Mutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
-use gpecnet_core::{FixedPredictor, LibmSine, Model, NumericKind, PredictError, Predictor};
+use gpecnet_core::{LibmSine, Model, NumericKind, PredictError, Predictor};
 use heapless::Vec;
 
 use crate::golden::{MAX_K, MAX_SAMPLES, SCRATCH};
@@ -37,50 +37,23 @@ pub const FRAMES: u32 = 24;
 /// The sine of the demo's f32 path (the reference sine).
 type DemoSine = LibmSine;
 
-/// The demo's predictor, picked by the model's numeric kind: f32 blobs run
-/// `Predictor<DemoSine>`, `Int16Q15` blobs the integer `FixedPredictor`.
-enum AnyPredictor<'m> {
-    F32(Predictor<'m, 'static, DemoSine, SCRATCH>),
-    Fixed(FixedPredictor<'m, 'static, SCRATCH>),
-}
-
-impl<'m> AnyPredictor<'m> {
-    fn new(model: &'m Model<'static>) -> Result<Self, gpecnet_core::Error> {
-        Ok(match model.numeric() {
-            NumericKind::F32 => AnyPredictor::F32(Predictor::new(model)?),
-            NumericKind::Int16Q15 => AnyPredictor::Fixed(FixedPredictor::new(model)?),
-        })
-    }
-
-    /// The model's K endpoints (its protocol: plain or test-time sampling) and its point
-    /// forecast's endpoint (`None` for a model without a point head).
-    fn predict(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-    ) -> Result<(Vec<[f32; 2], K>, Option<[f32; 2]>), PredictError> {
-        let mut ends: Vec<[f32; 2], K> = Vec::new();
-        let _ = ends.resize(K, [0.0; 2]);
-        let point = match self {
-            AnyPredictor::F32(p) => {
-                p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
-                if p.model().has_point_head() {
-                    p.predict_point(past)?.last().copied()
-                } else {
-                    None
-                }
-            }
-            AnyPredictor::Fixed(p) => {
-                p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
-                if p.model().has_point_head() {
-                    p.predict_point(past)?.last().copied()
-                } else {
-                    None
-                }
-            }
-        };
-        Ok((ends, point))
-    }
+/// The model's K endpoints (its protocol: plain or test-time sampling) and its point
+/// forecast's endpoint (`None` for a model without a point head). The predictor picks
+/// its engine (f32 or fixed point) from the blob.
+fn forecast(
+    p: &mut Predictor<'static, DemoSine, SCRATCH>,
+    past: &[[f32; 2]],
+    seed: u64,
+) -> Result<(Vec<[f32; 2], K>, Option<[f32; 2]>), PredictError> {
+    let mut ends: Vec<[f32; 2], K> = Vec::new();
+    let _ = ends.resize(K, [0.0; 2]);
+    p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
+    let point = if p.model().has_point_head() {
+        p.predict_point(past)?.last().copied()
+    } else {
+        None
+    };
+    Ok((ends, point))
 }
 
 static TABLE: Mutex<ThreadModeRawMutex, RefCell<TrackTable<MAX_TRACKS>>> =
@@ -215,7 +188,7 @@ async fn ingest() {
 
 #[embassy_executor::task]
 async fn predict(model: Model<'static>) {
-    let mut p = match AnyPredictor::new(&model) {
+    let mut p = match Predictor::<DemoSine, SCRATCH>::new(model) {
         Ok(p) => p,
         Err(e) => {
             defmt::error!("predict: {}", e);
@@ -231,7 +204,7 @@ async fn predict(model: Model<'static>) {
         for (id, past) in ready {
             // Seed: frame and id, so every run (and the host) reproduces it.
             let seed = ((frame as u64) << 32) | id as u64;
-            let r = match p.predict(&past, seed) {
+            let r = match forecast(&mut p, &past, seed) {
                 Ok((endpoints, point)) => Report::Prediction {
                     frame,
                     id,

@@ -9,17 +9,15 @@
 //!                                      paths (no expected values; host vs target only)
 //! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
 //!
-//! The predictor follows the blob's numeric kind (`Model::numeric()`):
-//! `F32` → `Predictor<S, SCRATCH>` with the sine the sidecar names (and
-//! `xcheck` lines for the other compiled-in sines); `Int16Q15` →
-//! `FixedPredictor<SCRATCH>`, whose sidecar must name `q15-table` (the fixed
-//! path has one numeric path, so no `xcheck` lines).
+//! `Predictor<S, SCRATCH>` picks its engine from the blob's numeric kind;
+//! `S` is the sine the sidecar names for an f32 blob (plus `xcheck` lines for
+//! the other compiled-in sines). A fixed-point blob's sidecar must name
+//! `q15-table` (`Predictor::sine_name`); it has one numeric path, so no
+//! `xcheck` lines.
 
 use gpecnet_core::golden::{fnv1a, GoldenCase, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
-use gpecnet_core::{
-    fixed, FixedPredictor, Model, NumericKind, PredictError, Predictor, Trajectory,
-};
+use gpecnet_core::{fixed, Model, NumericKind, PredictError, Predictor, Trajectory};
 use heapless::Vec;
 
 /// Scratch width of the predictor: the widest layer the firmware supports
@@ -92,19 +90,6 @@ pub const SINES: &[&str] = &[
     gpecnet_core::sine::MicromathSine::NAME,
 ];
 
-/// Runs `f::<S>()` for the sine named `name`; `None` if it is not compiled in.
-macro_rules! with_sine {
-    ($name:expr, $f:ident ( $($arg:expr),* )) => {
-        match $name {
-            n if n == LibmSine::NAME => Some($f::<LibmSine>($($arg),*)),
-            n if n == FastSine::NAME => Some($f::<FastSine>($($arg),*)),
-            #[cfg(feature = "micromath")]
-            n if n == gpecnet_core::sine::MicromathSine::NAME => Some($f::<gpecnet_core::sine::MicromathSine>($($arg),*)),
-            _ => None,
-        }
-    };
-}
-
 /// Endpoints of one prediction, and the point forecast (empty for models without one).
 type Output = (Vec<[f32; 2], MAX_K>, Trajectory);
 
@@ -141,60 +126,57 @@ fn check_cases(
 
 /// One prediction as the golden files record it: the model's endpoint set of `k` endpoints
 /// (plain or test-time sampling, as the blob says) and, when the model has a point head,
-/// its point forecast. One macro for both engines, whose methods share names and shapes.
-macro_rules! predict_case {
-    ($p:expr, $model:expr, $c:expr) => {{
-        let mut ends: Vec<[f32; 2], MAX_K> = Vec::new();
-        let _ = ends.resize($c.k().min(MAX_K), [0.0; 2]);
-        $p.predict_endpoint_set::<MAX_SAMPLES>(&$c.past, $c.seed, &mut ends)?;
-        let point = if $model.has_point_head() {
-            $p.predict_point(&$c.past)?
-        } else {
-            Trajectory::new()
-        };
-        Ok((ends, point))
-    }};
+/// its point forecast.
+fn predict_case<S: Sine>(
+    p: &mut Predictor<'_, S, SCRATCH>,
+    c: &GoldenCase<'_>,
+) -> Result<Output, PredictError> {
+    let mut ends: Vec<[f32; 2], MAX_K> = Vec::new();
+    let _ = ends.resize(c.k().min(MAX_K), [0.0; 2]);
+    p.predict_endpoint_set::<MAX_SAMPLES>(&c.past, c.seed, &mut ends)?;
+    let point = if p.model().has_point_head() {
+        p.predict_point(&c.past)?
+    } else {
+        Trajectory::new()
+    };
+    Ok((ends, point))
 }
 
-/// The f32 path with sine `S`.
+/// Every case of `set` through `Predictor<S>` (the engine follows the blob's kind; `S` is
+/// the sine of f32 blobs). `Err` if the predictor's sine is not `sine`.
 fn cases_with<S: Sine>(
-    model: &Model<'_>,
+    model: Model<'_>,
     set: &GoldenSet<'_>,
+    sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
-) {
+) -> Result<(), &'static str> {
     let Ok(mut p) = Predictor::<S, SCRATCH>::new(model) else {
-        emit(u32::MAX, Err(()));
-        return;
+        return Err("no predictor for this blob");
     };
-    check_cases(set, emit, &mut |c| predict_case!(p, model, c));
+    if p.sine_name() != sine {
+        return Err("the sidecar's sine is not this blob's numeric path");
+    }
+    check_cases(set, emit, &mut |c| predict_case(&mut p, c));
+    Ok(())
 }
 
-/// The fixed-point path (`Int16Q15` blobs).
-fn cases_fixed(
-    model: &Model<'_>,
+/// [`cases_with`] for the sine named `sine` (fixed-point blobs: `q15-table`).
+fn cases_named(
+    model: Model<'_>,
     set: &GoldenSet<'_>,
+    sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
-) {
-    let Ok(mut p) = FixedPredictor::<SCRATCH>::new(model) else {
-        emit(u32::MAX, Err(()));
-        return;
-    };
-    check_cases(set, emit, &mut |c| predict_case!(p, model, c));
-}
-
-/// Scratch width `model` needs beyond [`SCRATCH`], if any.
-fn too_wide(model: &Model<'_>) -> Option<usize> {
-    let r = match model.numeric() {
-        NumericKind::F32 => Predictor::<LibmSine, SCRATCH>::new(model)
-            .err()
-            .map(gpecnet_core::Error::Predict),
-        NumericKind::Int16Q15 => FixedPredictor::<SCRATCH>::new(model).err(),
-    };
-    match r {
-        Some(gpecnet_core::Error::Predict(PredictError::ScratchTooSmall { needed, .. })) => {
-            Some(needed)
+) -> Result<(), &'static str> {
+    match sine {
+        n if n == LibmSine::NAME => cases_with::<LibmSine>(model, set, sine, emit),
+        n if n == FastSine::NAME => cases_with::<FastSine>(model, set, sine, emit),
+        #[cfg(feature = "micromath")]
+        n if n == gpecnet_core::sine::MicromathSine::NAME => {
+            cases_with::<gpecnet_core::sine::MicromathSine>(model, set, sine, emit)
         }
-        _ => None,
+        // A fixed-point blob runs its integer sine whatever `S` is.
+        n if n == fixed::SINE_NAME => cases_with::<LibmSine>(model, set, sine, emit),
+        _ => Err("golden sine not compiled in (feature micromath?)"),
     }
 }
 
@@ -237,11 +219,11 @@ pub fn verify_all(
             });
             continue;
         }
-        if let Some(needed) = too_wide(&model) {
+        if model.scratch_width() > SCRATCH {
             s.errors += 1;
             out(Line::TooWide {
                 model: m.name,
-                needed: needed as u32,
+                needed: model.scratch_width() as u32,
             });
             continue;
         }
@@ -274,27 +256,16 @@ pub fn verify_all(
                 });
             }
         };
-        if model.numeric() == NumericKind::Int16Q15 {
-            if sine != fixed::SINE_NAME {
-                s.errors += 1;
-                out(Line::Error {
-                    model: m.name,
-                    what: "fixed-point blob, but the sidecar's sine is not q15-table",
-                });
-                continue;
-            }
-            cases_fixed(&model, &set, &mut emit);
-            continue;
-        }
-        if with_sine!(sine, cases_with(&model, &set, &mut emit)).is_none() {
+        if let Err(what) = cases_named(model, &set, sine, &mut emit) {
             s.errors += 1;
             out(Line::Error {
                 model: m.name,
-                what: "golden sine not compiled in (feature micromath?)",
+                what,
             });
             continue;
         }
-        if xcheck {
+        // The other compiled-in sines of an f32 blob (a fixed-point blob has one path).
+        if xcheck && model.numeric() == NumericKind::F32 {
             for &other in SINES.iter().filter(|&&n| n != sine) {
                 let mut emit = |case: u32, r: Result<(u32, bool), ()>| match r {
                     Ok((hash, _)) => {
@@ -314,7 +285,7 @@ pub fn verify_all(
                         });
                     }
                 };
-                let _ = with_sine!(other, cases_with(&model, &set, &mut emit));
+                let _ = cases_named(model, &set, other, &mut emit);
             }
         }
     }

@@ -1,7 +1,7 @@
 //! Profiling build (`--features profile`, driven by `cargo xtask profile`):
 //! for each embedded model, one K = 20 prediction through the sine selected
 //! at build time (GPECNET_SINE -> cfg `prof_sine`; `q15-table` = the
-//! fixed-point `FixedPredictor` for `Int16Q15` blobs), between `bench_start` and
+//! fixed-point engine for `Int16Q15` blobs), between `bench_start` and
 //! `bench_end`. The QEMU TCG plugin (tools/insn_window.c) counts the guest
 //! instructions executed between the two markers; on a real board
 //! (`--features board`) DWT CYCCNT gives the cycles.
@@ -20,11 +20,12 @@ type ProfSine = gpecnet_core::sine::FastSine;
 #[cfg(all(prof_sine = "micromath", feature = "micromath"))]
 type ProfSine = gpecnet_core::sine::MicromathSine;
 
-/// The predictor of this image's numeric path.
+/// The engine of this image's numeric path: one backend only, as an
+/// integrator who knows the blob's kind would link it.
 #[cfg(not(prof_sine = "q15-table"))]
-type ProfPredictor<'m, 'a> = gpecnet_core::Predictor<'m, 'a, ProfSine, SCRATCH>;
+type ProfPredictor<'a> = gpecnet_core::Engine<'a, gpecnet_core::float::Float<ProfSine>, SCRATCH>;
 #[cfg(prof_sine = "q15-table")]
-type ProfPredictor<'m, 'a> = gpecnet_core::FixedPredictor<'m, 'a, SCRATCH>;
+type ProfPredictor<'a> = gpecnet_core::Engine<'a, gpecnet_core::fixed::Q15, SCRATCH>;
 #[cfg(not(prof_sine = "q15-table"))]
 const PATH_NAME: &str = <ProfSine as gpecnet_core::Sine>::NAME;
 #[cfg(prof_sine = "q15-table")]
@@ -55,7 +56,7 @@ pub extern "C" fn bench_end() {
 #[inline(never)]
 #[no_mangle]
 pub fn gpecnet_predict_k20(
-    p: &mut ProfPredictor<'_, '_>,
+    p: &mut ProfPredictor<'_>,
     past: &[[f32; 2]; 8],
     seed: u64,
 ) -> Result<(Vec<[f32; 2], K>, Trajectory), PredictError> {
@@ -103,7 +104,7 @@ pub fn run() -> bool {
                 continue;
             }
         };
-        let mut p = match ProfPredictor::new(&model) {
+        let mut p = match ProfPredictor::new(model) {
             Ok(p) => p,
             Err(e) => {
                 defmt::error!("profile {=str}: {}", name, e);

@@ -2,7 +2,7 @@
 //!
 //! For each shipped f32 blob (`sdd-tiny`, `sdd-small`) and latent spread
 //! sigma in {1.0, 1.3}: draw N endpoints per window through `gpecnet-core`
-//! (`Predictor::predict_endpoints`, libm sine, seed = window index), reduce
+//! (`Predictor::predict_samples`, libm sine, seed = window index), reduce
 //! them to K = 20 centres with `gpecnet_core::cluster::kmeans_reduce`, and
 //! report minADE / minFDE of the 20 centres (ADE on the straight line from
 //! the last observation to each endpoint, `core_eval::linear_fill`).
@@ -113,10 +113,10 @@ fn sweep(blob: &[u8], val: &Dataset, settings: &[Setting]) -> Result<Vec<Metrics
             let w = &val.windows[i];
             let past = w.obs();
             let mut p = Box::new(
-                Predictor::<LibmSine, HOST_WIDTH>::new(&model).map_err(|e| anyhow!("{e}"))?,
+                Predictor::<LibmSine, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
             );
-            let samples = p
-                .predict_endpoints::<NMAX>(&past, i as u64, NMAX)
+            let mut samples = vec![[0.0f32; 2]; NMAX];
+            p.predict_samples(&past, i as u64, &mut samples)
                 .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
             if i < REF_CHECK {
                 let r = refm.predict(&past, i as u64, NMAX, SineKind::Libm, false);

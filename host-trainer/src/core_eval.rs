@@ -42,33 +42,35 @@ pub fn linear_fill(last: [f32; 2], end: [f32; 2]) -> [[f32; 2]; FUTURE] {
     out
 }
 
+/// One window through `gpecnet-core`'s run-time dispatching predictor: the
+/// blob's endpoint set (test-time sampling), or `k` trajectories, or `k`
+/// straight-line-filled endpoints of an endpoint-only model.
 fn predict_core_with<S: Sine>(
     model: &Model<'_>,
     w: &Window,
     seed: u64,
     k: usize,
 ) -> Result<Prediction> {
-    let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?);
+    let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
     let past = w.obs();
-    let trajectories = if model.extensions().tts_samples > 0 {
-        let mut ends = vec![[0.0f32; 2]; k];
-        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(&past, seed, &mut ends)
-            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
+    let at = |e| anyhow!("{}#{}: {e}", w.scene, w.ped_id);
+    let fill = |ends: Vec<[f32; 2]>| -> Vec<[[f32; 2]; FUTURE]> {
         ends.iter()
             .map(|e| linear_fill(past[PAST - 1], *e))
             .collect()
+    };
+    let mut ends = vec![[0.0f32; 2]; k];
+    let trajectories = if model.extensions().tts_samples > 0 {
+        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(&past, seed, &mut ends)
+            .map_err(at)?;
+        fill(ends)
     } else if model.has_predictor() {
-        p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
-            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?
-            .iter()
-            .map(|t| to_fixed(t))
-            .collect()
+        let mut t = vec![gpecnet_core::Trajectory::new(); k];
+        p.predict_trajectories(&past, seed, &mut t).map_err(at)?;
+        t.iter().map(|t| to_fixed(t)).collect()
     } else {
-        p.predict_endpoints::<HOST_MAX_K>(&past, seed, k)
-            .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?
-            .iter()
-            .map(|e| linear_fill(past[PAST - 1], *e))
-            .collect()
+        p.predict_samples(&past, seed, &mut ends).map_err(at)?;
+        fill(ends)
     };
     Ok(Prediction { trajectories })
 }
@@ -200,24 +202,17 @@ pub(crate) fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> 
     Ok(acc.finish())
 }
 
-/// The point forecast of one window through `gpecnet-core` (f32 with `sine`, or fixed point).
+/// The point forecast of one window through `gpecnet-core` (f32 blobs with
+/// `sine`; fixed-point blobs always with their integer sine).
 fn point_core(model: &Model<'_>, sine: SineKind, w: &Window) -> Result<[[f32; 2]; FUTURE]> {
+    fn point<S: Sine>(model: &Model<'_>, past: &[[f32; 2]]) -> Result<gpecnet_core::Trajectory> {
+        let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
+        p.predict_point(past).map_err(|e| anyhow!("{e}"))
+    }
     let past = w.obs();
-    let t = match (model.numeric(), sine) {
-        (gpecnet_core::NumericKind::Int16Q15, _) => {
-            gpecnet_core::FixedPredictor::<HOST_WIDTH>::new(model)
-                .map(Box::new)
-                .map_err(|e| anyhow!("{e}"))?
-                .predict_point(&past)
-        }
-        (_, SineKind::Libm) => Predictor::<LibmSine, HOST_WIDTH>::new(model)
-            .map(Box::new)
-            .map_err(|e| anyhow!("{e}"))?
-            .predict_point(&past),
-        (_, SineKind::Fast) => Predictor::<FastSine, HOST_WIDTH>::new(model)
-            .map(Box::new)
-            .map_err(|e| anyhow!("{e}"))?
-            .predict_point(&past),
+    let t = match sine {
+        SineKind::Libm => point::<LibmSine>(model, &past),
+        SineKind::Fast => point::<FastSine>(model, &past),
     }
     .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
     Ok(to_fixed(&t))

@@ -259,7 +259,11 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
             bail!("a network ending in a sine layer is not supported by the fixed-point kind");
         }
     }
-    let e_in = exp_for(cal.input);
+    // The input exponent also covers the core's whole valid input range
+    // (`gpecnet_core::frame::MAX_INPUT`, 2^12 → e ≤ 3), so the fixed-point blob
+    // refuses exactly the inputs its f32 source refuses (`Model::input_limit`)
+    // however few windows were calibrated on.
+    let e_in = exp_for(cal.input).min(15 - gpecnet_core::frame::MAX_INPUT.log2() as i32);
     let mut e_f = exp_for(last_max(0)).min(exp_for(cal.z));
     let e_d = exp_for(last_max(1));
     let has_pred = !model.predictor.is_empty();
@@ -555,44 +559,16 @@ pub fn qgolden_bytes(
 
 // -------------------------------------------------------------- evaluation
 
-const HOST_WIDTH: usize = 1024;
-const HOST_MAX_K: usize = 64;
-
-/// K samples for one window through `gpecnet_core::FixedPredictor`.
+/// K samples for one window of a fixed-point blob through `gpecnet_core`
+/// (the run-time dispatching predictor; the sine argument is irrelevant for
+/// fixed-point blobs).
 pub fn predict_core_fixed(
     model: &gpecnet_core::Model<'_>,
     w: &Window,
     seed: u64,
     k: usize,
 ) -> Result<Prediction> {
-    if k == 0 || k > HOST_MAX_K {
-        bail!("k must be 1..={HOST_MAX_K}");
-    }
-    let mut p = Box::new(
-        gpecnet_core::FixedPredictor::<HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
-    );
-    let past = w.obs();
-    let trajectories = if model.extensions().tts_samples > 0 {
-        let mut ends = vec![[0.0f32; 2]; k];
-        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(&past, seed, &mut ends)
-            .map_err(|e| anyhow!("{e}"))?;
-        ends.iter()
-            .map(|e| linear_fill(past[PAST - 1], *e))
-            .collect()
-    } else if model.has_predictor() {
-        p.predict_trajectories::<HOST_MAX_K>(&past, seed, k)
-            .map_err(|e| anyhow!("{e}"))?
-            .iter()
-            .map(|t| crate::core_eval::to_fixed(t))
-            .collect()
-    } else {
-        p.predict_endpoints::<HOST_MAX_K>(&past, seed, k)
-            .map_err(|e| anyhow!("{e}"))?
-            .iter()
-            .map(|e| linear_fill(past[PAST - 1], *e))
-            .collect()
-    };
-    Ok(Prediction { trajectories })
+    crate::core_eval::predict_core(model, crate::reference::SineKind::Libm, w, seed, k)
 }
 
 /// K samples for one window through the integer reference.

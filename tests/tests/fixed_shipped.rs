@@ -4,7 +4,7 @@
 
 use gpecnet_core::blob::NumericKind;
 use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::{FixedPredictor, Model};
+use gpecnet_core::Model;
 use gpecnet_tests::{data_root, shipped_blobs};
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::eval::dist_metrics;
@@ -48,7 +48,8 @@ fn fixed_golden_vectors_replay_bit_exact() {
         let golden = GoldenSet::parse(&gbytes).unwrap();
         assert_eq!(golden.info().model_crc, model.crc(), "{}", path.display());
         assert_eq!(golden.info().sine, "q15-table");
-        let mut p = Box::new(FixedPredictor::<1024>::new(&model).unwrap());
+        let mut p =
+            Box::new(gpecnet_core::Engine::<gpecnet_core::fixed::Q15, 1024>::new(model).unwrap());
         let mut bad = 0usize;
         for case in golden.cases() {
             // The model's endpoint set (test-time sampling when the blob asks for it).
@@ -69,8 +70,8 @@ fn fixed_golden_vectors_replay_bit_exact() {
                 }
             }
             if case.trajectory0_len() > 0 {
-                let t = p
-                    .predict_trajectories::<1>(&case.past, case.seed, 1)
+                let mut t = [gpecnet_core::Trajectory::new()];
+                p.predict_trajectories(&case.past, case.seed, &mut t)
                     .unwrap();
                 for (j, pt) in t[0].iter().enumerate() {
                     bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));

@@ -78,13 +78,15 @@ fn random_siren_fixed_matches_on_sdd_test_set() {
     let golden = qgolden_bytes(&q, core.crc(), 20, &inputs).unwrap();
     let set = gpecnet_core::golden::GoldenSet::parse(&golden).unwrap();
     assert_eq!(set.info().sine, "q15-table");
-    let mut p = Box::new(gpecnet_core::FixedPredictor::<256>::new(&core).unwrap());
+    let mut p = Box::new(gpecnet_core::Engine::<gpecnet_core::fixed::Q15, 256>::new(core).unwrap());
     for c in set.cases() {
-        let e = p.predict_endpoints::<20>(&c.past, c.seed, 20).unwrap();
+        let mut e = [[0.0f32; 2]; 20];
+        p.predict_samples(&c.past, c.seed, &mut e).unwrap();
         for (i, e) in e.iter().enumerate() {
             assert_eq!([e[0].to_bits(), e[1].to_bits()], c.endpoint_bits(i));
         }
-        let t = p.predict_trajectories::<1>(&c.past, c.seed, 1).unwrap();
+        let mut t = [gpecnet_core::Trajectory::new()];
+        p.predict_trajectories(&c.past, c.seed, &mut t).unwrap();
         for (i, pt) in t[0].iter().enumerate() {
             assert_eq!(
                 Some([pt[0].to_bits(), pt[1].to_bits()]),

@@ -23,7 +23,7 @@ fn f32_blobs() -> Vec<std::path::PathBuf> {
 }
 
 fn replay_core<S: Sine>(model: &Model<'_>, golden: &GoldenSet<'_>) -> usize {
-    let mut p = Box::new(Predictor::<S, 1024>::new(model).unwrap());
+    let mut p = Box::new(Predictor::<S, 1024>::new(*model).unwrap());
     let mut bad = 0;
     for case in golden.cases() {
         // The model's endpoint set (test-time sampling when the blob asks for it).
@@ -44,8 +44,8 @@ fn replay_core<S: Sine>(model: &Model<'_>, golden: &GoldenSet<'_>) -> usize {
             }
         }
         if case.trajectory0_len() > 0 {
-            let t = p
-                .predict_trajectories::<1>(&case.past, case.seed, 1)
+            let mut t = [gpecnet_core::Trajectory::new()];
+            p.predict_trajectories(&case.past, case.seed, &mut t)
                 .unwrap();
             for (j, pt) in t[0].iter().enumerate() {
                 bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));

@@ -113,7 +113,7 @@ fn heading_frame_point_head_and_tts_match_in_fixed_point() {
         .collect();
     let golden = qgolden_bytes(&q, core.crc(), 20, &inputs).unwrap();
     let set = gpecnet_core::golden::GoldenSet::parse(&golden).unwrap();
-    let mut p = Box::new(gpecnet_core::FixedPredictor::<128>::new(&core).unwrap());
+    let mut p = Box::new(gpecnet_core::Engine::<gpecnet_core::fixed::Q15, 128>::new(core).unwrap());
     for case in set.cases() {
         assert_eq!(case.point_len(), 12);
         let t = p.predict_point(&case.past).unwrap();

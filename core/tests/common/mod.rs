@@ -182,3 +182,27 @@ pub fn small_blob() -> Vec<u8> {
         MIN_FORMAT_VERSION,
     )
 }
+
+/// `k` plain latent samples through the caller-owned-output API (`Err` as the core returns it).
+pub fn samples<S: gpecnet_core::Sine, const W: usize>(
+    p: &mut gpecnet_core::Predictor<'_, S, W>,
+    past: &[[f32; 2]],
+    seed: u64,
+    k: usize,
+) -> Result<Vec<[f32; 2]>, gpecnet_core::PredictError> {
+    let mut out = vec![[0.0f32; 2]; k];
+    p.predict_samples(past, seed, &mut out)?;
+    Ok(out)
+}
+
+/// `k` full trajectories of plain latent samples.
+pub fn trajectories<S: gpecnet_core::Sine, const W: usize>(
+    p: &mut gpecnet_core::Predictor<'_, S, W>,
+    past: &[[f32; 2]],
+    seed: u64,
+    k: usize,
+) -> Result<Vec<gpecnet_core::Trajectory>, gpecnet_core::PredictError> {
+    let mut out = vec![gpecnet_core::Trajectory::new(); k];
+    p.predict_trajectories(past, seed, &mut out)?;
+    Ok(out)
+}

@@ -124,7 +124,7 @@ fn main() {
 
     let k = 20u8;
     let n_cases = 12u32;
-    let mut p = Predictor::<LibmSine, 128>::new(&model).unwrap();
+    let mut p = Predictor::<LibmSine, 128>::new(model).unwrap();
     let mut cases = Vec::new();
     for c in 0..n_cases {
         let (x0, y0) = (100.0 + 50.0 * c as f32, 700.0 - 40.0 * c as f32);
@@ -138,7 +138,8 @@ fn main() {
             })
             .collect();
         let seed = 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(c as u64 + 1);
-        let ends = p.predict_endpoints::<20>(&past, seed, k as usize).unwrap();
+        let mut ends = vec![[0.0f32; 2]; k as usize];
+        p.predict_samples(&past, seed, &mut ends).unwrap();
         let pb = f32s(&past.iter().flatten().copied().collect::<Vec<_>>());
         let eb = f32s(&ends.iter().flatten().copied().collect::<Vec<_>>());
         cases.push((pb, seed, eb));

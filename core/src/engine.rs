@@ -1,0 +1,415 @@
+//! The one inference engine, generic over a numeric [`Backend`]: the f32
+//! path ([`crate::float::Float`] with a [`crate::Sine`]) and the integer path
+//! ([`crate::fixed::Q15`]) run the same steps in the same order; only the
+//! dense layers and the conversions at the network boundaries differ.
+//!
+//! Most callers want [`crate::Predictor`], which picks the backend at run
+//! time from the blob. `Engine<B, W>` is for callers that know the blob's kind
+//! at compile time and want only that backend linked (a profiling build, a
+//! flash-tight image).
+//!
+//! # The computation, in order
+//!
+//! For observed positions `p_0 .. p_{P-1}` (caller's units, P = `past_len`):
+//!
+//! 1. Guards and frame ([`crate::frame::Frame::inputs`]): the length, every
+//!    coordinate finite and within ±[`crate::frame::MAX_COORDINATE`], then
+//!    `x[2t + c] = (p_t[c] − p_0[c]) · data_scale` (two f32 roundings; rotated
+//!    into the heading frame first when the model has one), each within
+//!    ±[`crate::Model::input_limit`]. The backend converts `x` to its
+//!    activations (f32: as is; Q15: quantised with `encoder_past`'s input
+//!    exponent).
+//! 2. `f = encoder_past(x)` (width `fdim`).
+//! 3. The decoder's first layer sees `[f, z]`. Its feature part is summed once
+//!    per call: `a_j = b_j + Σ_{i<fdim} W_ji f_i` ([`Backend::partial`]).
+//! 4. For each sample: `z` = the next `zdim` normals of
+//!    [`crate::prng::Gaussian`] seeded with `seed`, each times `sigma` (f32),
+//!    converted with the decoder's input exponent; the first layer continues
+//!    the same sum over the latent columns ([`Backend::latent`]: equal to one
+//!    sequential pass over `[f, z]`), then the remaining decoder layers give
+//!    `d` (the normalised endpoint).
+//! 5. Endpoint: `d` converted to f32 with the decoder's output exponent, then
+//!    `e[c] = d[c] / data_scale + p_0[c]` (rotated back first in the heading
+//!    frame). The K endpoints a model reports follow its protocol
+//!    ([`crate::sampling`]): plain samples, or test-time sampling reduced by
+//!    k-means.
+//! 6. Optionally, the intermediate points of the last sample: `g =
+//!    encoder_dest(d)`, `q = predictor([f, g, last / initial_pos_divisor])`
+//!    (`last` = the last observed point, rotated in the heading frame;
+//!    converted with `encoder_past`'s output exponent), point `t` = `q[2t..]`
+//!    mapped like an endpoint, and the last point is `e`.
+//!
+//! The point forecast runs the point-forecast head on `x` (step 1) and maps
+//! each output pair like an endpoint.
+//!
+//! # Memory
+//!
+//! `Engine<B, W>` holds four activation rows and one partial-sum row of `W`
+//! (f32: `20·W` bytes; Q15: `16·W` bytes), the model view (about 500 bytes on a
+//! 32-bit target) and the sampler state. Weights are read in place. A call
+//! uses under 1 KiB of stack besides what the caller passes; the endpoint set
+//! of a test-time-sampling model adds its `N`-sample buffer (`8·N` bytes).
+//! `cargo xtask profile` measures both on the Cortex-M4F.
+
+use crate::blob::{Layer, Model, Network, NumericKind, MAX_PAST};
+use crate::frame::Frame;
+use crate::predictor::{PredictError, Trajectory};
+use crate::prng::Gaussian;
+use crate::{BlobError, Error};
+
+mod sealed {
+    pub trait Sealed {}
+}
+pub(crate) use sealed::Sealed;
+
+/// A numeric backend: the element types and the dense-layer arithmetic of
+/// one [`NumericKind`]. Implemented by [`crate::float::Float`] and
+/// [`crate::fixed::Q15`] only (sealed).
+pub trait Backend: Sealed {
+    /// One activation (f32, or an `i16` fixed-point value).
+    type Act: Copy + Default;
+    /// One partial sum of the decoder's first layer (f32, or an exact `i64`).
+    type Acc: Copy + Default;
+    /// The blob kind this backend runs.
+    const KIND: NumericKind;
+    /// Name of the sine in golden files and model cards.
+    const SINE: &'static str;
+    /// An f32 value entering a network whose input exponent is `exp`
+    /// (ignored by f32).
+    fn from_f32(v: f32, exp: i8) -> Self::Act;
+    /// A network output with exponent `exp` as f32 (exact).
+    fn to_f32(v: Self::Act, exp: i8) -> f32;
+    /// One dense layer: `out_j = act(b_j + Σ_i W_ji x_i)`, `out.len() = out_dim`.
+    fn dense(layer: &Layer<'_>, x: &[Self::Act], out: &mut [Self::Act]);
+    /// `part_j = b_j + Σ_{i < x.len()} W_ji x_i` for the first `x.len()`
+    /// columns, `j < min(part.len(), out_dim)`.
+    fn partial(layer: &Layer<'_>, x: &[Self::Act], part: &mut [Self::Acc]);
+    /// `out_j = act(part_j + Σ_i W_j,skip+i z_i)`: the rest of a row whose
+    /// first `skip` columns are summed in `part`.
+    fn latent(
+        layer: &Layer<'_>,
+        skip: usize,
+        z: &[Self::Act],
+        part: &[Self::Acc],
+        out: &mut [Self::Act],
+    );
+}
+
+/// Input exponent of `net` (0 for f32 or an empty network).
+pub(crate) fn in_exp(net: &Network<'_>) -> i8 {
+    net.layer(0).map_or(0, |l| l.in_exp())
+}
+
+/// Output exponent of `net` (0 for f32 or an empty network).
+pub(crate) fn out_exp(net: &Network<'_>) -> i8 {
+    net.layers().last().map_or(0, |l| l.out_exp())
+}
+
+/// Runs `net` on `input` using `a`/`b` as ping-pong buffers; returns the
+/// output slice (which lives in `a` or `b`).
+fn run_network<'s, B: Backend>(
+    net: &Network<'_>,
+    input: &[B::Act],
+    a: &'s mut [B::Act],
+    b: &'s mut [B::Act],
+) -> &'s [B::Act] {
+    let n = input.len().min(a.len());
+    if let (Some(dst), Some(src)) = (a.get_mut(..n), input.get(..n)) {
+        dst.copy_from_slice(src);
+    }
+    layers::<B>(net.layers(), a, b, n)
+}
+
+/// Runs `layers` on the first `width` values of `a`; returns the output.
+fn layers<'s, 'l, 'a: 'l, B: Backend>(
+    layers: impl Iterator<Item = &'l Layer<'a>>,
+    a: &'s mut [B::Act],
+    b: &'s mut [B::Act],
+    width: usize,
+) -> &'s [B::Act] {
+    let (mut src, mut dst) = (a, b);
+    let mut width = width.min(src.len());
+    for layer in layers {
+        let out = layer.out_dim().min(dst.len());
+        B::dense(layer, &src[..width], &mut dst[..out]);
+        core::mem::swap(&mut src, &mut dst);
+        width = out;
+    }
+    &src[..width]
+}
+
+/// Where a sample stream stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stream {
+    /// No stream started (or the last start failed).
+    Idle,
+    /// Encoded; no sample drawn yet.
+    Started,
+    /// At least one sample drawn; its `d` is kept for its trajectory.
+    Drawn,
+}
+
+/// The engine over backend `B` with scratch width `W` (see the module docs).
+pub struct Engine<'a, B: Backend, const W: usize> {
+    model: Model<'a>,
+    a: [B::Act; W],
+    b: [B::Act; W],
+    feat: [B::Act; W],
+    z: [B::Act; W],
+    part: [B::Acc; W],
+    frame: Frame,
+    last: [f32; 2],
+    gauss: Gaussian,
+    d: [B::Act; 2],
+    stream: Stream,
+}
+
+impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
+    /// An engine for `model`. Fails with [`BlobError::UnsupportedNumeric`]
+    /// when the blob is not of kind `B::KIND` and with
+    /// [`PredictError::ScratchTooSmall`] when
+    /// [`Model::scratch_width`] exceeds `W`.
+    pub fn new(model: Model<'a>) -> Result<Self, Error> {
+        if model.numeric() != B::KIND {
+            return Err(Error::Blob(BlobError::UnsupportedNumeric));
+        }
+        let needed = model.scratch_width();
+        if needed > W {
+            return Err(Error::Predict(PredictError::ScratchTooSmall {
+                needed,
+                capacity: W,
+            }));
+        }
+        Ok(Self {
+            model,
+            a: [B::Act::default(); W],
+            b: [B::Act::default(); W],
+            feat: [B::Act::default(); W],
+            z: [B::Act::default(); W],
+            part: [B::Acc::default(); W],
+            frame: Frame::raw(),
+            last: [0.0; 2],
+            gauss: Gaussian::new(0),
+            d: [B::Act::default(); 2],
+            stream: Stream::Idle,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model<'a> {
+        &self.model
+    }
+
+    /// Step 1: guards, frame, and the network input in `x`; returns its length.
+    fn input(
+        &self,
+        past: &[[f32; 2]],
+        x: &mut [B::Act; 2 * MAX_PAST],
+    ) -> Result<(Frame, usize), PredictError> {
+        let (frame, pts) = Frame::inputs(past, &self.model)?;
+        let e = in_exp(self.model.encoder_past());
+        for (dst, v) in x.chunks_exact_mut(2).zip(pts.iter().take(past.len())) {
+            if let [d0, d1] = dst {
+                *d0 = B::from_f32(v[0], e);
+                *d1 = B::from_f32(v[1], e);
+            }
+        }
+        Ok((frame, 2 * past.len()))
+    }
+
+    /// Network output pairs with exponent `exp` as caller points.
+    fn points(
+        frame: &Frame,
+        q: &[B::Act],
+        exp: i8,
+        scale: f32,
+    ) -> Result<Trajectory, PredictError> {
+        let pairs = q
+            .chunks_exact(2)
+            .map(|p| [B::to_f32(p[0], exp), B::to_f32(p[1], exp)]);
+        frame.points(pairs, scale)
+    }
+
+    /// The model's deterministic point forecast (its point-forecast head): the
+    /// whole future, `future_len` points, the last one the endpoint. Needs a
+    /// model with a point head ([`Model::has_point_head`]). Does not disturb
+    /// a sample stream in progress.
+    pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
+        let head = *self.model.point_head();
+        if head.is_empty() {
+            return Err(PredictError::NoPointHead);
+        }
+        let mut x = [B::Act::default(); 2 * MAX_PAST];
+        let (frame, n) = self.input(past, &mut x)?;
+        let q = run_network::<B>(&head, &x[..n], &mut self.a, &mut self.b);
+        Self::points(&frame, q, out_exp(&head), self.model.config().data_scale)
+    }
+
+    /// Starts a sample stream for `past` with sampler seed `seed` (steps 1–3):
+    /// afterwards each [`Engine::next_endpoint`] draws one sample, so a
+    /// cooperative task can yield between samples. Same inputs, same bits, on
+    /// every target.
+    pub fn start(&mut self, past: &[[f32; 2]], seed: u64) -> Result<(), PredictError> {
+        self.stream = Stream::Idle;
+        let c = *self.model.config();
+        let mut x = [B::Act::default(); 2 * MAX_PAST];
+        let (frame, n) = self.input(past, &mut x)?;
+        let fdim = c.fdim as usize;
+        let f = run_network::<B>(self.model.encoder_past(), &x[..n], &mut self.a, &mut self.b);
+        let fdim = fdim.min(f.len());
+        self.feat[..fdim].copy_from_slice(&f[..fdim]);
+        if let Some(l0) = self.model.decoder().layer(0) {
+            B::partial(l0, &self.feat[..fdim], &mut self.part);
+        }
+        self.frame = frame;
+        self.last = past.last().copied().unwrap_or([0.0; 2]);
+        self.gauss = Gaussian::new(seed);
+        self.stream = Stream::Started;
+        Ok(())
+    }
+
+    /// Step 4–5 for the next sample of the stream: its endpoint in the
+    /// caller's units. Fails with [`PredictError::NotStarted`] before a
+    /// successful [`Engine::start`].
+    pub fn next_endpoint(&mut self) -> Result<[f32; 2], PredictError> {
+        if self.stream == Stream::Idle {
+            return Err(PredictError::NotStarted);
+        }
+        let c = *self.model.config();
+        let (fdim, zdim) = (c.fdim as usize, (c.zdim as usize).min(W));
+        let dec = *self.model.decoder();
+        let ez = in_exp(&dec);
+        for zi in self.z[..zdim].iter_mut() {
+            *zi = B::from_f32(c.sigma * self.gauss.next(), ez);
+        }
+        let Some(l0) = dec.layer(0) else {
+            return Err(PredictError::NonFiniteOutput);
+        };
+        let out0 = l0.out_dim().min(W);
+        B::latent(
+            l0,
+            fdim,
+            &self.z[..zdim],
+            &self.part[..out0],
+            &mut self.a[..out0],
+        );
+        let d = layers::<B>(dec.layers().skip(1), &mut self.a, &mut self.b, out0);
+        let (Some(&d0), Some(&d1)) = (d.first(), d.get(1)) else {
+            return Err(PredictError::NonFiniteOutput);
+        };
+        self.d = [d0, d1];
+        self.stream = Stream::Drawn;
+        let eo = out_exp(&dec);
+        let e = self
+            .frame
+            .output([B::to_f32(d0, eo), B::to_f32(d1, eo)], c.data_scale);
+        if !(e[0].is_finite() && e[1].is_finite()) {
+            return Err(PredictError::NonFiniteOutput);
+        }
+        Ok(e)
+    }
+
+    /// Step 6 for the sample [`Engine::next_endpoint`] drew last: its full
+    /// trajectory (`future_len` points; the last is that sample's endpoint).
+    /// Needs a model with a trajectory predictor ([`Model::has_predictor`]).
+    pub fn last_trajectory(&mut self) -> Result<Trajectory, PredictError> {
+        if !self.model.has_predictor() {
+            return Err(PredictError::NoPredictor);
+        }
+        if self.stream != Stream::Drawn {
+            return Err(PredictError::NotStarted);
+        }
+        let c = *self.model.config();
+        let fdim = c.fdim as usize;
+        let (dest, pred) = (*self.model.encoder_dest(), *self.model.predictor());
+        let eo = out_exp(self.model.decoder());
+        let e = self.frame.output(
+            [B::to_f32(self.d[0], eo), B::to_f32(self.d[1], eo)],
+            c.data_scale,
+        );
+        let g = run_network::<B>(&dest, &self.d, &mut self.a, &mut self.b);
+        let ddim = g.len();
+        let n_in = fdim + ddim + 2;
+        if n_in > W {
+            return Err(PredictError::CapacityExceeded);
+        }
+        // Predictor input [f, g, initial_pos] assembled in `z` (redrawn per sample).
+        self.z[..fdim].copy_from_slice(&self.feat[..fdim]);
+        self.z[fdim..fdim + ddim].copy_from_slice(g);
+        let last = self.frame.predictor_position(self.last);
+        let ef = out_exp(self.model.encoder_past());
+        self.z[fdim + ddim] = B::from_f32(last[0] / c.initial_pos_divisor, ef);
+        self.z[fdim + ddim + 1] = B::from_f32(last[1] / c.initial_pos_divisor, ef);
+        let q = run_network::<B>(&pred, &self.z[..n_in], &mut self.a, &mut self.b);
+        let mut t = Self::points(&self.frame, q, out_exp(&pred), c.data_scale)?;
+        if !(e[0].is_finite() && e[1].is_finite()) {
+            return Err(PredictError::NonFiniteOutput);
+        }
+        t.push(e).map_err(|_| PredictError::CapacityExceeded)?;
+        Ok(t)
+    }
+
+    /// `out.len()` plain latent samples: the first `out.len()` endpoints of the
+    /// stream seeded with `seed`, whatever the blob's protocol (the building
+    /// block of [`Engine::predict_endpoint_set`]).
+    pub fn predict_samples(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        if out.is_empty() {
+            return Err(PredictError::BadSampleCount);
+        }
+        self.start(past, seed)?;
+        for o in out.iter_mut() {
+            *o = self.next_endpoint()?;
+        }
+        Ok(())
+    }
+
+    /// The model's endpoint set (see [`crate::sampling`]): `out.len()` endpoints,
+    /// plain latent samples or, when the blob asks for test-time sampling,
+    /// the k-means reduction of its `tts_samples` samples. `N` bounds the
+    /// samples drawn (8 bytes of stack each); it must be at least
+    /// [`crate::sampling::samples_needed`].
+    pub fn predict_endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        let ext = *self.model.extensions();
+        crate::sampling::endpoint_set::<N>(&ext, out, |n, buf| {
+            self.start(past, seed)?;
+            for _ in 0..n {
+                let e = self.next_endpoint()?;
+                buf.push(e).map_err(|_| PredictError::CapacityExceeded)?;
+            }
+            Ok(())
+        })
+    }
+
+    /// `out.len()` full trajectories of plain latent samples (sample `i`'s
+    /// endpoint is the last point of `out[i]`, and equals
+    /// [`Engine::predict_samples`]' `i`-th endpoint).
+    pub fn predict_trajectories(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        if !self.model.has_predictor() {
+            return Err(PredictError::NoPredictor);
+        }
+        if out.is_empty() {
+            return Err(PredictError::BadSampleCount);
+        }
+        self.start(past, seed)?;
+        for t in out.iter_mut() {
+            self.next_endpoint()?;
+            *t = self.last_trajectory()?;
+        }
+        Ok(())
+    }
+}

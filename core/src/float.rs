@@ -1,0 +1,108 @@
+//! The f32 backend ([`NumericKind::F32`] blobs): f32 weights read in place,
+//! a [`Sine`] chosen at compile time.
+//!
+//! # One layer, exactly
+//!
+//! `y_j = act(b_j + W_j0 x_0 + W_j1 x_1 + …)`: the bias first, then the
+//! products added strictly left to right in f32, each product and each sum
+//! rounded once (separate multiply and add: Rust never fuses them). `Relu` is
+//! `if v < 0 { 0 } else { v }` (NaN passes through); `Sine` is `S::sin`.
+//! The decoder's first layer is split at its feature columns
+//! ([`crate::engine::Backend::partial`] then [`crate::engine::Backend::latent`]),
+//! which continues the same left-to-right sum: the result equals one pass.
+
+use core::marker::PhantomData;
+
+use crate::blob::{Activation, Layer, NumericKind};
+use crate::engine::{Backend, Sealed};
+use crate::sine::Sine;
+
+/// The f32 backend with sine `S`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Float<S: Sine>(PhantomData<S>);
+
+/// Applies `act` with sine `S`.
+#[inline]
+fn activate<S: Sine>(act: Activation, v: f32) -> f32 {
+    match act {
+        Activation::Linear => v,
+        // `v < 0` is false for NaN, so NaN propagates instead of turning into 0.
+        Activation::Relu => {
+            if v < 0.0 {
+                0.0
+            } else {
+                v
+            }
+        }
+        Activation::Sine => S::sin(v),
+    }
+}
+
+/// `acc_j += Σ_{i} W[j][col0 + i] · x[i]`, left to right, for `j < acc.len()`.
+#[inline]
+fn accumulate(layer: &Layer<'_>, col0: usize, x: &[f32], acc: &mut [f32]) {
+    for (j, a) in acc.iter_mut().enumerate() {
+        let row = layer.row_bytes(j);
+        let cols = row.get(col0 * 4..).unwrap_or(&[]);
+        let mut s = *a;
+        for (w, &xi) in cols.chunks_exact(4).zip(x) {
+            let w = match w {
+                &[b0, b1, b2, b3] => f32::from_le_bytes([b0, b1, b2, b3]),
+                _ => 0.0,
+            };
+            s += w * xi;
+        }
+        *a = s;
+    }
+}
+
+/// `acc_j = b_j` for `j < acc.len()`.
+#[inline]
+fn biases(layer: &Layer<'_>, acc: &mut [f32]) {
+    for (j, o) in acc.iter_mut().enumerate() {
+        *o = layer.bias(j);
+    }
+}
+
+impl<S: Sine> Sealed for Float<S> {}
+
+impl<S: Sine> Backend for Float<S> {
+    type Act = f32;
+    type Acc = f32;
+    const KIND: NumericKind = NumericKind::F32;
+    const SINE: &'static str = S::NAME;
+
+    #[inline]
+    fn from_f32(v: f32, _exp: i8) -> f32 {
+        v
+    }
+
+    #[inline]
+    fn to_f32(v: f32, _exp: i8) -> f32 {
+        v
+    }
+
+    #[inline]
+    fn dense(layer: &Layer<'_>, x: &[f32], out: &mut [f32]) {
+        biases(layer, out);
+        accumulate(layer, 0, x, out);
+        for o in out.iter_mut() {
+            *o = activate::<S>(layer.activation(), *o);
+        }
+    }
+
+    fn partial(layer: &Layer<'_>, x: &[f32], part: &mut [f32]) {
+        let out = layer.out_dim().min(part.len());
+        biases(layer, &mut part[..out]);
+        accumulate(layer, 0, x, &mut part[..out]);
+    }
+
+    fn latent(layer: &Layer<'_>, skip: usize, z: &[f32], part: &[f32], out: &mut [f32]) {
+        let n = out.len().min(part.len());
+        out[..n].copy_from_slice(&part[..n]);
+        accumulate(layer, skip, z, &mut out[..n]);
+        for o in out[..n].iter_mut() {
+            *o = activate::<S>(layer.activation(), *o);
+        }
+    }
+}
