@@ -46,6 +46,7 @@ pub const MAX_PAST: usize = 16;
 pub const MAX_FUTURE: usize = 32;
 /// Most test-time samples ([`Extensions::tts_samples`]) a blob may ask for.
 pub const MAX_TTS_SAMPLES: usize = 1024;
+#[doc(hidden)]
 /// The checksum: CRC-32/ISO-HDLC (the zlib/PNG/Ethernet CRC).
 pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -73,6 +74,7 @@ pub enum Activation {
     Sine,
 }
 
+#[doc(hidden)]
 /// First value of a blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Preamble {
@@ -106,6 +108,7 @@ pub struct ModelConfig {
     pub hidden_activation: Activation,
 }
 
+#[doc(hidden)]
 /// Everything after the preamble and before the networks.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ModelInfo<'a> {
@@ -134,6 +137,7 @@ pub struct Extensions {
     pub tts_init: u8,
 }
 
+#[doc(hidden)]
 /// One layer on the wire: dims, activation, and raw little-endian tensors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LayerWire<'a> {
@@ -149,6 +153,7 @@ pub struct LayerWire<'a> {
     pub bias: &'a [u8],
 }
 
+#[doc(hidden)]
 /// One fixed-point layer on the wire ([`NumericKind::Int16Q15`]); see
 /// `weights/FORMAT.md` and [`crate::fixed`] for the arithmetic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -171,8 +176,10 @@ pub struct LayerWireQ<'a> {
     pub shifts: &'a [u8],
 }
 
+#[doc(hidden)]
 /// Smallest exponent a fixed-point activation vector may use.
 pub const MIN_EXP: i8 = -8;
+#[doc(hidden)]
 /// Largest exponent a fixed-point activation vector may use.
 pub const MAX_EXP: i8 = 30;
 
@@ -311,6 +318,7 @@ impl<'a> Layer<'a> {
     pub fn bias(&self, j: usize) -> f32 {
         read_f32(self.bias, j)
     }
+    #[doc(hidden)]
     /// Row `j` of `W` as raw little-endian bytes (empty when out of range).
     #[inline]
     pub fn row_bytes(&self, j: usize) -> &'a [u8] {
@@ -334,6 +342,7 @@ impl<'a> Layer<'a> {
             _ => 0,
         }
     }
+    #[doc(hidden)]
     /// Fixed point: row `j` of `W` as raw i16 LE bytes (empty when out of range).
     #[inline]
     pub fn row_bytes_q(&self, j: usize) -> &'a [u8] {
@@ -348,6 +357,7 @@ impl<'a> Layer<'a> {
             _ => 0,
         }
     }
+    #[doc(hidden)]
     /// Fixed point: the whole layer's raw tensors `(weights, bias, shifts)`:
     /// `out_dim × in_dim` i16 LE (row-major), `out_dim` i32 LE and
     /// `out_dim` i8, for walking all rows in one pass without per-row

@@ -81,13 +81,16 @@ use crate::engine::{Backend, Sealed};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Q15;
 
+#[doc(hidden)]
 /// Allowed shifts of `Linear`/`Relu` channels.
 pub const AFFINE_SHIFTS: RangeInclusive<i8> = 0..=62;
+#[doc(hidden)]
 /// Allowed shifts of `Sine` channels.
 pub const SINE_SHIFTS: RangeInclusive<i8> = -31..=62;
 /// Name of this sine in golden files and model cards.
 pub const SINE_NAME: &str = "q15-table";
 
+#[doc(hidden)]
 /// `round(32768 · sin(π/2 · i / 256))`, `i = 0..=256`: a quarter wave.
 pub const QUARTER_SINE: [u16; 257] = [
     0, 201, 402, 603, 804, 1005, 1206, 1407, 1608, 1809, 2009, 2210, 2411, 2611, 2811, 3012, 3212,
@@ -146,6 +149,7 @@ pub fn sin_q15(phase: u32) -> i32 {
 /// ≤ 0.15 LSB, final rounding ≤ 0.5 LSB).
 pub const SIN_Q15_MAX_ERROR: f64 = 3.2e-5;
 
+#[doc(hidden)]
 /// `2^e` as f32 (exact for −126 ≤ e ≤ 127).
 #[inline]
 pub fn pow2(e: i32) -> f32 {
@@ -153,6 +157,7 @@ pub fn pow2(e: i32) -> f32 {
     f32::from_bits(((127 + e) as u32) << 23)
 }
 
+#[doc(hidden)]
 /// f32 → fixed: `clamp(round_ties_even(x · 2^e), −32768, 32767)`; NaN → 0.
 #[inline]
 pub fn quantize(x: f32, e: i8) -> i32 {
@@ -168,6 +173,7 @@ pub fn quantize(x: f32, e: i8) -> i32 {
     }
 }
 
+#[doc(hidden)]
 /// fixed → f32: `v · 2^-e` (exact).
 #[inline]
 pub fn dequantize(v: i32, e: i8) -> f32 {
@@ -189,6 +195,7 @@ fn rshr(a: i64, s: i8) -> i64 {
     }
 }
 
+#[doc(hidden)]
 /// The activation of one accumulated channel (see the module docs).
 #[inline]
 pub fn activate_q(act: Activation, acc: i64, shift: i8) -> i16 {
