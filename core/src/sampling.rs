@@ -23,12 +23,8 @@ pub(crate) fn endpoint_set<const N: usize>(
     out: &mut [[f32; 2]],
     mut draw: impl FnMut(usize, &mut heapless::Vec<[f32; 2], N>) -> Result<(), PredictError>,
 ) -> Result<(), PredictError> {
-    let k = out.len();
-    let n = match ext.tts_samples as usize {
-        0 => k,
-        n => n,
-    };
-    if k == 0 || k > n {
+    let n = samples_needed(ext, out.len());
+    if out.is_empty() || out.len() > n {
         return Err(PredictError::BadSampleCount);
     }
     if n > N {
@@ -36,11 +32,28 @@ pub(crate) fn endpoint_set<const N: usize>(
     }
     let mut buf = heapless::Vec::<[f32; 2], N>::new();
     draw(n, &mut buf)?;
-    if buf.len() != n {
-        return Err(PredictError::CapacityExceeded);
+    reduce(ext, &buf, out)
+}
+
+/// The last step of the protocol of `ext`: the `samples` a stream drew (the
+/// first [`samples_needed`]`(ext, out.len())` of it, e.g. from
+/// [`crate::Predictor::start`] and [`crate::Predictor::next_endpoint`] with a
+/// yield between samples) become the `out.len()` endpoints. With the same
+/// samples this gives exactly [`crate::Predictor::predict_endpoint_set`].
+pub fn reduce(
+    ext: &Extensions,
+    samples: &[[f32; 2]],
+    out: &mut [[f32; 2]],
+) -> Result<(), PredictError> {
+    let k = out.len();
+    if k == 0 || k > samples_needed(ext, k) {
+        return Err(PredictError::BadSampleCount);
+    }
+    if samples.len() != samples_needed(ext, k) {
+        return Err(PredictError::BadSampleCount);
     }
     if ext.tts_samples == 0 {
-        out.copy_from_slice(&buf);
+        out.copy_from_slice(samples);
         return Ok(());
     }
     let init = if ext.tts_init == 1 {
@@ -48,7 +61,7 @@ pub(crate) fn endpoint_set<const N: usize>(
     } else {
         Init::First
     };
-    kmeans_reduce(&buf, out, ext.tts_iters, init).map_err(|_| PredictError::BadSampleCount)
+    kmeans_reduce(samples, out, ext.tts_iters, init).map_err(|_| PredictError::BadSampleCount)
 }
 
 /// Samples a prediction of `k` endpoints draws under the protocol of `ext`

@@ -325,6 +325,35 @@ fn build_core_thumb() -> i32 {
         );
         failed += (rc != 0) as i32;
     }
+    // The embassy task skeleton (core/examples/embassy_task.rs), linked with the
+    // repository's memory.x through cortex-m-rt's link.x: the example an
+    // integrator starts from must build for the MCU, not only on the host.
+    let mut c = deb_cargo(&root());
+    c.env(
+        "RUSTFLAGS",
+        format!("-C link-arg=-Tlink.x -L {}", root().display()),
+    )
+    .args([
+        "build",
+        "--locked",
+        "--release",
+        "-p",
+        "gpecnet-core",
+        "--example",
+        "embassy_task",
+        "--target",
+        TARGET,
+        "-Zbuild-std=core",
+        "--target-dir",
+    ])
+    .arg(root().join("target/thumb-examples"));
+    let rc = status(c);
+    println!(
+        "build-core-thumb {:<40} {}",
+        "--example embassy_task",
+        if rc == 0 { "ok" } else { "FAILED" }
+    );
+    failed += (rc != 0) as i32;
     (failed != 0) as i32
 }
 
