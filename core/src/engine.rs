@@ -235,14 +235,14 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
     /// model with a point head ([`Model::has_point_head`]). Does not disturb
     /// a sample stream in progress.
     pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        let head = *self.model.point_head();
-        if head.is_empty() {
+        if !self.model.has_point_head() {
             return Err(PredictError::NoPointHead);
         }
         let mut x = [B::Act::default(); 2 * MAX_PAST];
         let (frame, n) = self.input(past, &mut x)?;
-        let q = run_network::<B>(&head, &x[..n], &mut self.a, &mut self.b);
-        Self::points(&frame, q, out_exp(&head), self.model.config().data_scale)
+        let head = self.model.point_head();
+        let q = run_network::<B>(head, &x[..n], &mut self.a, &mut self.b);
+        Self::points(&frame, q, out_exp(head), self.model.config().data_scale)
     }
 
     /// Starts a sample stream for `past` with sampler seed `seed` (steps 1–3):
@@ -275,34 +275,34 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         if self.stream == Stream::Idle {
             return Err(PredictError::NotStarted);
         }
-        let c = *self.model.config();
-        let (fdim, zdim) = (c.fdim as usize, (c.zdim as usize).min(W));
-        let dec = *self.model.decoder();
-        let ez = in_exp(&dec);
+        // Field borrows only (no copy of the model's network tables per sample).
+        let c = self.model.config();
+        let (fdim, zdim, sigma, scale) = (
+            c.fdim as usize,
+            (c.zdim as usize).min(W),
+            c.sigma,
+            c.data_scale,
+        );
+        let dec = self.model.decoder();
+        let ez = in_exp(dec);
         for zi in self.z[..zdim].iter_mut() {
-            *zi = B::from_f32(c.sigma * self.gauss.next(), ez);
+            *zi = B::from_f32(sigma * self.gauss.next(), ez);
         }
         let Some(l0) = dec.layer(0) else {
             return Err(PredictError::NonFiniteOutput);
         };
         let out0 = l0.out_dim().min(W);
-        B::latent(
-            l0,
-            fdim,
-            &self.z[..zdim],
-            &self.part[..out0],
-            &mut self.a[..out0],
-        );
+        B::latent(l0, fdim, &self.z[..zdim], &self.part[..out0], &mut self.a[..out0]);
         let d = layers::<B>(dec.layers().skip(1), &mut self.a, &mut self.b, out0);
         let (Some(&d0), Some(&d1)) = (d.first(), d.get(1)) else {
             return Err(PredictError::NonFiniteOutput);
         };
+        let eo = out_exp(dec);
         self.d = [d0, d1];
         self.stream = Stream::Drawn;
-        let eo = out_exp(&dec);
         let e = self
             .frame
-            .output([B::to_f32(d0, eo), B::to_f32(d1, eo)], c.data_scale);
+            .output([B::to_f32(d0, eo), B::to_f32(d1, eo)], scale);
         if !(e[0].is_finite() && e[1].is_finite()) {
             return Err(PredictError::NonFiniteOutput);
         }
@@ -321,13 +321,13 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         }
         let c = *self.model.config();
         let fdim = c.fdim as usize;
-        let (dest, pred) = (*self.model.encoder_dest(), *self.model.predictor());
+        let (dest, pred) = (self.model.encoder_dest(), self.model.predictor());
         let eo = out_exp(self.model.decoder());
         let e = self.frame.output(
             [B::to_f32(self.d[0], eo), B::to_f32(self.d[1], eo)],
             c.data_scale,
         );
-        let g = run_network::<B>(&dest, &self.d, &mut self.a, &mut self.b);
+        let g = run_network::<B>(dest, &self.d, &mut self.a, &mut self.b);
         let ddim = g.len();
         let n_in = fdim + ddim + 2;
         if n_in > W {
@@ -340,8 +340,8 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         let ef = out_exp(self.model.encoder_past());
         self.z[fdim + ddim] = B::from_f32(last[0] / c.initial_pos_divisor, ef);
         self.z[fdim + ddim + 1] = B::from_f32(last[1] / c.initial_pos_divisor, ef);
-        let q = run_network::<B>(&pred, &self.z[..n_in], &mut self.a, &mut self.b);
-        let mut t = Self::points(&self.frame, q, out_exp(&pred), c.data_scale)?;
+        let q = run_network::<B>(pred, &self.z[..n_in], &mut self.a, &mut self.b);
+        let mut t = Self::points(&self.frame, q, out_exp(pred), c.data_scale)?;
         if !(e[0].is_finite() && e[1].is_finite()) {
             return Err(PredictError::NonFiniteOutput);
         }
