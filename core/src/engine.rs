@@ -45,8 +45,8 @@
 //! # Memory
 //!
 //! `Engine<B, W>` holds four activation rows and one partial-sum row of `W`
-//! (f32: `20·W` bytes; Q15: `16·W` bytes), the model view (about 500 bytes on a
-//! 32-bit target) and the sampler state. Weights are read in place. A call
+//! (f32: `20·W` bytes; Q15: `16·W` bytes), the model view (about 1.5 KiB on a
+//! 32-bit target: five networks of up to eight layer descriptors) and the sampler state. Weights are read in place. A call
 //! uses under 1 KiB of stack besides what the caller passes; the endpoint set
 //! of a test-time-sampling model adds its `N`-sample buffer (`8·N` bytes).
 //! `cargo xtask profile` measures both on the Cortex-M4F.
@@ -292,7 +292,13 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             return Err(PredictError::NonFiniteOutput);
         };
         let out0 = l0.out_dim().min(W);
-        B::latent(l0, fdim, &self.z[..zdim], &self.part[..out0], &mut self.a[..out0]);
+        B::latent(
+            l0,
+            fdim,
+            &self.z[..zdim],
+            &self.part[..out0],
+            &mut self.a[..out0],
+        );
         let d = layers::<B>(dec.layers().skip(1), &mut self.a, &mut self.b, out0);
         let (Some(&d0), Some(&d1)) = (d.first(), d.get(1)) else {
             return Err(PredictError::NonFiniteOutput);

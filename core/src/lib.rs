@@ -11,6 +11,73 @@
 //! exports weight blobs that this crate reads **in place** — a blob linked
 //! into flash with `include_bytes!` is never copied into RAM.
 //!
+//! ```
+//! # fn demo(blob: &'static [u8]) -> Result<(), gpecnet_core::Error> {
+//! use gpecnet_core::{LibmSine, Model, Predictor};
+//!
+//! let model = Model::from_blob(blob)?;    // validates magic, CRC, shapes, weights
+//! // Any valid blob, f32 or fixed point; 128 = scratch width (>= model.scratch_width()).
+//! let mut p = Predictor::<LibmSine, 128>::new(model)?;
+//! let past = [[512.0, 300.0], [514.0, 301.0], [516.5, 302.0], [519.0, 303.5],
+//!             [521.0, 304.5], [523.5, 305.0], [526.0, 306.0], [528.0, 307.5]];
+//! if p.model().has_point_head() {
+//!     let forecast = p.predict_point(&past)?;         // the single best guess
+//!     let _endpoint = forecast.last();
+//! }
+//! let mut ends = [[0.0f32; 2]; 20];                  // caller-owned output
+//! p.predict_endpoint_set::<128>(&past, /* seed */ 1, &mut ends)?;
+//! for e in &ends {
+//!     let _ = (e[0], e[1]);                           // same units and frame as `past`
+//! }
+//! # Ok(()) }
+//! ```
+//!
+//! A cooperative (async) task can yield between samples:
+//! [`Predictor::start`] encodes the track once, each
+//! [`Predictor::next_endpoint`] draws one sample, and
+//! [`sampling::reduce`] turns the drawn samples into the model's endpoint set
+//! (`core/examples/embassy_task.rs`).
+//!
+//! ## What an integrator uses
+//! - [`Model`] (validate a blob once), [`Predictor`] (any blob, kind chosen at
+//!   run time; owns its model view, so it can live in a `static`),
+//!   [`Trajectory`], the errors [`Error`] = [`BlobError`] | [`PredictError`],
+//!   and a [`Sine`] for f32 blobs ([`LibmSine`] is the reference the shipped
+//!   golden files use; [`FastSine`] is 5–10× cheaper on an FPU and
+//!   bit-reproducible, but not bit-identical to `LibmSine`).
+//! - [`tracks`]: the fixed-capacity, id-keyed track table that turns
+//!   detections into the 8-step histories a prediction needs.
+//! - [`Engine`] with [`float::Float`] or [`fixed::Q15`]: one backend only,
+//!   when the kind is known at build time (less flash).
+//! - Limits: [`frame::MAX_COORDINATE`], [`Model::input_limit`],
+//!   [`Model::scratch_width`], [`blob::MAX_PAST`], [`blob::MAX_FUTURE`],
+//!   [`sampling::samples_needed`].
+//!
+//! ## Modules
+//! - [`blob`]: the weight-blob reader (format: `weights/FORMAT.md`) and [`Model`].
+//! - [`predictor`]: [`Predictor`], run-time dispatch over the one engine.
+//! - [`engine`]: the computation, step by step, generic over a numeric backend.
+//! - [`float`], [`fixed`]: the f32 and the integer (Q15) backends.
+//! - [`frame`]: input guards and the coordinate frame the networks see.
+//! - [`sampling`]: the blob's endpoint protocol (plain or test-time sampling).
+//! - [`sine`]: reference (`libm`), fast fixed-order f32, and micromath sines.
+//! - [`tracks`]: track table (detections → histories).
+//!
+//! Hidden from the documentation (used by the trainer, the tests and the
+//! firmware; not part of the semver surface, see `tests/public-api.txt`):
+//! `cluster`, `golden`, `math`, `prng`, the blob's wire structs and the
+//! fixed-point quantisation helpers.
+//!
+//! ## Features
+//! - `defmt`: `defmt::Format` on public types, for logging on a device.
+//! - `micromath`: `sine::MicromathSine`, micromath's approximate sine.
+//!
+//! ## Resource use
+//! `Model` is a ~1.5 KiB view (the weights stay in the blob).
+//! `Predictor<S, W>` is `20·W` bytes of scratch plus the model view
+//! (4,128 B for `W = 128` on a Cortex-M4F); a call uses under 3.1 KiB of stack
+//! with a 128-sample buffer (`cargo xtask profile` measures both; see
+//! [`engine`]).
 #![no_std]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]

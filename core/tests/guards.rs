@@ -217,3 +217,24 @@ fn a_fresh_predictor_has_no_stream() {
         assert_eq!(p.last_trajectory(), Err(want));
     }
 }
+
+/// The predictor owns its model view (one lifetime): it can live in a
+/// `static` and move between threads / tasks.
+#[test]
+fn a_predictor_lives_in_a_static() {
+    static SLOT: std::sync::Mutex<Option<P>> = std::sync::Mutex::new(None);
+    *SLOT.lock().unwrap() = Some(P::new(Model::from_blob(Q15).unwrap()).unwrap());
+    let ends = std::thread::spawn(|| {
+        let mut guard = SLOT.lock().unwrap();
+        let p = guard.as_mut().unwrap();
+        let mut ends = [[0.0f32; 2]; 20];
+        p.predict_endpoint_set::<128>(&PAST, 5, &mut ends).unwrap();
+        ends
+    })
+    .join()
+    .unwrap();
+    let mut again = [[0.0f32; 2]; 20];
+    let [_, mut q] = both();
+    q.predict_endpoint_set::<128>(&PAST, 5, &mut again).unwrap();
+    assert_eq!(ends, again);
+}

@@ -675,9 +675,9 @@ pub struct QuantCard {
     pub calibration_windows: usize,
     /// f32 source through `gpecnet_core::Predictor` on SDD test (pixels).
     pub test_f32: Metrics,
-    /// Fixed point through `gpecnet_core::FixedPredictor` on SDD test (pixels).
+    /// Fixed point through `gpecnet_core::Predictor` (its fixed-point engine) on SDD test (pixels).
     pub test_fixed: Metrics,
-    /// `FixedPredictor` scratch bytes at the smallest width the model allows.
+    /// Fixed-point engine scratch bytes (`16·W`) at the smallest width the model allows.
     pub scratch_bytes: usize,
     /// Distribution quality of the f32 source's K samples on SDD test (KDE NLL in nats/px,
     /// hit rates at 20 / 40 px).
@@ -907,14 +907,14 @@ fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
         "# Model card: `{name}` (fixed point)\n\n\
 Post-training quantization of `weights/{src}` to the `Int16Q15` blob kind (`weights/FORMAT.md`): int16 weights with a \
 power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit accumulators, integer table sine \
-(`q15-table`, saturated to ±32767, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::FixedPredictor`).\n\n\
+(`q15-table`, saturated to ±32767, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::Predictor` runs such a blob on its fixed-point engine, `Engine<Q15>`).\n\n\
 | | |\n|---|---|\n\
 | blob | `weights/{name}.gpec`, {bytes} bytes (f32 source: {sbytes} bytes), CRC-32 `{crc:#010x}` |\n\
 | source | `{src}`, CRC-32 `{scrc:#010x}`, numbers with sine `{ssine}` |\n\
 | parameters | {params} |\n\
 | calibration | {cal} SDD training windows, margin {margin} |\n\
 | exponents (in→out per layer) | {exps} |\n\
-| `FixedPredictor` scratch at minimum width | {scratch} bytes |\n\
+| fixed-point engine scratch at minimum width (`Engine<Q15, W>` rows, `16·W`) | {scratch} bytes |\n\
 | networks | {nets} |\n\
 | produced by | `gpecnet quantize --blob weights/{src} --out weights/{name}.gpec{flag}` |\n\n\
 ## SDD test set ({n} windows, pixels), both through `gpecnet-core`\n\n\

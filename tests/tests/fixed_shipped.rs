@@ -1,5 +1,5 @@
 //! Every shipped fixed-point blob (`weights/*-q.gpec`, `NumericKind::Int16Q15`):
-//! its golden vectors replay bit for bit through `gpecnet_core::FixedPredictor`,
+//! its golden vectors replay bit for bit through `gpecnet_core`'s fixed-point engine (`Engine<Q15>`),
 //! and re-evaluating the SDD test set through `gpecnet-core` reproduces its card.
 
 use gpecnet_core::blob::NumericKind;

@@ -1,4 +1,4 @@
-//! `gpecnet_core::FixedPredictor` against the trainer's independent integer
+//! `gpecnet_core`'s fixed-point engine (`Engine<Q15>`) against the trainer's independent integer
 //! reference (`gpecnet_trainer::quantize`), bit for bit, on the whole SDD test set.
 
 use gpecnet_core::Model;

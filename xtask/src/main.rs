@@ -1144,7 +1144,7 @@ fn profile(o: &Opts) -> i32 {
         t,
         "\nInstructions are QEMU guest instructions between bench_start and bench_end (TCG plugin \
          firmware/tools/insn_window.c), not Cortex-M4 cycles; see firmware/README.md to convert. \
-         Stack: whole-run peak (painted at boot) / extra depth of the predict_endpoints call on top of the \
+         Stack: whole-run peak (painted at boot) / extra depth of the measured call (point forecast + endpoint set) on top of the \
          Predictor, whose scratch (Predictor B) lives in the caller's frame. MACs from the blob's layer dims \
          (Model::endpoint_macs). Predict code: bytes of the functions that executed between the markers \
          (per-PC plugin profile folded with llvm-nm; constant tables such as the 514 B sine table are in \
