@@ -6,10 +6,17 @@
 //!
 //! | type | accuracy | cost on a Cortex-M4F | bit-reproducible across targets |
 //! |---|---|---|---|
-//! | [`LibmSine`] (reference) | correctly rounded in practice (musl `sinf`) | ~1,400 instructions: evaluates in f64, which the M4F emulates | yes (pure software) |
+//! | [`LibmSine`] (reference) | faithfully rounded, max error 0.5009 ulp; *not* correctly rounded: differs from the correctly rounded sine on ~0.03 % of arguments uniform in [−8, 8] (FreeBSD/musl `sinf`, `libm` 0.2.16) | ~1,400 instructions: evaluates in f64, which the M4F emulates | yes (IEEE f64 operations only; specified bit for bit in `weights/FORMAT.md`) |
 //! | [`FastSine`] | < 4e-7 absolute for \|x\| ≤ 200 (measured by `sine::tests`) | ~20 single-precision FPU instructions | yes (fixed evaluation order, f32 only) |
 //! | `MicromathSine` (feature `micromath`) | ~1e-3 absolute (micromath's approximation) | ~30 instructions | yes for the same micromath version |
 //! | [`crate::fixed::sin_q15`] (fixed-point blobs only; phase in turns, u32) | 3.10e-5 absolute (1.02 Q15 LSB) over all 2^26 distinct inputs (`core/tests/fixed_sine.rs`) | integer only, no FPU; not yet profiled with `cargo xtask profile` | yes (integer) |
+//!
+//! The reference is an algorithm, not "the" sine: a correctly rounded `sinf`
+//! does not reproduce golden vectors made with [`LibmSine`]. The algorithm
+//! (range-reduction branches, polynomial kernels, evaluation order,
+//! Payne–Hanek path) is specified exactly in `weights/FORMAT.md`, section
+//! "The reference sine (`libm`)", and `tests/tests/sine_spec.rs` checks a
+//! re-implementation written from that text against [`LibmSine`] bit for bit.
 //!
 //! ```
 //! use gpecnet_core::sine::{FastSine, LibmSine, Sine};
@@ -27,7 +34,17 @@ pub trait Sine {
     fn sin(x: f32) -> f32;
 }
 
-/// The reference: `libm::sinf` (a port of musl's `sinf`).
+/// The reference: `libm::sinf` from the `libm` crate 0.2.16 (pinned with
+/// `=0.2.16`), a port of FreeBSD's / musl's `sinf`.
+///
+/// Range reduction by π/2 in f64 (one multiple of π/2 up to 9π/4, two-term
+/// Cody–Waite below 2^28·π/2, Payne–Hanek above), then a degree-9 odd
+/// (sine) or degree-8 even (cosine) polynomial evaluated in f64 and rounded
+/// once to f32. Faithfully rounded (largest error observed 0.5009 ulp) but
+/// not correctly rounded: about 0.03 % of arguments uniform in [−200, 200]
+/// differ from the correctly rounded sine by one ulp. Specified bit for bit,
+/// for re-implementation, in `weights/FORMAT.md` ("The reference sine
+/// (`libm`)"). NaN for ±∞ and NaN (sign and payload unspecified).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LibmSine;
