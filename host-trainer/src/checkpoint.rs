@@ -10,7 +10,11 @@
 //! ```
 //! The write goes to a temporary file in the same directory, is fsynced, then renamed over the
 //! old checkpoint (and the directory is fsynced), so a kill at any moment leaves either the
-//! previous or the new checkpoint, never a torn one. Truncated or corrupted files are reported
+//! previous or the new checkpoint, never a torn one. The replaced checkpoint is kept as
+//! `checkpoint.prev.bin`; `--resume` falls back to it, with a warning, when `checkpoint.bin`
+//! is unusable ([`load_for_resume`]). A kill during a write can leave the temp file
+//! `.checkpoint.bin.tmp.<pid>`; the next run into the folder deletes it
+//! ([`crate::rundir::remove_stale_temp_files`]) and a failed write names any that remain. Truncated or corrupted files are reported
 //! as [`CheckpointError`]s, never panics.
 
 use std::fs::{self, File};
@@ -27,6 +31,11 @@ use crate::rng::{Rng, RngState};
 
 /// File name of the checkpoint inside a run directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
+/// The checkpoint before the latest one (kept by [`save`], the fallback of
+/// [`load_for_resume`]).
+pub const PREV_FILE: &str = "checkpoint.prev.bin";
+/// Where [`load_for_resume`] moves an unusable `checkpoint.bin` when it falls back.
+pub const CORRUPT_FILE: &str = "checkpoint.corrupt.bin";
 const MAGIC: &[u8; 8] = b"GPECCKPT";
 /// 2: point head (`best_point`, per-epoch point metrics).
 const VERSION: u32 = 2;
@@ -223,8 +232,10 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Checkpoint, CheckpointErr
     postcard::from_bytes(payload).map_err(|source| CheckpointError::Decode { path, source })
 }
 
-/// Write `bytes` to `path` atomically: temp file in the same directory, fsync, rename,
-/// fsync the directory.
+/// Write `bytes` to `path` atomically: temp file `.<name>.tmp.<pid>` in the same directory,
+/// fsync, rename, fsync the directory. On failure the temp file is removed, and the error
+/// names every temp file still in the directory (leftovers of killed runs that may be what
+/// fills the disk; see [`crate::rundir`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
@@ -235,12 +246,33 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
-    {
+    let write = || -> std::io::Result<()> {
         let mut f = File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
+        drop(f);
+        fs::rename(&tmp, path)
+    };
+    if let Err(e) = write() {
+        let removed = fs::remove_file(&tmp).is_ok();
+        let left = crate::rundir::temp_files(dir, |_| true);
+        let mut msg = format!("writing {} failed: {e}", path.display());
+        if removed {
+            msg += &format!(" (removed the partial {})", tmp.display());
+        }
+        if !left.is_empty() {
+            let total: u64 = left.iter().map(|(_, n)| n).sum();
+            msg += &format!(
+                "; temp files left in {} by interrupted writes ({total} bytes; delete them if no run is using the folder): {}",
+                dir.display(),
+                left.iter()
+                    .map(|(p, n)| format!("{} ({n} bytes)", p.display()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        return Err(std::io::Error::new(e.kind(), msg));
     }
-    fs::rename(&tmp, path)?;
     #[cfg(unix)]
     if let Ok(d) = File::open(dir) {
         let _ = d.sync_all();
@@ -248,14 +280,71 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Save `ckpt` as `<run_dir>/checkpoint.bin` (atomically).
+/// Save `ckpt` as `<run_dir>/checkpoint.bin` (atomically), keeping the checkpoint it
+/// replaces as `checkpoint.prev.bin` (the fallback of [`load_for_resume`]).
 pub fn save(run_dir: &Path, ckpt: &Checkpoint) -> Result<(), CheckpointError> {
     let path = run_dir.join(CHECKPOINT_FILE);
     let bytes = to_bytes(ckpt).map_err(|source| CheckpointError::Decode {
         path: path.clone(),
         source,
     })?;
+    if path.is_file() {
+        // checkpoint.bin stays in place throughout: a second name for it (hard link, else a
+        // copy) is renamed over the previous fallback.
+        let prev = run_dir.join(PREV_FILE);
+        let prev_tmp = run_dir.join(format!(".{PREV_FILE}.tmp.{}", std::process::id()));
+        let _ = fs::remove_file(&prev_tmp);
+        fs::hard_link(&path, &prev_tmp)
+            .or_else(|_| fs::copy(&path, &prev_tmp).map(|_| ()))
+            .and_then(|()| fs::rename(&prev_tmp, &prev))
+            .map_err(|source| {
+                let _ = fs::remove_file(&prev_tmp);
+                CheckpointError::Io {
+                    path: prev.clone(),
+                    source,
+                }
+            })?;
+    }
     write_atomic(&path, &bytes).map_err(|source| CheckpointError::Io { path, source })
+}
+
+/// Load the checkpoint of a run directory for `--resume`: `checkpoint.bin`, or, when that is
+/// missing or unreadable (truncated, corrupt, ...) and `checkpoint.prev.bin` is good, the
+/// previous one, with a warning on stderr; the bad file is then kept as
+/// `checkpoint.corrupt.bin` (so the next save does not rotate it into the fallback). Errors
+/// name both files when neither can be used.
+pub fn load_for_resume(run_dir: &Path) -> anyhow::Result<Checkpoint> {
+    let path = run_dir.join(CHECKPOINT_FILE);
+    let newest = load(&path);
+    let err = match newest {
+        Ok(c) => return Ok(c),
+        Err(e) => e,
+    };
+    let prev_path = run_dir.join(PREV_FILE);
+    if !prev_path.exists() {
+        return Err(err.into());
+    }
+    match load(&prev_path) {
+        Ok(c) => {
+            let corrupt = run_dir.join(CORRUPT_FILE);
+            let kept = path.exists() && fs::rename(&path, &corrupt).is_ok();
+            eprintln!(
+                "warning: {err}; resuming from the previous checkpoint {} (epoch {}){}",
+                prev_path.display(),
+                c.epochs_done,
+                if kept {
+                    format!("; the unusable file is kept as {}", corrupt.display())
+                } else {
+                    String::new()
+                }
+            );
+            Ok(c)
+        }
+        Err(e2) => Err(anyhow::anyhow!(
+            "no usable checkpoint in {}: {err}; and the previous one: {e2}",
+            run_dir.display()
+        )),
+    }
 }
 
 /// Load a checkpoint from a run directory or a checkpoint file.

@@ -12,6 +12,7 @@ pub mod optim;
 pub mod quantize;
 pub mod reference;
 pub mod rng;
+pub mod rundir;
 pub mod select;
 pub mod ship;
 pub mod social;

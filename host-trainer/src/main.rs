@@ -23,9 +23,19 @@ struct Cli {
 enum Command {
     /// Train a model (new run, or continue one with --resume).
     ///
-    /// Writes checkpoint.bin (after every epoch, atomically), metrics.csv, metrics.jsonl,
-    /// curves.svg and config.toml into the run directory. The best epoch is chosen on the
+    /// Writes checkpoint.bin (after every epoch, atomically; the one before is kept as
+    /// checkpoint.prev.bin), metrics.csv, metrics.jsonl, curves.svg, config.toml and
+    /// data-fingerprint.json into the run directory. The best epoch is chosen on the
     /// validation scenes (never the test set).
+    ///
+    /// Run-folder safety: a run holds the lock file <out>/.gpecnet.lock (pid, host, start
+    /// time) while it runs, so a second run into the same folder is refused; a lock left by a
+    /// killed run is taken over automatically only when its pid is provably dead (same host,
+    /// no /proc/<pid>), otherwise delete it by hand. A new run refuses a folder that already
+    /// holds files (unless --force) or a checkpoint (use --resume). --resume refuses a
+    /// different config or different data (window fingerprint) and falls back to
+    /// checkpoint.prev.bin, with a warning, when checkpoint.bin is corrupt. Temp files of
+    /// interrupted writes (.checkpoint.bin.tmp.<pid>) are deleted at start.
     Train(TrainArgs),
     /// Export a run's best-validation model to weights/: blob, golden vectors, model card.
     ///
@@ -371,7 +381,8 @@ fn cmd_select(a: SelectArgs) -> Result<()> {
 #[derive(clap::Args, Debug)]
 struct TrainArgs {
     /// Training config (TOML; see host-trainer/configs/). Required for a new run; with
-    /// --resume the config stored in the checkpoint is used and this must be omitted.
+    /// --resume the config stored in the checkpoint is used, and a --config given as well
+    /// must equal it (num_epochs aside) or the resume is refused, naming the keys that differ.
     #[arg(long, value_name = "TOML")]
     config: Option<PathBuf>,
     /// Data root holding sdd/ and eth_ucy/ (see shared/data/README.md).
@@ -383,6 +394,11 @@ struct TrainArgs {
     /// Continue the run in --out from its checkpoint.bin, bit-exactly.
     #[arg(long)]
     resume: bool,
+    /// New runs: train into an --out folder that already holds files (but no checkpoint),
+    /// overwriting its config.toml, metrics.csv, metrics.jsonl and curves.svg. Never breaks
+    /// another run's lock and never replaces a checkpoint.
+    #[arg(long)]
+    force: bool,
     /// Override the total number of epochs of the run (also extends a resumed run).
     #[arg(long, value_name = "N")]
     epochs: Option<usize>,
@@ -422,10 +438,13 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
         epochs: a.epochs,
         quiet: a.quiet,
         stop_after: None,
+        force: a.force,
     };
     let summary = if a.resume {
-        if a.config.is_some()
-            || a.augment.is_some()
+        if a.force {
+            anyhow::bail!("--force applies to new runs; --resume never overwrites anything");
+        }
+        if a.augment.is_some()
             || a.pool.is_some()
             || a.seed.is_some()
             || a.heading_steps.is_some()
@@ -434,10 +453,15 @@ fn cmd_train(a: TrainArgs) -> Result<()> {
             || a.cosine
         {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --config/--augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine"
+                "--resume uses the config stored in the checkpoint; drop --augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine"
             );
         }
-        train::train_resume(&opts)?
+        let expected = a
+            .config
+            .as_deref()
+            .map(TrainConfig::from_file)
+            .transpose()?;
+        train::train_resume_checked(&opts, expected.as_ref())?
     } else {
         let Some(path) = a.config else {
             anyhow::bail!("a new run needs --config <TOML> (or --resume to continue one)");

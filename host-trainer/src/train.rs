@@ -8,8 +8,11 @@
 //!   `z ~ N(0, sigma^2)` drawn from a validation RNG re-seeded identically every time, so
 //!   epochs are compared on the same draws. The best epoch is chosen by validation min FDE;
 //!   the test set is never read.
-//! * After every epoch: `checkpoint.bin` (atomic), `metrics.csv`, `metrics.jsonl`,
-//!   `curves.svg` in the run directory.
+//! * After every epoch: `checkpoint.bin` (atomic; the one before kept as
+//!   `checkpoint.prev.bin`), `metrics.csv`, `metrics.jsonl`, `curves.svg` in the run
+//!   directory; `config.toml` and `data-fingerprint.json` once at the start.
+//! * Run-folder safety ([`crate::rundir`]): one run per folder (lock file), no silent
+//!   overwrite of a non-empty folder, `--resume` checks config and data.
 //!
 //! Determinism: all randomness comes from [`crate::rng`]; candle's CPU matmul thread count is
 //! pinned from `TrainConfig::threads` via `RAYON_NUM_THREADS` (read by candle for every
@@ -31,6 +34,7 @@ use crate::eval::{Metrics, MetricsAccumulator, Prediction};
 use crate::model::{Batch, Model};
 use crate::optim::{Adam, AdamParams};
 use crate::rng::{streams, Rng};
+use crate::rundir::{self, RunLock};
 
 /// Windows evaluated per validation forward pass (times K rows).
 const VAL_CHUNK: usize = 512;
@@ -61,6 +65,8 @@ pub struct PreparedData {
     /// Social groups of `train` (indices; [`social_train_groups`]); empty without
     /// `social_pooling`.
     pub groups: Vec<Vec<u32>>,
+    /// Fingerprint of the raw windows (checked by `--resume`).
+    pub fingerprint: DataFingerprint,
 }
 
 /// Social groups of the training windows (`social_pooling`): PECNet's star grouping
@@ -144,6 +150,7 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
     let synthetic = synthetic_windows(cfg, n_real)?;
     let n_synthetic = synthetic.len();
     train.windows.extend(synthetic);
+    let fingerprint = DataFingerprint::of(&train.windows, n_real, &val.windows);
     let train = if cfg.time_reversal {
         train.with_time_reversed()
     } else {
@@ -180,6 +187,7 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
         train_windows.extend(mirrored);
     }
     Ok(PreparedData {
+        fingerprint,
         groups,
         train: train_windows
             .iter()
@@ -628,6 +636,9 @@ pub struct TrainOptions {
     pub quiet: bool,
     /// Stop (as if killed) after this many epochs of this invocation; for tests.
     pub stop_after: Option<usize>,
+    /// New runs: start even when the run directory already holds files (overwriting
+    /// `config.toml`, `metrics.*`, `curves.svg`); never overrides a checkpoint or a lock.
+    pub force: bool,
 }
 
 /// Result of a training invocation.
@@ -645,41 +656,279 @@ pub struct TrainSummary {
     pub unit: Unit,
 }
 
-/// Start a new run in `opts.run_dir` (refuses to overwrite an existing checkpoint).
+/// Start a new run in `opts.run_dir`: takes the run lock ([`crate::rundir`]), refuses a
+/// folder with a checkpoint (continue it with `--resume`) and, unless `opts.force`, a folder
+/// that holds any other file; writes `config.toml` and the data fingerprint, then trains.
 pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> {
     let mut cfg = cfg;
     if let Some(n) = opts.epochs {
         cfg.num_epochs = n;
     }
     cfg.validate()?;
+    std::fs::create_dir_all(&opts.run_dir)
+        .with_context(|| format!("cannot create {}", opts.run_dir.display()))?;
+    let _lock = RunLock::acquire(&opts.run_dir)?;
+    rundir::remove_stale_temp_files(&opts.run_dir);
     let ckpt_path = opts.run_dir.join(checkpoint::CHECKPOINT_FILE);
-    if ckpt_path.exists() {
+    if ckpt_path.exists() || opts.run_dir.join(checkpoint::PREV_FILE).exists() {
         bail!(
             "{} already exists: continue it with `gpecnet train --resume --out {}` or pick another --out",
             ckpt_path.display(),
             opts.run_dir.display()
         );
     }
-    std::fs::create_dir_all(&opts.run_dir)
-        .with_context(|| format!("cannot create {}", opts.run_dir.display()))?;
+    let existing = rundir::existing_entries(&opts.run_dir)?;
+    if !existing.is_empty() && !opts.force {
+        bail!(
+            "{} is not empty ({}) and has no checkpoint: a new run would overwrite config.toml, \
+             metrics.csv, metrics.jsonl and curves.svg there. Pick another --out, or pass --force \
+             to overwrite",
+            opts.run_dir.display(),
+            existing.join(", ")
+        );
+    }
     std::fs::write(opts.run_dir.join("config.toml"), cfg.to_toml_string()?)?;
     set_num_threads(cfg.resolved_threads());
     let data = prepare_data(&cfg, &opts.data_root)?;
+    data.fingerprint.save(&opts.run_dir)?;
     let trainer = Trainer::new(cfg, data)?;
     run_loop(trainer, opts)
 }
 
 /// Continue the run in `opts.run_dir` from its checkpoint.
 pub fn train_resume(opts: &TrainOptions) -> Result<TrainSummary> {
-    let ckpt = checkpoint::load(&opts.run_dir)?;
+    train_resume_checked(opts, None)
+}
+
+/// Continue the run in `opts.run_dir` from its checkpoint (falling back to the previous one,
+/// with a warning, when the newest is unusable). Takes the run lock and removes stale temp
+/// files first. Refuses when `expected` (a config given with `--resume`) or the folder's
+/// `config.toml` differs from the checkpoint's config (`num_epochs` aside: `--epochs` may
+/// extend a run), or when the data differ from the fingerprint stored at the start of the
+/// run; the errors say what differs.
+pub fn train_resume_checked(
+    opts: &TrainOptions,
+    expected: Option<&TrainConfig>,
+) -> Result<TrainSummary> {
+    if !opts.run_dir.is_dir() {
+        bail!(
+            "{} does not exist: nothing to resume (start a run with --config)",
+            opts.run_dir.display()
+        );
+    }
+    let _lock = RunLock::acquire(&opts.run_dir)?;
+    rundir::remove_stale_temp_files(&opts.run_dir);
+    let ckpt = checkpoint::load_for_resume(&opts.run_dir)?;
     let cfg = ckpt.config()?;
+    if let Some(e) = expected {
+        let d = config_diff(&cfg, e)?;
+        if !d.is_empty() {
+            bail!(
+                "--config differs from the config of the run in {} ({}); resume without --config or start a new run in another --out",
+                opts.run_dir.display(),
+                d.join("; ")
+            );
+        }
+    }
+    let toml_path = opts.run_dir.join("config.toml");
+    if let Ok(text) = std::fs::read_to_string(&toml_path) {
+        let folder = TrainConfig::from_toml_str(&text)
+            .with_context(|| format!("in {}", toml_path.display()))?;
+        let d = config_diff(&cfg, &folder)?;
+        if !d.is_empty() {
+            bail!(
+                "{} does not match the checkpoint's config ({}): the folder mixes two runs; refusing to resume",
+                toml_path.display(),
+                d.join("; ")
+            );
+        }
+    }
     set_num_threads(cfg.resolved_threads());
     let data = prepare_data(&cfg, &opts.data_root)?;
+    match DataFingerprint::load(&opts.run_dir)? {
+        Some(stored) => {
+            let d = stored.diff(&data.fingerprint);
+            if !d.is_empty() {
+                bail!(
+                    "the data under {} differ from the data the run in {} started with: {}; \
+                     resume with the same data (--data) or start a new run",
+                    opts.data_root.display(),
+                    opts.run_dir.display(),
+                    d.join("; ")
+                );
+            }
+        }
+        None => {
+            eprintln!(
+                "warning: {} has no {} (a run from an older gpecnet): the data cannot be checked; recording the current data",
+                opts.run_dir.display(),
+                DataFingerprint::FILE
+            );
+            data.fingerprint.save(&opts.run_dir)?;
+        }
+    }
     let mut trainer = Trainer::from_checkpoint(ckpt, data)?;
     if let Some(n) = opts.epochs {
         trainer.set_num_epochs(n);
     }
     run_loop(trainer, opts)
+}
+
+/// Keys whose values differ between two configs (`num_epochs` is ignored), as
+/// `key: a -> b`.
+pub fn config_diff(a: &TrainConfig, b: &TrainConfig) -> Result<Vec<String>> {
+    let ta: toml::Table = toml::from_str(&a.to_toml_string()?)?;
+    let tb: toml::Table = toml::from_str(&b.to_toml_string()?)?;
+    let mut keys: Vec<&String> = ta.keys().chain(tb.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let show = |v: Option<&toml::Value>| v.map_or("(default)".to_string(), |v| v.to_string());
+    Ok(keys
+        .into_iter()
+        .filter(|k| k.as_str() != "num_epochs" && ta.get(*k) != tb.get(*k))
+        .map(|k| format!("{k}: {} -> {}", show(ta.get(k)), show(tb.get(k))))
+        .collect())
+}
+
+/// What a run was trained on: window counts per scene and a hash of every window, stored
+/// beside the checkpoint as `data-fingerprint.json` when a run starts and compared on
+/// `--resume` (a missing or changed scene is refused, not silently resumed).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct DataFingerprint {
+    /// Real training windows (before time reversal / mirroring).
+    pub n_train: usize,
+    /// Synthetic (augmentation) windows.
+    pub n_synthetic: usize,
+    /// Validation windows.
+    pub n_val: usize,
+    /// Real training windows per scene.
+    pub train_scenes: std::collections::BTreeMap<String, usize>,
+    /// Validation windows per scene.
+    pub val_scenes: std::collections::BTreeMap<String, usize>,
+    /// FNV-1a 64 over every window (scene, ped id, frames, position bits) in load order,
+    /// training then validation, hex.
+    pub hash: String,
+}
+
+impl DataFingerprint {
+    /// File name inside a run directory.
+    pub const FILE: &'static str = "data-fingerprint.json";
+
+    /// Fingerprint of real training, synthetic and validation windows.
+    pub fn of(train: &[Window], n_real: usize, val: &[Window]) -> Self {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bytes: &[u8]| {
+            for &b in bytes {
+                h ^= u64::from(b);
+                h = h.wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        for w in train.iter().chain(val) {
+            eat(w.scene.as_bytes());
+            eat(&[0xff]);
+            eat(&w.ped_id.to_bits().to_le_bytes());
+            for f in &w.frames {
+                eat(&f.to_le_bytes());
+            }
+            for p in &w.pos {
+                eat(&p[0].to_bits().to_le_bytes());
+                eat(&p[1].to_bits().to_le_bytes());
+            }
+        }
+        let count = |ws: &[Window]| {
+            let mut m = std::collections::BTreeMap::new();
+            for w in ws {
+                *m.entry(w.scene.clone()).or_insert(0) += 1;
+            }
+            m
+        };
+        let n_real = n_real.min(train.len());
+        Self {
+            n_train: n_real,
+            n_synthetic: train.len() - n_real,
+            n_val: val.len(),
+            train_scenes: count(&train[..n_real]),
+            val_scenes: count(val),
+            hash: format!("{h:016x}"),
+        }
+    }
+
+    /// Read `run_dir/data-fingerprint.json`; `None` when absent.
+    pub fn load(run_dir: &Path) -> Result<Option<Self>> {
+        let p = run_dir.join(Self::FILE);
+        match std::fs::read(&p) {
+            Ok(b) => {
+                Ok(Some(serde_json::from_slice(&b).with_context(|| {
+                    format!("cannot parse {}", p.display())
+                })?))
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(e).with_context(|| format!("cannot read {}", p.display())),
+        }
+    }
+
+    /// Write `run_dir/data-fingerprint.json` (atomically).
+    pub fn save(&self, run_dir: &Path) -> Result<()> {
+        let p = run_dir.join(Self::FILE);
+        checkpoint::write_atomic(&p, serde_json::to_string_pretty(self)?.as_bytes())
+            .with_context(|| format!("cannot write {}", p.display()))
+    }
+
+    /// What differs from `now` (empty when the same data), in words.
+    pub fn diff(&self, now: &Self) -> Vec<String> {
+        let mut out = Vec::new();
+        for (what, a, b) in [
+            ("training", &self.train_scenes, &now.train_scenes),
+            ("validation", &self.val_scenes, &now.val_scenes),
+        ] {
+            let missing: Vec<&str> = a
+                .keys()
+                .filter(|k| !b.contains_key(*k))
+                .map(|k| k.as_str())
+                .collect();
+            let added: Vec<&str> = b
+                .keys()
+                .filter(|k| !a.contains_key(*k))
+                .map(|k| k.as_str())
+                .collect();
+            let changed: Vec<String> = a
+                .iter()
+                .filter_map(|(k, n)| {
+                    b.get(k)
+                        .filter(|m| *m != n)
+                        .map(|m| format!("{k} {n} -> {m} windows"))
+                })
+                .collect();
+            if !missing.is_empty() {
+                out.push(format!("{what} scenes missing now: {}", missing.join(", ")));
+            }
+            if !added.is_empty() {
+                out.push(format!(
+                    "{what} scenes not in the run: {}",
+                    added.join(", ")
+                ));
+            }
+            if !changed.is_empty() {
+                out.push(format!("{what} scenes changed: {}", changed.join(", ")));
+            }
+        }
+        for (what, a, b) in [
+            ("training windows", self.n_train, now.n_train),
+            ("synthetic windows", self.n_synthetic, now.n_synthetic),
+            ("validation windows", self.n_val, now.n_val),
+        ] {
+            if a != b {
+                out.push(format!("{what}: {a} -> {b}"));
+            }
+        }
+        if out.is_empty() && self.hash != now.hash {
+            out.push(format!(
+                "same scenes and counts but different window contents (hash {} -> {})",
+                self.hash, now.hash
+            ));
+        }
+        out
+    }
 }
 
 fn bar_style(template: &str) -> ProgressStyle {

@@ -312,6 +312,7 @@ fn opts(dir: &std::path::Path, stop_after: Option<usize>) -> TrainOptions {
         epochs: None,
         quiet: true,
         stop_after,
+        force: false,
     }
 }
 

@@ -49,6 +49,7 @@ fn opts(dir: &Path, epochs: Option<usize>, stop_after: Option<usize>) -> TrainOp
         epochs,
         quiet: true,
         stop_after,
+        force: false,
     }
 }
 

@@ -157,6 +157,8 @@ fn run_point(opts: &SweepOptions, pct: f32, test: &crate::data::Dataset) -> Resu
         epochs: None,
         quiet: opts.quiet,
         stop_after: None,
+        // The sweep owns its aug-<K>/ folders: one without a checkpoint is restarted.
+        force: true,
     };
     if run_dir.join(checkpoint::CHECKPOINT_FILE).exists() {
         let ckpt = checkpoint::load(&run_dir)?;
