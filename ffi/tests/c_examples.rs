@@ -1,0 +1,136 @@
+//! The C and C++ examples (`ffi/examples/{c,cpp}`), compiled with the host's
+//! `cc`/`c++` against this crate's staticlib, replay shipped golden files bit
+//! for bit through the C API.
+//!
+//! `cargo test` builds the library (all its crate types, the staticlib
+//! included) before this test; the staticlib lies next to the test binary
+//! (`target/<profile>/deps/libgpecnet_ffi.a`) or one folder up.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn staticlib() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let deps = exe.parent().unwrap();
+    [deps, deps.parent().unwrap()]
+        .iter()
+        .map(|d| d.join("libgpecnet_ffi.a"))
+        .filter(|p| p.exists())
+        .max_by_key(|p| p.metadata().and_then(|m| m.modified()).ok())
+        .unwrap_or_else(|| panic!("libgpecnet_ffi.a not found next to {}", exe.display()))
+}
+
+/// Compiles `src` with `compiler` and `std`, warnings as errors; returns the binary.
+fn build(compiler: &str, std: &str, src: &str, name: &str) -> PathBuf {
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let r = Command::new(compiler)
+        .arg(format!("-std={std}"))
+        .args(["-Wall", "-Wextra", "-Werror", "-O1", "-I"])
+        .arg(root().join("ffi/include"))
+        .arg(root().join(src))
+        .arg(staticlib())
+        // What Rust's std needs from the system on Linux (see
+        // `cargo rustc -- --print native-static-libs`).
+        .args(["-lpthread", "-ldl", "-lm", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {compiler} (build-essential): {e}"));
+    assert!(
+        r.status.success(),
+        "{compiler} {src} failed:\n{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    out
+}
+
+fn replay(bin: &Path, model: &str, golden: &str) -> (bool, String) {
+    let r = Command::new(bin)
+        .arg(root().join("weights").join(model))
+        .arg(root().join("weights").join(golden))
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&r.stdout),
+        String::from_utf8_lossy(&r.stderr)
+    );
+    (r.status.success(), text)
+}
+
+/// Golden files replayed by both examples: fixed point with a point head and
+/// test-time sampling, and its f32 twin.
+const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-tiny-v2"];
+
+fn check(bin: &Path, lang: &str) {
+    for m in MODELS {
+        let (ok, text) = replay(bin, &format!("{m}.gpec"), &format!("{m}.golden"));
+        println!("{lang}: {text}");
+        assert!(ok, "{lang} replay of {m} failed:\n{text}");
+        assert!(
+            text.contains(" 0 differ, 0 calls failed"),
+            "{lang} replay of {m}: {text}"
+        );
+    }
+    // A golden file of other weights is refused: the example's exit code means something.
+    let (ok, text) = replay(bin, "sdd-tiny-v2.gpec", "sdd-tiny-v2-qe.golden");
+    assert!(!ok, "{lang}: mismatched golden file accepted: {text}");
+    // A corrupt blob: gpecnet_init's status, exit 1.
+    let (ok, text) = replay(bin, "sdd-tiny-v2.json", "sdd-tiny-v2.golden");
+    assert!(
+        !ok && text.contains("bad magic"),
+        "{lang}: a JSON file as blob: {text}"
+    );
+}
+
+#[test]
+fn c_example_replays_golden_files_bit_exact() {
+    let bin = build("cc", "c11", "ffi/examples/c/replay.c", "replay_c");
+    check(&bin, "C");
+}
+
+#[test]
+fn cpp_example_replays_golden_files_bit_exact() {
+    let bin = build("c++", "c++17", "ffi/examples/cpp/replay.cpp", "replay_cpp");
+    check(&bin, "C++");
+}
+
+/// The header alone compiles as strict C99 and as C++11 (no C11 or C++17 needed).
+#[test]
+fn header_compiles_as_c99_and_cpp11() {
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let src = tmp.join("header_only.c");
+    std::fs::write(
+        &src,
+        "#include \"gpecnet.h\"\nint main(void) { return (int)sizeof(GpecnetGoldenCase) == 0; }\n",
+    )
+    .unwrap();
+    for (cc, std, lang) in [("cc", "c99", "c"), ("c++", "c++11", "c++")] {
+        let r = Command::new(cc)
+            .arg(format!("-std={std}"))
+            .args([
+                "-Wall",
+                "-Wextra",
+                "-pedantic",
+                "-Werror",
+                "-fsyntax-only",
+                "-x",
+                lang,
+                "-I",
+            ])
+            .arg(root().join("ffi/include"))
+            .arg(&src)
+            .output()
+            .unwrap();
+        assert!(
+            r.status.success(),
+            "{cc} -std={std}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+    }
+}
