@@ -51,6 +51,21 @@ impl DatasetSpec {
     }
 }
 
+/// Largest `k` (samples per window): `gpecnet_core::blob::MAX_TTS_SAMPLES`, the most
+/// samples a blob's predictor draws per window.
+pub const MAX_K: usize = 1024;
+/// Largest layer width (and `fdim`, `zdim`) accepted.
+pub const MAX_WIDTH: usize = 4096;
+/// Most hidden layers per network (a blob holds at most 8 layers per network:
+/// `gpecnet_core::blob::MAX_LAYERS`).
+pub const MAX_HIDDEN_LAYERS: usize = 7;
+/// Largest minibatch.
+pub const MAX_BATCH: usize = 1 << 20;
+/// Most matmul threads.
+pub const MAX_THREADS: usize = 1024;
+/// Most bytes of one validation layer's activations (`VAL_CHUNK · k · width · 4`): 4 GiB.
+pub const MAX_VAL_ACTIVATION_BYTES: u64 = 4 << 30;
+
 /// All hyper-parameters of one training run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -327,7 +342,18 @@ impl TrainConfig {
         }
     }
 
-    /// Check internal consistency.
+    /// Check every value's range and the internal consistency, before any work (called by
+    /// [`TrainConfig::from_toml_str`], hence at load time). Each error names the key and the
+    /// allowed range.
+    ///
+    /// Bounds and why: `k` in `1..=`[`MAX_K`] (the most samples a blob's predictor can draw,
+    /// `gpecnet_core::blob::MAX_TTS_SAMPLES`; validation also holds
+    /// `VAL_CHUNK · k · widest layer` f32 activations, which must stay within
+    /// [`MAX_VAL_ACTIVATION_BYTES`]); layer widths, `fdim`, `zdim` in `1..=`[`MAX_WIDTH`] and at
+    /// most [`MAX_HIDDEN_LAYERS`] hidden layers per network (the blob holds at most 8 layers
+    /// per network); `num_epochs`, `batch_size`, `eval_every` at least 1; `learning_rate`
+    /// finite in `(0, 1]`; `data_scale`, `coord_scale`, `w0`, `point_reg` finite and `> 0`;
+    /// `sigma`, `kld_reg`, `adl_reg` finite and `>= 0`; `threads` in `0..=`[`MAX_THREADS`].
     pub fn validate(&self) -> Result<()> {
         if self.past_length != crate::data::PAST || self.future_length != crate::data::FUTURE {
             bail!(
@@ -336,43 +362,92 @@ impl TrainConfig {
                 crate::data::FUTURE
             );
         }
-        if self.fdim == 0 || self.zdim == 0 {
-            bail!("fdim and zdim must be positive");
-        }
-        if !(self.coord_scale.is_finite() && self.coord_scale > 0.0) {
+        let in_range = |key: &str, v: usize, lo: usize, hi: usize, why: &str| -> Result<()> {
+            if v < lo || v > hi {
+                bail!("{key} = {v} is out of range: allowed {lo}..={hi}{why}");
+            }
+            Ok(())
+        };
+        in_range("fdim", self.fdim, 1, MAX_WIDTH, "")?;
+        in_range("zdim", self.zdim, 1, MAX_WIDTH, "")?;
+        in_range(
+            "k",
+            self.k,
+            1,
+            MAX_K,
+            " (the most samples a blob's predictor draws per window)",
+        )?;
+        in_range("num_epochs", self.num_epochs, 1, usize::MAX, "")?;
+        in_range("batch_size", self.batch_size, 1, MAX_BATCH, "")?;
+        in_range("eval_every", self.eval_every, 1, usize::MAX, "")?;
+        in_range("threads", self.threads, 0, MAX_THREADS, " (0 = all cores)")?;
+        let positive = |key: &str, v: f64| -> Result<()> {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{key} = {v} is out of range: allowed a finite number > 0");
+            }
+            Ok(())
+        };
+        let non_negative = |key: &str, v: f64| -> Result<()> {
+            if !(v.is_finite() && v >= 0.0) {
+                bail!("{key} = {v} is out of range: allowed a finite number >= 0");
+            }
+            Ok(())
+        };
+        if !(self.learning_rate.is_finite()
+            && self.learning_rate > 0.0
+            && self.learning_rate <= 1.0)
+        {
             bail!(
-                "coord_scale must be a positive number, got {}",
-                self.coord_scale
+                "learning_rate = {} is out of range: allowed a finite number in (0, 1]",
+                self.learning_rate
             );
         }
-        for (name, v) in [
-            ("enc_past_size", &self.enc_past_size),
-            ("enc_dest_size", &self.enc_dest_size),
-            ("enc_latent_size", &self.enc_latent_size),
-            ("dec_size", &self.dec_size),
-            ("predictor_hidden_size", &self.predictor_hidden_size),
-            ("non_local_theta_size", &self.non_local_theta_size),
-            ("non_local_phi_size", &self.non_local_phi_size),
-            ("non_local_g_size", &self.non_local_g_size),
-            ("point_head_size", &self.point_head_size),
+        positive("data_scale", f64::from(self.data_scale))?;
+        positive("coord_scale", f64::from(self.coord_scale))?;
+        positive("point_reg", f64::from(self.point_reg))?;
+        if self.activation == Activation::Sine {
+            positive("w0", f64::from(self.w0))?;
+        } else {
+            non_negative("w0", f64::from(self.w0))?;
+        }
+        non_negative("sigma", f64::from(self.sigma))?;
+        non_negative("kld_reg", f64::from(self.kld_reg))?;
+        non_negative("adl_reg", f64::from(self.adl_reg))?;
+        let mut widest = self.fdim.max(self.zdim);
+        for (name, v, may_be_empty) in [
+            ("enc_past_size", &self.enc_past_size, false),
+            ("enc_dest_size", &self.enc_dest_size, false),
+            ("enc_latent_size", &self.enc_latent_size, false),
+            ("dec_size", &self.dec_size, false),
+            ("predictor_hidden_size", &self.predictor_hidden_size, false),
+            ("non_local_theta_size", &self.non_local_theta_size, true),
+            ("non_local_phi_size", &self.non_local_phi_size, true),
+            ("non_local_g_size", &self.non_local_g_size, true),
+            ("point_head_size", &self.point_head_size, true),
         ] {
-            if v.contains(&0) {
-                bail!("{name} contains a zero-width layer");
+            let lo = usize::from(!may_be_empty);
+            if v.len() < lo || v.len() > MAX_HIDDEN_LAYERS {
+                bail!(
+                    "{name} has {} hidden layers: allowed {lo}..={MAX_HIDDEN_LAYERS} (a blob holds at most {} layers per network)",
+                    v.len(),
+                    MAX_HIDDEN_LAYERS + 1
+                );
             }
+            if let Some(&w) = v.iter().find(|&&w| w == 0 || w > MAX_WIDTH) {
+                bail!("{name} has a layer of width {w}: allowed widths 1..={MAX_WIDTH}");
+            }
+            widest = widest.max(v.iter().copied().max().unwrap_or(0));
         }
-        if self.batch_size == 0 || self.k == 0 || self.eval_every == 0 {
-            bail!("batch_size, k and eval_every must be positive");
-        }
-        if [self.data_scale, self.sigma, self.learning_rate as f32]
-            .iter()
-            .any(|v| v.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater))
-        {
-            bail!("data_scale, sigma and learning_rate must be positive");
-        }
-        if self.activation == Activation::Sine
-            && self.w0.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-        {
-            bail!("w0 must be positive for the sine activation");
+        let val_bytes = (crate::train::VAL_CHUNK as u128) * (self.k as u128) * (widest as u128) * 4;
+        if val_bytes > u128::from(MAX_VAL_ACTIVATION_BYTES) {
+            let max_k = MAX_VAL_ACTIVATION_BYTES as usize / (crate::train::VAL_CHUNK * widest * 4);
+            bail!(
+                "k = {} is out of range for layers {widest} wide: allowed 1..={} (validation holds {} windows x k samples x {widest} f32 activations per layer, at most {} GiB)",
+                self.k,
+                max_k.max(1),
+                crate::train::VAL_CHUNK,
+                MAX_VAL_ACTIVATION_BYTES >> 30
+            );
         }
         let spec = self.dataset_spec()?;
         if self.social_pooling
@@ -395,12 +470,6 @@ impl TrainConfig {
         }
         if self.heading_steps > 0 && self.social_pooling {
             bail!("heading_steps and social_pooling cannot be combined (each pedestrian would be rotated into its own frame before pooling)");
-        }
-        if !(self.point_reg.is_finite() && self.point_reg > 0.0) {
-            bail!(
-                "point_reg must be a positive number, got {}",
-                self.point_reg
-            );
         }
         if !(self.augment_pct.is_finite() && (0.0..=100.0).contains(&self.augment_pct)) {
             bail!("augment_pct must be in [0, 100], got {}", self.augment_pct);

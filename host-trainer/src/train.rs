@@ -37,7 +37,7 @@ use crate::rng::{streams, Rng};
 use crate::rundir::{self, RunLock};
 
 /// Windows evaluated per validation forward pass (times K rows).
-const VAL_CHUNK: usize = 512;
+pub const VAL_CHUNK: usize = 512;
 
 /// Pin candle's CPU matmul parallelism to `n` threads (see the module docs). Must be called
 /// before the first tensor operation of the process to also size rayon's global pool.
@@ -710,6 +710,9 @@ pub fn train_resume_checked(
     opts: &TrainOptions,
     expected: Option<&TrainConfig>,
 ) -> Result<TrainSummary> {
+    if opts.epochs == Some(0) {
+        bail!("--epochs = 0 is out of range: allowed 1 or more");
+    }
     if !opts.run_dir.is_dir() {
         bail!(
             "{} does not exist: nothing to resume (start a run with --config)",

@@ -1,0 +1,134 @@
+//! Config values are range-checked when the config is loaded, before any work (issue 14):
+//! each error names the key and the allowed range, the exit status is not 0 and the run
+//! folder is not even created.
+
+mod common;
+
+use common::*;
+use gpecnet_trainer::config::TrainConfig;
+
+/// (replacement of a tiny-config key or an extra line, expected words in the error).
+const BAD: &[(&str, &str, &[&str])] = &[
+    ("k = 3", "k = 1000000", &["k = 1000000", "1..=1024"]),
+    ("k = 3", "k = 0", &["k = 0", "1..=1024"]),
+    (
+        "num_epochs = 2",
+        "num_epochs = 0",
+        &["num_epochs = 0", "1..="],
+    ),
+    (
+        "batch_size = 16",
+        "batch_size = 0",
+        &["batch_size = 0", "1..="],
+    ),
+    (
+        "learning_rate = 1e-3",
+        "learning_rate = inf",
+        &["learning_rate = inf", "(0, 1]"],
+    ),
+    (
+        "learning_rate = 1e-3",
+        "learning_rate = nan",
+        &["learning_rate = NaN", "(0, 1]"],
+    ),
+    ("", "data_scale = inf", &["data_scale = inf", "> 0"]),
+    ("", "data_scale = 0.0", &["data_scale = 0", "> 0"]),
+    ("", "sigma = inf", &["sigma = inf", ">= 0"]),
+    ("", "sigma = -1.0", &["sigma = -1", ">= 0"]),
+    ("", "w0 = 0.0", &["w0 = 0", "> 0"]),
+    ("", "kld_reg = nan", &["kld_reg = NaN", ">= 0"]),
+    ("dec_size = [8]", "dec_size = []", &["dec_size", "1..=7"]),
+    (
+        "dec_size = [8]",
+        "dec_size = [8, 0]",
+        &["dec_size", "width 0", "1..=4096"],
+    ),
+    (
+        "dec_size = [8]",
+        "dec_size = [8, 8, 8, 8, 8, 8, 8, 8]",
+        &["dec_size has 8 hidden layers", "1..=7"],
+    ),
+    ("fdim = 4", "fdim = 0", &["fdim = 0", "1..=4096"]),
+    ("zdim = 2", "zdim = 100000", &["zdim = 100000", "1..=4096"]),
+    (
+        "threads = 1",
+        "threads = 100000",
+        &["threads = 100000", "0..=1024"],
+    ),
+    (
+        "dec_size = [8]",
+        "dec_size = [4096]\nk = 1024",
+        &["k = 1024", "4096 wide", "1..=512"],
+    ),
+];
+
+fn bad_config(from: &str, to: &str) -> String {
+    let base = tiny_config("");
+    if from.is_empty() {
+        format!("{base}{to}\n")
+    } else {
+        let k = to.lines().last().unwrap().split('=').next().unwrap();
+        // Drop the replaced key's line and any other line that sets a key of `to`.
+        let mut s = base.replace(from, to);
+        if to.contains('\n') && k.trim() == "k" {
+            s = s.replace("k = 3\n", "");
+        }
+        s
+    }
+}
+
+#[test]
+fn out_of_range_values_are_rejected_at_load_time() {
+    for (from, to, words) in BAD {
+        let text = bad_config(from, to);
+        let e = match TrainConfig::from_toml_str(&text) {
+            Ok(_) => panic!("accepted {to:?}"),
+            Err(e) => format!("{e:#}"),
+        };
+        for w in *words {
+            assert!(e.contains(w), "{to:?}: {e:?} lacks {w:?}");
+        }
+    }
+    // The boundaries themselves are fine.
+    for ok in [
+        tiny_config("").replace("k = 3", "k = 1024"),
+        tiny_config("sigma = 0.0\n"),
+        tiny_config("").replace("num_epochs = 2", "num_epochs = 1"),
+    ] {
+        TrainConfig::from_toml_str(&ok).unwrap();
+    }
+}
+
+#[test]
+fn the_binary_refuses_before_any_work() {
+    let dir = temp_dir("cfg");
+    tiny_data(&dir);
+    for (i, (from, to, words)) in BAD.iter().enumerate().take(12) {
+        let cfg = dir.join(format!("bad{i}.toml"));
+        std::fs::write(&cfg, bad_config(from, to)).unwrap();
+        let out = dir.join(format!("run{i}"));
+        let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap()]);
+        assert!(!ok, "{to:?} accepted: {text}");
+        assert!(text.contains(words[0]), "{to:?}: {text}");
+        assert!(!out.exists(), "{to:?}: the run folder was created");
+    }
+    // --epochs 0 on a new run and on a resume.
+    let cfg = write_config(&dir, "");
+    let out = dir.join("run-epochs");
+    let (ok, text) = train(
+        &dir,
+        &out,
+        &["--config", cfg.to_str().unwrap(), "--epochs", "0"],
+    );
+    assert!(!ok && text.contains("num_epochs = 0"), "{text}");
+    assert!(!out.exists());
+    let (ok, text) = train(
+        &dir,
+        &out,
+        &["--config", cfg.to_str().unwrap(), "--epochs", "1"],
+    );
+    assert!(ok, "{text}");
+    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "0"]);
+    assert!(!ok && text.contains("--epochs = 0"), "{text}");
+    let _ = std::fs::remove_dir_all(dir);
+}
