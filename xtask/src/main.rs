@@ -11,6 +11,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{exit, Command, Stdio};
 
+mod ffi;
+
 const DEB_CARGO: &str = "/usr/bin/cargo";
 const DEB_RUSTC: &str = "/usr/bin/rustc";
 const TARGET: &str = "thumbv7em-none-eabihf";
@@ -45,6 +47,7 @@ const USAGE: &str = "usage: cargo xtask <command>
   fw-faults          prove the failure paths: force-panic and force-hardfault must exit 1
   fw-test            host unit tests of the firmware's target-independent modules (tracks.rs, golden.rs)
   profile            flash/RAM/stack/instruction count per model and numeric path (TCG plugin)
+  ffi-arm            gpecnet-ffi on a Cortex-M4F: the C golden replay (arm-none-eabi-gcc, newlib) in QEMU netduinoplus2
 options for qemu/profile/fw-build/fw-run:
   --weights DIR      use DIR instead of weights/ (needs <name>.gpec + <name>.golden)
   --test-blob        generate a synthetic blob + golden (firmware/host make-test-blob) and use it";
@@ -1219,6 +1222,7 @@ fn main() {
         "fw-faults" => fw_faults(&o),
         "fw-test" => fw_test(),
         "profile" => profile(&o),
+        "ffi-arm" => ffi::arm_example(),
         "-h" | "--help" | "help" => {
             println!("{USAGE}");
             0
