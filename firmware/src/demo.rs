@@ -162,6 +162,8 @@ fn scene(frame: u32) -> Vec<Observation, MAX_TRACKS> {
 #[embassy_executor::task]
 async fn ingest() {
     for frame in 0..FRAMES {
+        // One frame per 400 ms on a board: the watchdog's heartbeat.
+        crate::watchdog::feed();
         let obs = scene(frame);
         let (d, active, ready) = TABLE.lock(|t| {
             let mut t = t.borrow_mut();

@@ -49,18 +49,90 @@ fn defmt_panic() -> ! {
 
 #[exception]
 unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    // SAFETY: CFSR (0xE000_ED28) and HFSR (0xE000_ED2C) are always-readable
+    // System Control Block registers.
+    let (cfsr, hfsr) = unsafe {
+        (
+            core::ptr::read_volatile(0xE000_ED28 as *const u32),
+            core::ptr::read_volatile(0xE000_ED2C as *const u32),
+        )
+    };
+    // A stack overflow that escalated here: the exception frame could not be
+    // pushed (MSTKERR bit 4, STKERR bit 12) or lies below the task stack (in the
+    // guard). Reading it would fault again and lock the core up, so it is not read.
+    let frame = ef as *const ExceptionFrame as usize;
+    if cfsr & ((1 << 4) | (1 << 12)) != 0 || frame < crate::guard::task_stack().0 {
+        defmt::error!(
+            "HardFault: stack overflow (frame at {=u32:#010x} below the task stack) hfsr={=u32:#010x} cfsr={=u32:#010x}",
+            frame as u32,
+            hfsr,
+            cfsr
+        );
+        exit(1)
+    }
     defmt::error!(
         "HardFault: pc={=u32:#010x} lr={=u32:#010x} hfsr={=u32:#010x} cfsr={=u32:#010x}",
         ef.pc(),
         ef.lr(),
-        unsafe { core::ptr::read_volatile(0xE000_ED2C as *const u32) },
-        unsafe { core::ptr::read_volatile(0xE000_ED28 as *const u32) }
+        hfsr,
+        cfsr
     );
     exit(1)
 }
 
-/// `force-panic` / `force-hardfault`: prove the failure paths end in exit 1.
+/// MemManage: with the guard of [`crate::guard`] armed, a stack overflow ends
+/// here (a stacking error, or a data access into the guard region); the
+/// handler runs on the main stack, which the overflow cannot reach.
+#[exception]
+unsafe fn MemoryManagement() -> ! {
+    // SAFETY: CFSR (0xE000_ED28) and MMFAR (0xE000_ED34) are always-readable
+    // System Control Block registers.
+    let (cfsr, mmfar) = unsafe {
+        (
+            core::ptr::read_volatile(0xE000_ED28 as *const u32),
+            core::ptr::read_volatile(0xE000_ED34 as *const u32),
+        )
+    };
+    let guard = crate::guard::guard_base() as u32;
+    // MSTKERR (bit 4): the exception entry could not push; MMARVALID (bit 7) with
+    // MMFAR in the guard: a store into it.
+    let in_guard =
+        cfsr & (1 << 7) != 0 && (guard..guard + crate::guard::GUARD as u32).contains(&mmfar);
+    if cfsr & (1 << 4) != 0 || in_guard {
+        defmt::error!(
+            "stack overflow: the task stack ran into its guard (cfsr={=u32:#010x} mmfar={=u32:#010x})",
+            cfsr,
+            mmfar
+        );
+    } else {
+        defmt::error!(
+            "MemManage fault: cfsr={=u32:#010x} mmfar={=u32:#010x}",
+            cfsr,
+            mmfar
+        );
+    }
+    exit(1)
+}
+
+/// Uses stack without bound (each frame keeps a 256-byte array alive).
+#[inline(never)]
+fn recurse(n: u32) -> u32 {
+    let buf = core::hint::black_box([n; 64]);
+    if n == 0 {
+        0
+    } else {
+        recurse(n - 1).wrapping_add(buf[3])
+    }
+}
+
+/// `force-panic` / `force-hardfault` / `force-stack-overflow`: prove the
+/// failure paths end in exit 1.
 pub fn self_tests() {
+    if cfg!(feature = "force-stack-overflow") {
+        defmt::println!("force-stack-overflow: recursing");
+        let r = recurse(core::hint::black_box(u32::MAX));
+        defmt::error!("force-stack-overflow: returned {=u32}", r);
+    }
     if cfg!(feature = "force-hardfault") {
         defmt::println!("force-hardfault: executing udf");
         // UsageFault (disabled) escalates to HardFault.

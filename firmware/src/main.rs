@@ -16,9 +16,11 @@ mod demo;
 mod fatal;
 #[cfg_attr(not(feature = "golden"), allow(dead_code))] // profile/demo use only its constants
 mod golden;
+mod guard;
 #[cfg(feature = "profile")]
 mod profile;
 mod stack;
+mod watchdog;
 
 use defmt_semihosting as _; // global defmt logger over semihosting SYS_WRITE
 use embassy_executor::{Executor, Spawner};
@@ -34,6 +36,13 @@ pub mod models {
 fn main() -> ! {
     // Before anything else uses the stack below us.
     stack::paint();
+    // From here on the tasks run on the guarded process stack.
+    guard::run_guarded(tasks)
+}
+
+/// The executor and every task, on the guarded stack.
+extern "C" fn tasks() -> ! {
+    watchdog::start();
     let executor = cortex_m::singleton!(: Executor = Executor::new()).unwrap();
     executor.run(|spawner| {
         spawner.spawn(supervisor(spawner).unwrap());
@@ -76,6 +85,7 @@ fn run_golden() -> bool {
         return false;
     }
     let s = golden::verify_all(models::MODELS, true, &mut |l| {
+        watchdog::feed();
         match l {
         Line::Model {
             model,

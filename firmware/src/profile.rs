@@ -96,6 +96,7 @@ pub fn run() -> bool {
         cp.DWT.enable_cycle_counter();
     }
     for &(name, blob) in crate::models::BLOBS {
+        crate::watchdog::feed();
         let model = match Model::from_blob(blob) {
             Ok(m) => m,
             Err(e) => {

@@ -1,22 +1,27 @@
 //! Stack high-water mark: paint the free stack with a pattern at boot, find
 //! the lowest overwritten word at the end.
 //!
-//! cortex-m-rt places the stack at `_stack_start` (top of RAM, see memory.x)
-//! growing down towards `__sheap` (the end of .bss/.uninit). Everything
-//! between is stack headroom.
+//! The tasks' stack is the process stack of [`crate::guard`]: from just
+//! above the guard region (which sits on `__sheap`, the end of .data/.bss) up
+//! to `_stack_start − HANDLER_STACK`; the top of RAM above it is the
+//! exception handlers' main stack.
 const PATTERN: u32 = 0xC0DE_5AA5;
 
-extern "C" {
-    static mut __sheap: u32;
-    static mut _stack_start: u32;
-}
-
 fn bottom() -> usize {
-    (core::ptr::addr_of!(__sheap) as usize + 3) & !3
+    crate::guard::task_stack().0
 }
 
 fn top() -> usize {
-    core::ptr::addr_of!(_stack_start) as usize
+    crate::guard::task_stack().1
+}
+
+/// The stack pointer in use (PSP once `guard::run_guarded` switched to it).
+fn sp() -> usize {
+    if cortex_m::register::control::read().spsel() == cortex_m::register::control::Spsel::Psp {
+        cortex_m::register::psp::read() as usize
+    } else {
+        cortex_m::register::msp::read() as usize
+    }
 }
 
 /// Stack region size (bytes): top of RAM down to the end of static data.
@@ -28,7 +33,7 @@ pub fn size() -> usize {
 /// stack pointer. Call first thing in `main`.
 #[inline(never)]
 pub fn paint() {
-    let sp = cortex_m::register::msp::read() as usize;
+    let sp = sp();
     let end = (sp - 64) & !3; // margin for this function's own frame
     let mut p = bottom();
     while p < end {
@@ -53,7 +58,7 @@ pub fn high_water() -> usize {
 #[inline(never)]
 #[allow(dead_code)]
 pub fn repaint() -> usize {
-    let sp = cortex_m::register::msp::read() as usize;
+    let sp = sp();
     let end = (sp - 64) & !3;
     let mut p = bottom();
     while p < end {

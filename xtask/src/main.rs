@@ -44,8 +44,8 @@ const USAGE: &str = "usage: cargo xtask <command>
   fw-build [ARGS]    build the firmware (release; ARGS go to cargo, e.g. --features force-panic)
   fw-run [ARGS]      build + run the firmware in QEMU netduinoplus2 (decoded defmt on stdout)
   qemu               golden verification: firmware in QEMU + the same cases on the host, hashes compared
-  fw-faults          prove the failure paths: force-panic and force-hardfault must exit 1
-  fw-test            host unit tests of the firmware's target-independent modules (tracks.rs, golden.rs)
+  fw-faults          prove the failure paths: an injected panic, HardFault and stack overflow must each log and exit 1
+  fw-test            host unit tests of the firmware's target-independent modules (golden.rs; the track table is tested in core)
   profile            flash/RAM/stack/instruction count per model and numeric path (TCG plugin)
   ffi-arm            gpecnet-ffi on a Cortex-M4F: the C golden replay (arm-none-eabi-gcc, newlib) in QEMU netduinoplus2
 options for qemu/profile/fw-build/fw-run:
@@ -653,17 +653,24 @@ fn qemu(o: &Opts) -> i32 {
 fn fw_faults(o: &Opts) -> i32 {
     require(true);
     let mut bad = 0;
-    for f in ["force-panic", "force-hardfault"] {
+    // Each injected failure must end the run with exit 1 and its own log line
+    // (no lockup, no silent corruption, no outer timeout).
+    for (f, want) in [
+        ("force-panic", "panic"),
+        ("force-hardfault", "HardFault"),
+        ("force-stack-overflow", "stack overflow"),
+    ] {
         let mut c = fw_cargo(o);
         c.args(["run", "--release", "--no-default-features", "--features", f]);
         let (rc, out, _) = output(c);
-        let last = out
-            .lines()
-            .rev()
-            .find(|l| l.contains("panic") || l.contains("HardFault"))
-            .unwrap_or("");
-        println!("fw-faults {f:<16} exit {rc} (want 1)  {}", last.trim());
-        bad += (rc != 1) as i32;
+        let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
+        let ok = rc == 1 && !last.is_empty();
+        println!(
+            "fw-faults {f:<22} exit {rc} (want 1), log {:?} {}",
+            last.trim(),
+            if ok { "ok" } else { "FAILED" }
+        );
+        bad += (!ok) as i32;
     }
     (bad != 0) as i32
 }
