@@ -801,3 +801,15 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
         };
     }
 }
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+
+    /// A panic inside an entry point's body becomes a status code, not an unwind into C.
+    #[test]
+    fn a_panic_is_a_status_code() {
+        assert_eq!(guard(|| panic!("injected")), GPECNET_E_PANIC);
+        assert_eq!(guard(|| GPECNET_OK), GPECNET_OK);
+    }
+}
