@@ -194,6 +194,13 @@ pub fn evaluate_reference(
 }
 
 pub(crate) fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> {
+    if ds.windows.is_empty() {
+        return Err(anyhow!(
+            "{}: {}",
+            ds.name,
+            crate::eval::EvalError::NoWindows
+        ));
+    }
     let mut acc = MetricsAccumulator::new();
     for (w, p) in ds.windows.iter().zip(preds) {
         acc.add(w, p)

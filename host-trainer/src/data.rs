@@ -11,7 +11,9 @@
 //! [`default_data_root`]) and is never copied into this repository.
 //!
 //! Every parse problem is a [`DataError`] naming the file and the 1-based line; no file content
-//! makes these functions panic.
+//! makes these functions panic. Coordinates must be finite and within
+//! ±[`MAX_COORDINATE`] (10^6, `gpecnet_core::frame::MAX_COORDINATE`: the core refuses inputs
+//! beyond it, and f32 arithmetic loses whole units there), else [`DataError::OutOfRange`].
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
@@ -32,6 +34,10 @@ pub const PECNET_DATA_SCALE: f32 = 1.86;
 
 /// The five ETH/UCY leave-one-out scene names (folder names under `eth_ucy/`).
 pub const ETH_UCY_SCENES: [&str; 5] = ["eth", "hotel", "univ", "zara1", "zara2"];
+
+/// Largest coordinate magnitude accepted in a data file (raw units):
+/// `gpecnet_core::frame::MAX_COORDINATE`, the bound the core enforces on its inputs.
+pub const MAX_COORDINATE: f32 = gpecnet_core::frame::MAX_COORDINATE;
 
 /// Hint appended to "missing path" errors.
 const DATA_HINT: &str =
@@ -208,6 +214,23 @@ pub enum DataError {
         #[source]
         source: std::io::Error,
     },
+    /// A coordinate beyond ±[`MAX_COORDINATE`].
+    #[error(
+        "{path}:{line}: column {column}: coordinate {text} is outside the accepted range \
+         -1e6..=1e6 (gpecnet_core::frame::MAX_COORDINATE: the core refuses such inputs); \
+         shift the coordinates to a nearby origin",
+        path = .path.display()
+    )]
+    OutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// 1-based column (3 = x, 4 = y).
+        column: usize,
+        /// The text of the value.
+        text: String,
+    },
     /// A line is not valid UTF-8.
     #[error("{path}:{line}: line is not valid UTF-8", path = .path.display())]
     Encoding {
@@ -328,6 +351,7 @@ impl DataError {
             | DataError::ColumnCount { path, .. }
             | DataError::BadNumber { path, .. }
             | DataError::NonFinite { path, .. }
+            | DataError::OutOfRange { path, .. }
             | DataError::TrajectoryLength { path, .. }
             | DataError::FrameStep { path, .. }
             | DataError::DuplicateRow { path, .. }
@@ -342,6 +366,7 @@ impl DataError {
             | DataError::ColumnCount { line, .. }
             | DataError::BadNumber { line, .. }
             | DataError::NonFinite { line, .. }
+            | DataError::OutOfRange { line, .. }
             | DataError::TrajectoryLength { line, .. }
             | DataError::FrameStep { line, .. }
             | DataError::DuplicateRow { line, .. }
@@ -439,6 +464,14 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>, DataError> {
             let v = parse_f64(path, line, 3 + c, cols[2 + c])? as f32;
             if !v.is_finite() {
                 return Err(DataError::NonFinite {
+                    path: path.to_path_buf(),
+                    line,
+                    column: 3 + c,
+                    text: cols[2 + c].to_string(),
+                });
+            }
+            if v.abs() > MAX_COORDINATE {
+                return Err(DataError::OutOfRange {
                     path: path.to_path_buf(),
                     line,
                     column: 3 + c,

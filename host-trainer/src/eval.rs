@@ -98,6 +98,9 @@ pub enum EvalError {
         /// K of the new prediction (or merged accumulator).
         found: usize,
     },
+    /// Nothing to evaluate: ADE/FDE of zero windows would be NaN.
+    #[error("no window to evaluate (an empty data set): ADE/FDE are undefined")]
+    NoWindows,
     /// A predicted point is NaN or infinite.
     #[error("non-finite predicted point for scene {scene} ped {ped_id} (sample {sample})")]
     NonFinite {
@@ -253,11 +256,15 @@ impl MetricsAccumulator {
     }
 }
 
-/// Evaluate a predictor over every window of a dataset (raw units).
+/// Evaluate a predictor over every window of a dataset (raw units); an empty dataset is
+/// [`EvalError::NoWindows`], never NaN metrics.
 pub fn evaluate<F>(ds: &Dataset, mut predict: F) -> Result<Metrics, EvalError>
 where
     F: FnMut(&Window) -> Prediction,
 {
+    if ds.windows.is_empty() {
+        return Err(EvalError::NoWindows);
+    }
     let mut acc = MetricsAccumulator::new();
     for w in &ds.windows {
         acc.add(w, &predict(w))?;

@@ -231,6 +231,16 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         None
     };
     let (m, cv, cvn, d) = (&r.metrics, &r.constant_velocity, &r.cv, &r.dist);
+    let numbers = [
+        m.min_ade, m.min_fde, m.ade_k1, m.fde_k1, m.mean_ade, m.mean_fde,
+    ];
+    if m.n == 0 || numbers.iter().any(|v| !v.is_finite()) {
+        anyhow::bail!(
+            "evaluation of {} on {} windows gave undefined ADE/FDE (an empty or absurd test set?)",
+            a.blob.display(),
+            m.n
+        );
+    }
     if a.json {
         let o = serde_json::json!({
             "name": r.name,
