@@ -687,9 +687,11 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
             existing.join(", ")
         );
     }
-    std::fs::write(opts.run_dir.join("config.toml"), cfg.to_toml_string()?)?;
     set_num_threads(cfg.resolved_threads());
+    // Nothing is written before the data load: a run that fails there (wrong --data, a bad
+    // file) leaves the folder as it was, so the corrected command needs no --force.
     let data = prepare_data(&cfg, &opts.data_root)?;
+    std::fs::write(opts.run_dir.join("config.toml"), cfg.to_toml_string()?)?;
     data.fingerprint.save(&opts.run_dir)?;
     let trainer = Trainer::new(cfg, data)?;
     run_loop(trainer, opts)

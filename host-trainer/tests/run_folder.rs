@@ -126,6 +126,22 @@ fn a_non_empty_folder_is_not_overwritten_without_force() {
     );
     assert!(!out.join(LOCK_FILE).exists());
 
+    // A run that fails while loading the data writes nothing: the folder stays as it was.
+    let fresh = dir.join("fresh");
+    let (ok, text) = train(
+        &dir.join("no-such-data"),
+        &fresh,
+        &["--config", cfg.to_str().unwrap()],
+    );
+    assert!(!ok, "{text}");
+    assert_eq!(
+        rundir::existing_entries(&fresh).unwrap(),
+        Vec::<String>::new()
+    );
+    assert!(!fresh.join(LOCK_FILE).exists());
+    let (ok, text) = train(&dir, &fresh, &["--config", cfg.to_str().unwrap()]);
+    assert!(ok, "{text}");
+
     let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap(), "--force"]);
     assert!(ok, "{text}");
     assert!(out.join(checkpoint::CHECKPOINT_FILE).exists());
