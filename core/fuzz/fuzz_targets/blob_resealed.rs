@@ -1,0 +1,50 @@
+//! Blob bytes that always pass the checksum: the input's last 4 bytes are
+//! replaced by the CRC-32 of the rest, so the fuzzer explores the structure
+//! parser, the shape/scale validation and the predictor behind it (the `blob`
+//! target rarely gets past the CRC). Seed the corpus with the shipped blobs:
+//!
+//! `cd core/fuzz && mkdir -p corpus/blob_resealed && cp ../../weights/*-q*.gpec ../../weights/sdd-tiny*.gpec corpus/blob_resealed/ && RUSTC_BOOTSTRAP=1 cargo fuzz run blob_resealed -- -max_total_time=60`
+#![no_main]
+
+use gpecnet_core::blob::CRC32;
+use gpecnet_core::{FastSine, LibmSine, Model, Predictor, Sine, Trajectory};
+use libfuzzer_sys::fuzz_target;
+
+const PAST: [[f32; 2]; 8] = [
+    [10.0, 20.0],
+    [11.0, 21.0],
+    [12.5, 22.0],
+    [14.0, 23.5],
+    [15.0, 25.0],
+    [16.5, 26.0],
+    [18.0, 27.5],
+    [19.0, 29.0],
+];
+
+/// Every prediction entry point of `p` (errors are fine, panics are not).
+fn exercise<S: Sine>(p: &mut Predictor<'_, S, 256>, past: &[[f32; 2]]) {
+    let mut ends = [[0.0f32; 2]; 4];
+    let _ = p.predict_samples(past, 1, &mut ends);
+    let _ = p.predict_endpoint_set::<64>(past, 1, &mut ends);
+    let _ = p.predict_point(past);
+    let mut t = [Trajectory::new(), Trajectory::new()];
+    let _ = p.predict_trajectories(past, 1, &mut t);
+}
+
+fuzz_target!(|data: &[u8]| {
+    if data.len() < 8 {
+        return;
+    }
+    let mut blob = data.to_vec();
+    let body = blob.len() - 4;
+    let crc = CRC32.checksum(&blob[..body]);
+    blob[body..].copy_from_slice(&crc.to_le_bytes());
+    let Ok(model) = Model::from_blob(&blob) else { return };
+    let past = &PAST[..(model.config().past_len as usize).min(8)];
+    if let Ok(mut p) = Predictor::<LibmSine, 256>::new(model) {
+        exercise(&mut p, past);
+    }
+    if let Ok(mut p) = Predictor::<FastSine, 256>::new(model) {
+        exercise(&mut p, past);
+    }
+});
