@@ -30,7 +30,9 @@ fn exercise<S: Sine>(p: &mut Predictor<'_, S, 256>, past: &[[f32; 2]]) {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(model) = Model::from_blob(data) else { return };
+    let Ok(model) = Model::from_blob(data) else {
+        return;
+    };
     let past = &PAST[..(model.config().past_len as usize).min(8)];
     // Any kind: the predictor picks the engine (the sine matters for f32 blobs only).
     if let Ok(mut p) = Predictor::<LibmSine, 256>::new(model) {

@@ -39,7 +39,9 @@ fuzz_target!(|data: &[u8]| {
     let body = blob.len() - 4;
     let crc = CRC32.checksum(&blob[..body]);
     blob[body..].copy_from_slice(&crc.to_le_bytes());
-    let Ok(model) = Model::from_blob(&blob) else { return };
+    let Ok(model) = Model::from_blob(&blob) else {
+        return;
+    };
     let past = &PAST[..(model.config().past_len as usize).min(8)];
     if let Ok(mut p) = Predictor::<LibmSine, 256>::new(model) {
         exercise(&mut p, past);
