@@ -450,6 +450,23 @@ unsafe fn past(
     Ok(unsafe { read_points::<MAX_PAST>(past_xy, past_len) })
 }
 
+/// The predictor in `p` and the observed track at `past_xy`: the preamble of
+/// every prediction entry point.
+///
+/// # Safety
+/// As [`state`] for `p` and [`past`] for `past_xy`.
+unsafe fn track<'a>(
+    p: *mut GpecnetPredictor,
+    past_xy: *const f32,
+    past_len: usize,
+) -> Result<(&'a mut Inner, [[f32; 2]; MAX_PAST]), i32> {
+    // SAFETY: the caller's contract on `p`.
+    let pred = unsafe { state(p) }?;
+    // SAFETY: the caller's contract on `past_xy`.
+    let past = unsafe { past(pred, past_xy, past_len) }?;
+    Ok((pred, past))
+}
+
 /// The model's deterministic point forecast: `future_len` points (x, y
 /// interleaved, the last one the endpoint) into `out_xy`, which has room for
 /// `out_cap` points; `*out_len` receives the number written.
@@ -477,13 +494,8 @@ pub unsafe extern "C" fn gpecnet_predict_point(
         if out_xy.is_null() || out_len.is_null() {
             return GPECNET_E_NULL_POINTER;
         }
-        // SAFETY: the caller's contract on `p`.
-        let pred = match unsafe { state(p) } {
-            Ok(s) => s,
-            Err(e) => return e,
-        };
-        // SAFETY: the caller's contract on `past_xy`.
-        let past = match unsafe { past(pred, past_xy, past_len) } {
+        // SAFETY: the caller's contract on `p` and `past_xy`.
+        let (pred, past) = match unsafe { track(p, past_xy, past_len) } {
             Ok(v) => v,
             Err(e) => return e,
         };
@@ -527,13 +539,8 @@ pub unsafe extern "C" fn gpecnet_predict_endpoints(
         if out_xy.is_null() {
             return GPECNET_E_NULL_POINTER;
         }
-        // SAFETY: the caller's contract on `p`.
-        let pred = match unsafe { state(p) } {
-            Ok(s) => s,
-            Err(e) => return e,
-        };
-        // SAFETY: the caller's contract on `past_xy`.
-        let past = match unsafe { past(pred, past_xy, past_len) } {
+        // SAFETY: the caller's contract on `p` and `past_xy`.
+        let (pred, past) = match unsafe { track(p, past_xy, past_len) } {
             Ok(v) => v,
             Err(e) => return e,
         };
