@@ -17,8 +17,7 @@
 //! ([`crate::rundir::remove_stale_temp_files`]) and a failed write names any that remain. Truncated or corrupted files are reported
 //! as [`CheckpointError`]s, never panics.
 
-use std::fs::{self, File};
-use std::io::Write;
+use std::fs;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -232,54 +231,6 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Checkpoint, CheckpointErr
     postcard::from_bytes(payload).map_err(|source| CheckpointError::Decode { path, source })
 }
 
-/// Write `bytes` to `path` atomically: temp file `.<name>.tmp.<pid>` in the same directory,
-/// fsync, rename, fsync the directory. On failure the temp file is removed, and the error
-/// names every temp file still in the directory (leftovers of killed runs that may be what
-/// fills the disk; see [`crate::rundir`]).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let mut f = File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        fs::rename(&tmp, path)
-    };
-    if let Err(e) = write() {
-        let removed = fs::remove_file(&tmp).is_ok();
-        let left = crate::rundir::temp_files(dir, |_| true);
-        let mut msg = format!("writing {} failed: {e}", path.display());
-        if removed {
-            msg += &format!(" (removed the partial {})", tmp.display());
-        }
-        if !left.is_empty() {
-            let total: u64 = left.iter().map(|(_, n)| n).sum();
-            msg += &format!(
-                "; temp files left in {} by interrupted writes ({total} bytes; delete them if no run is using the folder): {}",
-                dir.display(),
-                left.iter()
-                    .map(|(p, n)| format!("{} ({n} bytes)", p.display()))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        return Err(std::io::Error::new(e.kind(), msg));
-    }
-    #[cfg(unix)]
-    if let Ok(d) = File::open(dir) {
-        let _ = d.sync_all();
-    }
-    Ok(())
-}
-
 /// Save `ckpt` as `<run_dir>/checkpoint.bin` (atomically), keeping the checkpoint it
 /// replaces as `checkpoint.prev.bin` (the fallback of [`load_for_resume`]).
 pub fn save(run_dir: &Path, ckpt: &Checkpoint) -> Result<(), CheckpointError> {
@@ -305,7 +256,8 @@ pub fn save(run_dir: &Path, ckpt: &Checkpoint) -> Result<(), CheckpointError> {
                 }
             })?;
     }
-    write_atomic(&path, &bytes).map_err(|source| CheckpointError::Io { path, source })
+    crate::rundir::write_atomic(&path, &bytes)
+        .map_err(|source| CheckpointError::Io { path, source })
 }
 
 /// Load the checkpoint of a run directory for `--resume`: `checkpoint.bin`, or, when that is

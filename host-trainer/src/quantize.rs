@@ -845,13 +845,13 @@ pub fn quantize_blob_with(
     };
     let dir = out.parent().unwrap_or(std::path::Path::new("."));
     let path = |ext: &str| dir.join(format!("{name}.{ext}"));
-    crate::export::write_atomic(&path("gpec"), &blob)?;
-    crate::export::write_atomic(&path("golden"), &golden)?;
-    crate::export::write_atomic(
+    crate::rundir::write_atomic(&path("gpec"), &blob)?;
+    crate::rundir::write_atomic(&path("golden"), &golden)?;
+    crate::rundir::write_atomic(
         &path("json"),
         serde_json::to_string_pretty(&card)?.as_bytes(),
     )?;
-    crate::export::write_atomic(&path("md"), quant_card_md(&card, &q).as_bytes())?;
+    crate::rundir::write_atomic(&path("md"), quant_card_md(&card, &q).as_bytes())?;
     Ok(card)
 }
 

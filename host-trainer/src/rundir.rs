@@ -15,7 +15,7 @@
 //!   `metrics.*` and `curves.svg` are overwritten); a folder with a checkpoint is continued
 //!   with `--resume`, never restarted.
 //! * **Temp files.** Atomic writes go through `.<name>.tmp.<pid>` files in the folder
-//!   ([`crate::checkpoint::write_atomic`]). Once a run holds the lock, every such file of
+//!   ([`write_atomic`]). Once a run holds the lock, every such file of
 //!   another pid is a leftover of a killed run and [`remove_stale_temp_files`] deletes it.
 
 use std::fs::{self, OpenOptions};
@@ -253,6 +253,57 @@ pub fn existing_entries(dir: &Path) -> Result<Vec<String>> {
         .collect();
     names.sort();
     Ok(names)
+}
+
+/// The one atomic, durable write (checkpoints, metrics, blobs, golden files, cards): creates
+/// `path`'s folder if needed, then writes `bytes` through the temp file `.<name>.tmp.<pid>` in the same directory,
+/// fsync, rename, fsync the directory. On failure the temp file is removed, and the error
+/// names every temp file still in the directory (leftovers of killed runs that may be what
+/// fills the disk; see [`remove_stale_temp_files`]).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    fs::create_dir_all(dir)
+        .map_err(|e| std::io::Error::new(e.kind(), format!("creating {}: {e}", dir.display())))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        fs::rename(&tmp, path)
+    };
+    if let Err(e) = write() {
+        let removed = fs::remove_file(&tmp).is_ok();
+        let left = temp_files(dir, |_| true);
+        let mut msg = format!("writing {} failed: {e}", path.display());
+        if removed {
+            msg += &format!(" (removed the partial {})", tmp.display());
+        }
+        if !left.is_empty() {
+            let total: u64 = left.iter().map(|(_, n)| n).sum();
+            msg += &format!(
+                "; temp files left in {} by interrupted writes ({total} bytes; delete them if no run is using the folder): {}",
+                dir.display(),
+                left.iter()
+                    .map(|(p, n)| format!("{} ({n} bytes)", p.display()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        return Err(std::io::Error::new(e.kind(), msg));
+    }
+    #[cfg(unix)]
+    if let Ok(d) = fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
 }
 
 #[cfg(test)]

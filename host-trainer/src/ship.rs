@@ -18,9 +18,10 @@ use crate::eval::{
     constant_velocity, constant_velocity_n, dist_metrics, evaluate_baseline,
     evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
 };
-use crate::export::{blob_bytes, golden_bytes, golden_cases, write_atomic};
+use crate::export::{blob_bytes, golden_bytes, golden_cases};
 use crate::model::{Act as ModelAct, ExportedLayer};
 use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
+use crate::rundir::write_atomic;
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case.
 pub const GOLDEN_STRIDE: usize = 10;

@@ -875,7 +875,7 @@ impl DataFingerprint {
     /// Write `run_dir/data-fingerprint.json` (atomically).
     pub fn save(&self, run_dir: &Path) -> Result<()> {
         let p = run_dir.join(Self::FILE);
-        checkpoint::write_atomic(&p, serde_json::to_string_pretty(self)?.as_bytes())
+        crate::rundir::write_atomic(&p, serde_json::to_string_pretty(self)?.as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))
     }
 
@@ -1040,8 +1040,8 @@ pub fn write_metrics(run_dir: &Path, history: &[EpochMetrics]) -> Result<()> {
         jsonl += &serde_json::to_string(m)?;
         jsonl.push('\n');
     }
-    checkpoint::write_atomic(&run_dir.join("metrics.csv"), csv.as_bytes())?;
-    checkpoint::write_atomic(&run_dir.join("metrics.jsonl"), jsonl.as_bytes())?;
+    crate::rundir::write_atomic(&run_dir.join("metrics.csv"), csv.as_bytes())?;
+    crate::rundir::write_atomic(&run_dir.join("metrics.jsonl"), jsonl.as_bytes())?;
     Ok(())
 }
 
@@ -1135,6 +1135,6 @@ pub fn plot_curves(path: &Path, history: &[EpochMetrics], unit: Unit) -> Result<
     }
     let mut bytes = Vec::new();
     bytes.write_all(svg.as_bytes())?;
-    checkpoint::write_atomic(path, &bytes)?;
+    crate::rundir::write_atomic(path, &bytes)?;
     Ok(())
 }

@@ -26,8 +26,9 @@ use crate::config::TrainConfig;
 use crate::core_eval::evaluate_core;
 use crate::data::{load_sdd, SddSplit};
 use crate::eval::Metrics;
-use crate::export::{blob_bytes, write_atomic};
+use crate::export::blob_bytes;
 use crate::reference::SineKind;
+use crate::rundir::write_atomic;
 use crate::train::{prepare_data, train_new, train_resume, TrainOptions};
 
 /// Everything a sweep needs.
