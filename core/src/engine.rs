@@ -149,13 +149,19 @@ enum Stream {
     Drawn,
 }
 
+/// A scratch row, 4-byte aligned (as `[T; W]` otherwise), so that the
+/// Cortex-M4/M7 kernels can load two i16 activations per word, four per
+/// `LDRD` (`crate::kernels`). Field `.0` is the row.
+#[repr(C, align(4))]
+struct Row<T, const W: usize>([T; W]);
+
 /// The engine over backend `B` with scratch width `W` (see the module docs).
 pub struct Engine<'a, B: Backend, const W: usize> {
     model: Model<'a>,
-    a: [B::Act; W],
-    b: [B::Act; W],
-    feat: [B::Act; W],
-    z: [B::Act; W],
+    a: Row<B::Act, W>,
+    b: Row<B::Act, W>,
+    feat: Row<B::Act, W>,
+    z: Row<B::Act, W>,
     part: [B::Acc; W],
     frame: Frame,
     last: [f32; 2],
@@ -182,10 +188,10 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         }
         Ok(Self {
             model,
-            a: [B::Act::default(); W],
-            b: [B::Act::default(); W],
-            feat: [B::Act::default(); W],
-            z: [B::Act::default(); W],
+            a: Row([B::Act::default(); W]),
+            b: Row([B::Act::default(); W]),
+            feat: Row([B::Act::default(); W]),
+            z: Row([B::Act::default(); W]),
             part: [B::Acc::default(); W],
             frame: Frame::raw(),
             last: [0.0; 2],
@@ -241,7 +247,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         let mut x = [B::Act::default(); 2 * MAX_PAST];
         let (frame, n) = self.input(past, &mut x)?;
         let head = self.model.point_head();
-        let q = run_network::<B>(head, &x[..n], &mut self.a, &mut self.b);
+        let q = run_network::<B>(head, &x[..n], &mut self.a.0, &mut self.b.0);
         Self::points(&frame, q, out_exp(head), self.model.config().data_scale)
     }
 
@@ -255,11 +261,16 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         let mut x = [B::Act::default(); 2 * MAX_PAST];
         let (frame, n) = self.input(past, &mut x)?;
         let fdim = c.fdim as usize;
-        let f = run_network::<B>(self.model.encoder_past(), &x[..n], &mut self.a, &mut self.b);
+        let f = run_network::<B>(
+            self.model.encoder_past(),
+            &x[..n],
+            &mut self.a.0,
+            &mut self.b.0,
+        );
         let fdim = fdim.min(f.len());
-        self.feat[..fdim].copy_from_slice(&f[..fdim]);
+        self.feat.0[..fdim].copy_from_slice(&f[..fdim]);
         if let Some(l0) = self.model.decoder().layer(0) {
-            B::partial(l0, &self.feat[..fdim], &mut self.part);
+            B::partial(l0, &self.feat.0[..fdim], &mut self.part);
         }
         self.frame = frame;
         self.last = past.last().copied().unwrap_or([0.0; 2]);
@@ -285,7 +296,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         );
         let dec = self.model.decoder();
         let ez = in_exp(dec);
-        for zi in self.z[..zdim].iter_mut() {
+        for zi in self.z.0[..zdim].iter_mut() {
             *zi = B::from_f32(sigma * self.gauss.next(), ez);
         }
         let Some(l0) = dec.layer(0) else {
@@ -295,11 +306,11 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         B::latent(
             l0,
             fdim,
-            &self.z[..zdim],
+            &self.z.0[..zdim],
             &self.part[..out0],
-            &mut self.a[..out0],
+            &mut self.a.0[..out0],
         );
-        let d = layers::<B>(dec.layers().skip(1), &mut self.a, &mut self.b, out0);
+        let d = layers::<B>(dec.layers().skip(1), &mut self.a.0, &mut self.b.0, out0);
         let (Some(&d0), Some(&d1)) = (d.first(), d.get(1)) else {
             return Err(PredictError::NonFiniteOutput);
         };
@@ -333,20 +344,20 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             [B::to_f32(self.d[0], eo), B::to_f32(self.d[1], eo)],
             c.data_scale,
         );
-        let g = run_network::<B>(dest, &self.d, &mut self.a, &mut self.b);
+        let g = run_network::<B>(dest, &self.d, &mut self.a.0, &mut self.b.0);
         let ddim = g.len();
         let n_in = fdim + ddim + 2;
         if n_in > W {
             return Err(PredictError::CapacityExceeded);
         }
         // Predictor input [f, g, initial_pos] assembled in `z` (redrawn per sample).
-        self.z[..fdim].copy_from_slice(&self.feat[..fdim]);
-        self.z[fdim..fdim + ddim].copy_from_slice(g);
+        self.z.0[..fdim].copy_from_slice(&self.feat.0[..fdim]);
+        self.z.0[fdim..fdim + ddim].copy_from_slice(g);
         let last = self.frame.predictor_position(self.last);
         let ef = out_exp(self.model.encoder_past());
-        self.z[fdim + ddim] = B::from_f32(last[0] / c.initial_pos_divisor, ef);
-        self.z[fdim + ddim + 1] = B::from_f32(last[1] / c.initial_pos_divisor, ef);
-        let q = run_network::<B>(pred, &self.z[..n_in], &mut self.a, &mut self.b);
+        self.z.0[fdim + ddim] = B::from_f32(last[0] / c.initial_pos_divisor, ef);
+        self.z.0[fdim + ddim + 1] = B::from_f32(last[1] / c.initial_pos_divisor, ef);
+        let q = run_network::<B>(pred, &self.z.0[..n_in], &mut self.a.0, &mut self.b.0);
         let mut t = Self::points(&self.frame, q, out_exp(pred), c.data_scale)?;
         if !(e[0].is_finite() && e[1].is_finite()) {
             return Err(PredictError::NonFiniteOutput);

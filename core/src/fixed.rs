@@ -279,32 +279,101 @@ fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     acc
 }
 
+/// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for two rows: the
+/// portable [`dot1`]/[`dot_even`] twice, or on a Cortex-M4/M7 the `SMLALD`
+/// kernel ([`crate::kernels::dot2_q15`], two rows per pass) over the longest
+/// prefix it takes and `dot` on the rest. Integer sums are exact, so both
+/// give the same `i64`s.
+#[inline(always)]
+fn dot2(
+    r0: &[u8],
+    r1: &[u8],
+    x: &[i16],
+    a0: i64,
+    a1: i64,
+    dot: &impl Fn(&[u8], &[i16], i64) -> i64,
+) -> (i64, i64) {
+    #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+    {
+        let _ = dot;
+        let (a0, a1, k) = crate::kernels::dot2_q15(r0, r1, x, a0, a1);
+        if k == x.len() {
+            return (a0, a1);
+        }
+        dot2_rest(r0, r1, x, k, a0, a1)
+    }
+    #[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
+    {
+        (dot(r0, x, a0), dot(r1, x, a1))
+    }
+}
+
+/// The columns `k..` of [`dot2`] that the kernel left (fewer than 4, or
+/// all of them for an unaligned `x`): the portable [`dot1`], out of line
+/// so that it is compiled once.
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(never)]
+fn dot2_rest(r0: &[u8], r1: &[u8], x: &[i16], k: usize, a0: i64, a1: i64) -> (i64, i64) {
+    let (r0, r1) = (
+        r0.get(2 * k..).unwrap_or(&[]),
+        r1.get(2 * k..).unwrap_or(&[]),
+    );
+    let x = x.get(k..).unwrap_or(&[]);
+    (dot1(r0, x, a0), dot1(r1, x, a1))
+}
+
+/// For each `(o_j, (row_j, init_j, s_j))` of `out` zipped with `rows`, calls
+/// `f(o_j, init_j + Σ_i q_ji · x_i, s_j)` (exact, in `i64`), two rows at a
+/// time ([`dot2`]; an odd last row with `dot`).
+#[inline(always)]
+fn rows_with<'w, T>(
+    rows: impl Iterator<Item = (&'w [u8], i64, i8)>,
+    x: &[i16],
+    out: &mut [T],
+    mut f: impl FnMut(&mut T, i64, i8),
+    dot: impl Fn(&[u8], &[i16], i64) -> i64,
+) {
+    let mut it = out.iter_mut().zip(rows);
+    while let Some((o0, (r0, i0, s0))) = it.next() {
+        match it.next() {
+            Some((o1, (r1, i1, s1))) => {
+                let (a0, a1) = dot2(r0, r1, x, i0, i1, &dot);
+                f(o0, a0, s0);
+                f(o1, a1, s1);
+            }
+            None => f(o0, dot(r0, x, i0), s0),
+        }
+    }
+}
+
 /// For each output channel `j` (zipped with `out`, at most `out_dim`), calls
-/// `f(o_j, acc_j, s_j)` with `acc_j = init(j) + Σ_i q_j,skip+i · x_i` (exact,
-/// in `i64`): one pass over the layer's whole weight slice, row by row.
+/// `f(o_j, acc_j, s_j)` with `acc_j = B_j + Σ_i q_j,skip+i · x_i` (exact,
+/// in `i64`): one pass over the layer's whole weight slice, two rows at a
+/// time.
 #[inline(always)]
 fn accumulate<T>(
     layer: &Layer<'_>,
     skip: usize,
     x: &[i16],
     out: &mut [T],
-    init: impl Fn(usize, i32) -> i64,
-    mut f: impl FnMut(&mut T, i64, i8),
+    f: impl FnMut(&mut T, i64, i8),
     dot: impl Fn(&[u8], &[i16], i64) -> i64,
 ) {
     let (w, bias, shifts) = layer.tensors_q();
     let n = 2 * layer.in_dim();
     let (lo, hi) = (2 * skip, 2 * (skip + x.len()));
-    let rows = w.chunks_exact(n.max(1));
-    let biases = bias.chunks_exact(4);
-    for (j, (((o, row), b), &s)) in out.iter_mut().zip(rows).zip(biases).zip(shifts).enumerate() {
-        let b = match *b {
-            [b0, b1, b2, b3] => i32::from_le_bytes([b0, b1, b2, b3]),
-            _ => 0,
-        };
-        let row = row.get(lo..hi).unwrap_or(&[]);
-        f(o, dot(row, x, init(j, b)), s as i8);
-    }
+    let rows = w
+        .chunks_exact(n.max(1))
+        .zip(bias.chunks_exact(4))
+        .zip(shifts)
+        .map(|((row, b), &s)| {
+            let b = match *b {
+                [b0, b1, b2, b3] => i32::from_le_bytes([b0, b1, b2, b3]),
+                _ => 0,
+            };
+            (row.get(lo..hi).unwrap_or(&[]), i64::from(b), s as i8)
+        });
+    rows_with(rows, x, out, f, dot);
 }
 
 /// `dense_q` with the activation chosen once per layer.
@@ -316,20 +385,15 @@ fn dense_with(
     g: impl Fn(i64, i8) -> i16,
     dot: impl Fn(&[u8], &[i16], i64) -> i64,
 ) {
-    accumulate(
-        layer,
-        0,
-        x,
-        out,
-        |_, b| i64::from(b),
-        |o, acc, s| *o = g(acc, s),
-        dot,
-    );
+    accumulate(layer, 0, x, out, |o, acc, s| *o = g(acc, s), dot);
 }
 
 /// One fixed-point dense layer (see the module docs).
 fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
-    if x.len() & 7 == 0 && layer.activation() == Activation::Sine {
+    if cfg!(not(all(target_arch = "arm", target_feature = "dsp")))
+        && x.len() & 7 == 0
+        && layer.activation() == Activation::Sine
+    {
         return dense_with(
             layer,
             x,
@@ -370,6 +434,7 @@ fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
 /// hoists the 16 sign-extended `z_i` out of the row loop, so each column
 /// costs one `ldrsh` of the weight, one reload of `z_i` and one `smlalbb`
 /// (85 instead of 104 instructions per row with the generic loop).
+#[cfg_attr(all(target_arch = "arm", target_feature = "dsp"), allow(dead_code))]
 #[inline(always)]
 fn dot16_packed(q: &[u8; 32], zp: &[i32; 8], mut acc: i64) -> i64 {
     for (w, &z) in q.chunks_exact(4).zip(zp) {
@@ -397,6 +462,16 @@ fn latent_with(
     let (w, _, shifts) = layer.tensors_q();
     let n = 2 * layer.in_dim();
     let rows = w.chunks_exact(n.max(1)).zip(part).zip(shifts);
+    #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+    {
+        // Two rows per pass with the `SMLALD` kernel (the packed 16-column
+        // product below is the faster portable form).
+        let _ = n;
+        let (lo, hi) = (2 * skip, 2 * (skip + z.len()));
+        let rows = rows.map(|((row, &p), &s)| (row.get(lo..hi).unwrap_or(&[]), p, s as i8));
+        rows_with(rows, z, out, |o, acc, s| *o = g(acc, s), dot1);
+    }
+    #[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
     match <&[i16; 16]>::try_from(z) {
         Ok(z16) if n == 2 * (skip + 16) => {
             // z packed in pairs once (kept in registers across the rows).
@@ -448,15 +523,7 @@ impl Backend for Q15 {
     }
 
     fn partial(layer: &Layer<'_>, x: &[i16], part: &mut [i64]) {
-        accumulate(
-            layer,
-            0,
-            x,
-            part,
-            |_, b| i64::from(b),
-            |p, acc, _| *p = acc,
-            dot1,
-        );
+        accumulate(layer, 0, x, part, |p, acc, _| *p = acc, dot1);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[i16], part: &[i64], out: &mut [i16]) {

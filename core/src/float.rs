@@ -38,21 +38,53 @@ fn activate<S: Sine>(act: Activation, v: f32) -> f32 {
     }
 }
 
+/// `s + W_0 x_0 + W_1 x_1 + …` left to right (`w`: f32 LE bytes), over the
+/// shorter of `w` and `x`.
+#[inline(always)]
+fn row_sum(w: &[u8], x: &[f32], mut s: f32) -> f32 {
+    for (w, &xi) in w.chunks_exact(4).zip(x) {
+        let w = match w {
+            &[b0, b1, b2, b3] => f32::from_le_bytes([b0, b1, b2, b3]),
+            _ => 0.0,
+        };
+        s += w * xi;
+    }
+    s
+}
+
 /// `acc_j += Σ_{i} W[j][col0 + i] · x[i]`, left to right, for `j < acc.len()`.
+///
+/// On a Cortex-M4F/M7 (`thumbv7em-none-eabihf`) four rows at a time go
+/// through the `VMLA.F32` kernel ([`crate::kernels::dot4_f32`]: the same
+/// roundings in the same order) for the longest prefix of columns it takes,
+/// and [`row_sum`] continues each row from there; the result is the same
+/// bits as the portable loop.
 #[inline]
 fn accumulate(layer: &Layer<'_>, col0: usize, x: &[f32], acc: &mut [f32]) {
-    for (j, a) in acc.iter_mut().enumerate() {
+    #[allow(unused_mut)]
+    let mut j0 = 0;
+    #[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
+    let n = acc.len();
+    #[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
+    {
+        let mut quads = acc.chunks_exact_mut(4);
+        for (q, a) in (&mut quads).enumerate() {
+            let rows =
+                [0, 1, 2, 3].map(|r| layer.row_bytes(4 * q + r).get(col0 * 4..).unwrap_or(&[]));
+            if let [a0, a1, a2, a3] = a {
+                let (s, k) = crate::kernels::dot4_f32(rows, x, [*a0, *a1, *a2, *a3]);
+                let xr = x.get(k..).unwrap_or(&[]);
+                for ((o, r), s) in [a0, a1, a2, a3].into_iter().zip(rows).zip(s) {
+                    *o = row_sum(r.get(4 * k..).unwrap_or(&[]), xr, s);
+                }
+            }
+        }
+        j0 = n - quads.into_remainder().len();
+    }
+    for (j, a) in acc.iter_mut().enumerate().skip(j0) {
         let row = layer.row_bytes(j);
         let cols = row.get(col0 * 4..).unwrap_or(&[]);
-        let mut s = *a;
-        for (w, &xi) in cols.chunks_exact(4).zip(x) {
-            let w = match w {
-                &[b0, b1, b2, b3] => f32::from_le_bytes([b0, b1, b2, b3]),
-                _ => 0.0,
-            };
-            s += w * xi;
-        }
-        *a = s;
+        *a = row_sum(cols, x, *a);
     }
 }
 

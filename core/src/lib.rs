@@ -79,7 +79,9 @@
 //! with a 128-sample buffer (`cargo xtask profile` measures both; see
 //! [`engine`]).
 #![no_std]
-#![forbid(unsafe_code)]
+// `unsafe` only in the private `kernels` module (inline assembly for
+// Cortex-M4/M7), allowed there alone.
+#![deny(unsafe_code)]
 #![deny(missing_docs)]
 // No panicking helpers in library code; slice indexing is used only where
 // validation at load time proves the bounds (see `blob::validate`).
@@ -97,6 +99,9 @@ pub mod float;
 pub mod frame;
 #[doc(hidden)]
 pub mod golden;
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[allow(unsafe_code)]
+mod kernels;
 #[doc(hidden)]
 pub mod math;
 pub mod predictor;

@@ -395,3 +395,89 @@ fn f32_models_are_refused_by_the_fixed_engine_and_run_by_the_predictor() {
     assert_eq!(p.sine_name(), "libm");
     assert_eq!(samples(&mut p, &PAST, 1, 2).unwrap().len(), 2);
 }
+
+/// The integer accumulation at the extremes: every weight and every input
+/// at ±32768/32767 and the biases at the ends of `i32`, on a layer whose
+/// shape exercises every path of the dense kernels (131 inputs: the
+/// 16-column blocks, the 4-column blocks and an odd tail; 23 rows: the
+/// row pairs and an odd last row), against a plain `i128` sum. The sums
+/// reach ±131 · 2^30 + 2^31 ≈ 2^37.0, far inside `i64` (the bound for any
+/// blob is 65,535 · 2^30 + 2^31 < 2^47, `docs/kernels.md`); the same
+/// function runs on the Cortex-M4 with the `SMLALD` kernel, whose results
+/// the QEMU golden replay checks against the host.
+#[test]
+fn accumulators_exact_at_extremes() {
+    use gpecnet_core::engine::Backend;
+    use gpecnet_core::fixed::activate_q;
+    const N: usize = 131;
+    const M: usize = 23;
+    let mut ns = nets();
+    let mut wide = qlayer(N, M, Activation::Linear, (15, 15), 9);
+    // Rows: all −32768, all 32767, alternating signs, then mixed extremes.
+    for j in 0..M {
+        for i in 0..N {
+            wide.w[j * N + i] = match j % 4 {
+                0 => i16::MIN,
+                1 => i16::MAX,
+                2 => {
+                    if i % 2 == 0 {
+                        i16::MIN
+                    } else {
+                        i16::MAX
+                    }
+                }
+                _ => {
+                    if (i * 7 + j) % 3 == 0 {
+                        i16::MAX
+                    } else {
+                        i16::MIN
+                    }
+                }
+            };
+        }
+        wide.b[j] = if j % 2 == 0 { i32::MIN } else { i32::MAX };
+        wide.s[j] = [0, 1, 31, 32, 62][j % 5];
+    }
+    ns[3] = vec![
+        qlayer(9, N, Activation::Sine, (10, 15), 6),
+        wide.clone(),
+        qlayer(M, 22, Activation::Linear, (15, 5), 7),
+    ];
+    let b = encode(&ns, config());
+    let m = Model::from_blob(&b).unwrap();
+    let l = m.predictor().layer(1).unwrap();
+    assert_eq!((l.in_dim(), l.out_dim()), (N, M));
+    let inputs: [[i16; N]; 4] = [
+        [i16::MIN; N],
+        [i16::MAX; N],
+        core::array::from_fn(|i| if i % 2 == 0 { i16::MAX } else { i16::MIN }),
+        core::array::from_fn(|i| if i % 5 == 0 { i16::MIN } else { i16::MAX }),
+    ];
+    for x in &inputs {
+        // Aligned and shifted by one element (the kernels' other path).
+        let mut buf = [0i16; N + 1];
+        buf[1..].copy_from_slice(x);
+        for xs in [&x[..], &buf[1..]] {
+            for len in [N, N - 1, 16, 4, 3, 0] {
+                let xs = &xs[..len];
+                let mut part = [0i64; M];
+                Q15::partial(&l, xs, &mut part);
+                let mut out = [0i16; M];
+                if len == N {
+                    Q15::dense(&l, xs, &mut out);
+                }
+                for j in 0..M {
+                    let want: i128 = i128::from(wide.b[j])
+                        + (0..len)
+                            .map(|i| i128::from(wide.w[j * N + i]) * i128::from(xs[i]))
+                            .sum::<i128>();
+                    assert_eq!(i128::from(part[j]), want, "row {j}, {len} inputs");
+                    if len == N {
+                        let acc = i64::try_from(want).unwrap();
+                        assert_eq!(out[j], activate_q(Activation::Linear, acc, wide.s[j]));
+                    }
+                }
+            }
+        }
+    }
+}
