@@ -279,15 +279,17 @@ fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     acc
 }
 
-/// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for two rows: the
-/// portable [`dot1`]/[`dot_even`] twice, or on a Cortex-M4/M7 the `SMLALD`
-/// kernel ([`crate::kernels::dot2_q15`], two rows per pass) over the longest
-/// prefix it takes and `dot` on the rest. Integer sums are exact, so both
-/// give the same `i64`s.
+/// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for the two rows of `g`
+/// (stride `n` bytes), columns from byte `lo`: the portable
+/// [`dot1`]/[`dot_even`] twice, or on a Cortex-M4/M7 the `SMLALD` kernel
+/// ([`crate::kernels::dot2_q15`], two rows per pass) over the longest
+/// prefix it takes and [`dot1`] on the rest. Integer sums are exact, so
+/// both give the same `i64`s.
 #[inline(always)]
 fn dot2(
-    r0: &[u8],
-    r1: &[u8],
+    g: &[u8],
+    n: usize,
+    lo: usize,
     x: &[i16],
     a0: i64,
     a1: i64,
@@ -296,16 +298,30 @@ fn dot2(
     #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
     {
         let _ = dot;
-        let (a0, a1, k) = crate::kernels::dot2_q15(r0, r1, x, a0, a1);
+        let (a0, a1, k) = crate::kernels::dot2_q15(g, n, lo, x, a0, a1);
         if k == x.len() {
             return (a0, a1);
         }
-        dot2_rest(r0, r1, x, k, a0, a1)
+        dot2_rest(g, n, lo, x, k, a0, a1)
     }
     #[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
     {
+        let (r0, r1) = pair_rows(g, n, lo, 2 * x.len());
         (dot(r0, x, a0), dot(r1, x, a1))
     }
+}
+
+/// Bytes `lo..lo + len` of the two rows of `g` (stride `n`), each empty
+/// when it would run past its row (as the one-row walk has it).
+#[inline(always)]
+fn pair_rows(g: &[u8], n: usize, lo: usize, len: usize) -> (&[u8], &[u8]) {
+    if lo + len > n {
+        return (&[], &[]);
+    }
+    (
+        g.get(lo..lo + len).unwrap_or(&[]),
+        g.get(n + lo..n + lo + len).unwrap_or(&[]),
+    )
 }
 
 /// The columns `k..` of [`dot2`] that the kernel left (fewer than 4, or
@@ -313,36 +329,48 @@ fn dot2(
 /// so that it is compiled once.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
-fn dot2_rest(r0: &[u8], r1: &[u8], x: &[i16], k: usize, a0: i64, a1: i64) -> (i64, i64) {
-    let (r0, r1) = (
-        r0.get(2 * k..).unwrap_or(&[]),
-        r1.get(2 * k..).unwrap_or(&[]),
-    );
+fn dot2_rest(g: &[u8], n: usize, lo: usize, x: &[i16], k: usize, a0: i64, a1: i64) -> (i64, i64) {
     let x = x.get(k..).unwrap_or(&[]);
+    let (r0, r1) = pair_rows(g, n, lo + 2 * k, 2 * x.len());
     (dot1(r0, x, a0), dot1(r1, x, a1))
 }
 
-/// For each `(o_j, (row_j, init_j, s_j))` of `out` zipped with `rows`, calls
-/// `f(o_j, init_j + Σ_i q_ji · x_i, s_j)` (exact, in `i64`), two rows at a
-/// time ([`dot2`]; an odd last row with `dot`).
+/// For each output `o_j` of `out` zipped with `inits` (`(init_j, s_j)`),
+/// calls `f(o_j, init_j + Σ_i q_j,i · x_i, s_j)` (exact, in `i64`), where
+/// row `j` of `w` has `n` bytes and its columns start at byte `lo`: two
+/// rows at a time ([`dot2`]; an odd last row with `dot`).
 #[inline(always)]
-fn rows_with<'w, T>(
-    rows: impl Iterator<Item = (&'w [u8], i64, i8)>,
+fn rows_with<T>(
+    w: &[u8],
+    n: usize,
+    lo: usize,
     x: &[i16],
+    mut inits: impl Iterator<Item = (i64, i8)>,
     out: &mut [T],
     mut f: impl FnMut(&mut T, i64, i8),
     dot: impl Fn(&[u8], &[i16], i64) -> i64,
 ) {
-    let mut it = out.iter_mut().zip(rows);
-    while let Some((o0, (r0, i0, s0))) = it.next() {
-        match it.next() {
-            Some((o1, (r1, i1, s1))) => {
-                let (a0, a1) = dot2(r0, r1, x, i0, i1, &dot);
-                f(o0, a0, s0);
-                f(o1, a1, s1);
-            }
-            None => f(o0, dot(r0, x, i0), s0),
+    let mut outs = out.chunks_exact_mut(2);
+    let mut done = 0;
+    for (o, g) in (&mut outs).zip(w.chunks_exact(2 * n.max(1))) {
+        let (Some((i0, s0)), Some((i1, s1))) = (inits.next(), inits.next()) else {
+            return;
+        };
+        let (a0, a1) = dot2(g, n, lo, x, i0, i1, &dot);
+        if let [o0, o1] = o {
+            f(o0, a0, s0);
+            f(o1, a1, s1);
         }
+        done += 2;
+    }
+    if let (Some(o), Some((i0, s0))) = (outs.into_remainder().first_mut(), inits.next()) {
+        let start = done * n + lo;
+        let row = if lo + 2 * x.len() > n {
+            &[]
+        } else {
+            w.get(start..start + 2 * x.len()).unwrap_or(&[])
+        };
+        f(o, dot(row, x, i0), s0);
     }
 }
 
@@ -360,20 +388,14 @@ fn accumulate<T>(
     dot: impl Fn(&[u8], &[i16], i64) -> i64,
 ) {
     let (w, bias, shifts) = layer.tensors_q();
-    let n = 2 * layer.in_dim();
-    let (lo, hi) = (2 * skip, 2 * (skip + x.len()));
-    let rows = w
-        .chunks_exact(n.max(1))
-        .zip(bias.chunks_exact(4))
-        .zip(shifts)
-        .map(|((row, b), &s)| {
-            let b = match *b {
-                [b0, b1, b2, b3] => i32::from_le_bytes([b0, b1, b2, b3]),
-                _ => 0,
-            };
-            (row.get(lo..hi).unwrap_or(&[]), i64::from(b), s as i8)
-        });
-    rows_with(rows, x, out, f, dot);
+    let inits = bias.chunks_exact(4).zip(shifts).map(|(b, &s)| {
+        let b = match *b {
+            [b0, b1, b2, b3] => i32::from_le_bytes([b0, b1, b2, b3]),
+            _ => 0,
+        };
+        (i64::from(b), s as i8)
+    });
+    rows_with(w, 2 * layer.in_dim(), 2 * skip, x, inits, out, f, dot);
 }
 
 /// `dense_q` with the activation chosen once per layer.
@@ -461,39 +483,48 @@ fn latent_with(
 ) {
     let (w, _, shifts) = layer.tensors_q();
     let n = 2 * layer.in_dim();
-    let rows = w.chunks_exact(n.max(1)).zip(part).zip(shifts);
     #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
     {
         // Two rows per pass with the `SMLALD` kernel (the packed 16-column
         // product below is the faster portable form).
-        let _ = n;
-        let (lo, hi) = (2 * skip, 2 * (skip + z.len()));
-        let rows = rows.map(|((row, &p), &s)| (row.get(lo..hi).unwrap_or(&[]), p, s as i8));
-        rows_with(rows, z, out, |o, acc, s| *o = g(acc, s), dot1);
+        let inits = part.iter().zip(shifts).map(|(&p, &s)| (p, s as i8));
+        rows_with(
+            w,
+            n,
+            2 * skip,
+            z,
+            inits,
+            out,
+            |o, acc, s| *o = g(acc, s),
+            dot1,
+        );
     }
     #[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
-    match <&[i16; 16]>::try_from(z) {
-        Ok(z16) if n == 2 * (skip + 16) => {
-            // z packed in pairs once (kept in registers across the rows).
-            let mut zp = [0i32; 8];
-            for (d, v) in zp.iter_mut().zip(z16.chunks_exact(2)) {
-                if let [a, b] = *v {
-                    *d = i32::from(a as u16) | (i32::from(b) << 16);
+    {
+        let rows = w.chunks_exact(n.max(1)).zip(part).zip(shifts);
+        match <&[i16; 16]>::try_from(z) {
+            Ok(z16) if n == 2 * (skip + 16) => {
+                // z packed in pairs once (kept in registers across the rows).
+                let mut zp = [0i32; 8];
+                for (d, v) in zp.iter_mut().zip(z16.chunks_exact(2)) {
+                    if let [a, b] = *v {
+                        *d = i32::from(a as u16) | (i32::from(b) << 16);
+                    }
+                }
+                for (o, ((row, &p), &s)) in out.iter_mut().zip(rows) {
+                    let acc = match row.last_chunk::<32>() {
+                        Some(q) => dot16_packed(q, &zp, p),
+                        None => p,
+                    };
+                    *o = g(acc, s as i8);
                 }
             }
-            for (o, ((row, &p), &s)) in out.iter_mut().zip(rows) {
-                let acc = match row.last_chunk::<32>() {
-                    Some(q) => dot16_packed(q, &zp, p),
-                    None => p,
-                };
-                *o = g(acc, s as i8);
-            }
-        }
-        _ => {
-            let (lo, hi) = (2 * skip, 2 * (skip + z.len()));
-            for (o, ((row, &p), &s)) in out.iter_mut().zip(rows) {
-                let row = row.get(lo..hi).unwrap_or(&[]);
-                *o = g(dot1(row, z, p), s as i8);
+            _ => {
+                let (lo, hi) = (2 * skip, 2 * (skip + z.len()));
+                for (o, ((row, &p), &s)) in out.iter_mut().zip(rows) {
+                    let row = row.get(lo..hi).unwrap_or(&[]);
+                    *o = g(dot1(row, z, p), s as i8);
+                }
             }
         }
     }

@@ -52,6 +52,21 @@ fn row_sum(w: &[u8], x: &[f32], mut s: f32) -> f32 {
     s
 }
 
+/// The columns `k..` that [`crate::kernels::dot4_f32`] left, for the four
+/// rows of `g` (stride `n` bytes, columns from byte `lo`), continued with
+/// [`row_sum`] (out of line: compiled once).
+#[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
+#[inline(never)]
+fn quad_rest(g: &[u8], n: usize, lo: usize, x: &[f32], k: usize, acc: &mut [f32; 4]) {
+    let xr = x.get(k..).unwrap_or(&[]);
+    let lo = lo + 4 * k;
+    for (j, a) in acc.iter_mut().enumerate() {
+        let start = j * n + lo;
+        let r = g.get(start..(j + 1) * n).unwrap_or(&[]);
+        *a = row_sum(r, xr, *a);
+    }
+}
+
 /// `acc_j += Σ_{i} W[j][col0 + i] · x[i]`, left to right, for `j < acc.len()`.
 ///
 /// On a Cortex-M4F/M7 (`thumbv7em-none-eabihf`) four rows at a time go
@@ -64,22 +79,20 @@ fn accumulate(layer: &Layer<'_>, col0: usize, x: &[f32], acc: &mut [f32]) {
     #[allow(unused_mut)]
     let mut j0 = 0;
     #[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
-    let n = acc.len();
-    #[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
     {
+        let n = 4 * layer.in_dim();
+        let lo = 4 * col0;
+        let w = layer.tensors_q().0;
         let mut quads = acc.chunks_exact_mut(4);
-        for (q, a) in (&mut quads).enumerate() {
-            let rows =
-                [0, 1, 2, 3].map(|r| layer.row_bytes(4 * q + r).get(col0 * 4..).unwrap_or(&[]));
-            if let [a0, a1, a2, a3] = a {
-                let (s, k) = crate::kernels::dot4_f32(rows, x, [*a0, *a1, *a2, *a3]);
-                let xr = x.get(k..).unwrap_or(&[]);
-                for ((o, r), s) in [a0, a1, a2, a3].into_iter().zip(rows).zip(s) {
-                    *o = row_sum(r.get(4 * k..).unwrap_or(&[]), xr, s);
+        for (a, g) in (&mut quads).zip(w.chunks_exact(4 * n.max(1))) {
+            if let Ok(a) = <&mut [f32; 4]>::try_from(a) {
+                let k = crate::kernels::dot4_f32(g, n, lo, x, a);
+                if k < x.len() {
+                    quad_rest(g, n, lo, x, k, a);
                 }
             }
+            j0 += 4;
         }
-        j0 = n - quads.into_remainder().len();
     }
     for (j, a) in acc.iter_mut().enumerate().skip(j0) {
         let row = layer.row_bytes(j);

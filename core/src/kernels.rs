@@ -32,29 +32,36 @@
 
 use core::arch::asm;
 
-/// `(a0 + Σ_i q0_i x_i, a1 + Σ_i q1_i x_i)` over `i < k`, where `q0`/`q1`
-/// are the i16 LE weights at `w0`/`w1` and `k` is the largest multiple of 4
-/// with `k ≤ x.len()`, `2k ≤ w0.len()`, `2k ≤ w1.len()`; returns the sums
-/// and `k`. Does nothing (returns `k = 0`) when `x` is not 4-byte aligned.
+/// Two rows of i16 LE weights, `g[lo..n]` and `g[n + lo..2n]` (`n`: the
+/// row stride in bytes): `(a0 + Σ_i q0_i x_i, a1 + Σ_i q1_i x_i)` over
+/// `i < k`, where `k` is the largest multiple of 4 with `k ≤ x.len()`;
+/// returns the sums and `k`. Does nothing (returns `k = 0`) when `x` is
+/// not 4-byte aligned, `g` is shorter than `2n` or the columns would run
+/// past a row (`lo + 2·x.len() > n`).
 #[inline(always)]
-pub(crate) fn dot2_q15(w0: &[u8], w1: &[u8], x: &[i16], a0: i64, a1: i64) -> (i64, i64, usize) {
-    let k = x.len().min(w0.len() / 2).min(w1.len() / 2) & !3;
-    if k == 0 || (x.as_ptr() as usize) & 3 != 0 {
+pub(crate) fn dot2_q15(
+    g: &[u8],
+    n: usize,
+    lo: usize,
+    x: &[i16],
+    a0: i64,
+    a1: i64,
+) -> (i64, i64, usize) {
+    let k = x.len() & !3;
+    if k == 0 || (x.as_ptr() as usize) & 3 != 0 || g.len() / 2 < n || lo + 2 * x.len() > n {
         return (a0, a1, 0);
     }
     let (mut a0l, mut a0h) = (a0 as u32, (a0 >> 32) as u32);
     let (mut a1l, mut a1h) = (a1 as u32, (a1 >> 32) as u32);
-    // Row 1 relative to row 0, as a (wrapping) register offset.
-    let d = (w1.as_ptr() as usize).wrapping_sub(w0.as_ptr() as usize);
-    // SAFETY: reads `x[..k]` (k ≤ x.len(), by `LDRD` at 4-byte aligned
-    // addresses: `x` is 4-byte aligned, checked above, and advances by 8)
-    // and bytes `[0, 2k)` of `w0` and of `w1` (2k ≤ both lengths; row 1 is
-    // read at `p + d` where `p` walks row 0, so `p + d` walks row 1) with
-    // `LDR`, which the Cortex-M4 allows unaligned on normal memory (flash
-    // and SRAM; `CCR.UNALIGN_TRP` is 0 out of reset and the firmware never
-    // sets it). No writes to memory, no stack; the flags are clobbered
-    // (asm! assumes so without `preserves_flags`); all registers written
-    // are declared outputs.
+    // SAFETY: reads `x[..k]` (k ≤ x.len()) with `LDRD` at 4-byte aligned
+    // addresses (`x` is 4-byte aligned, checked above, and advances by 8),
+    // and bytes `[lo, lo + 2k)` and `[n + lo, n + lo + 2k)` of `g` (both
+    // inside `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) with `LDR` at `p` and
+    // `p + n`, `p` walking row 0 from `g + lo`. `LDR` may be unaligned: the
+    // Cortex-M4/M7 allow it on normal memory (flash and SRAM;
+    // `CCR.UNALIGN_TRP` is 0 out of reset and the firmware never sets it).
+    // No writes to memory, no stack; the flags are clobbered (asm! assumes
+    // so without `preserves_flags`); all registers written are declared.
     unsafe {
         asm!(
             // m = number of 4-input blocks (≥ 1); 4 blocks per iteration first.
@@ -118,8 +125,8 @@ pub(crate) fn dot2_q15(w0: &[u8], w1: &[u8], x: &[i16], a0: i64, a1: i64) -> (i6
             "5:",
             m = inout(reg) k / 4 => _,
             xp = inout(reg) x.as_ptr() => _,
-            p = inout(reg) w0.as_ptr() => _,
-            d = in(reg) d,
+            p = inout(reg) g.as_ptr().wrapping_add(lo) => _,
+            d = in(reg) n,
             x0 = out(reg) _,
             x1 = out(reg) _,
             w = out(reg) _,
@@ -137,39 +144,43 @@ pub(crate) fn dot2_q15(w0: &[u8], w1: &[u8], x: &[i16], a0: i64, a1: i64) -> (i6
     )
 }
 
-/// Four rows of f32 weights (LE bytes, `w[0..4]`) continue the sums
+/// Four rows of f32 LE weights, `g[j·n + lo..(j + 1)·n]` for `j < 4`
+/// (`n`: the row stride in bytes), continue the sums
 /// `acc_j += W_ji · x_i`, `i` ascending, each product and each sum rounded
 /// (`VMLA.F32`: not fused), over `i < k`: `k` is the largest multiple of 4
-/// with `k ≤ x.len()` and `4k ≤ w_j.len()` for every row. Returns the sums
-/// and `k` (0: nothing done).
+/// with `k ≤ x.len()` and `lo + 4k ≤ n`. Returns `k` (0: nothing done,
+/// also when `g` is shorter than `4n`).
 ///
-/// The sums travel in core registers (their bits) and live in s0–s3 inside
-/// the loop; s0–s11 are saved on the stack around it and restored (stable
-/// Rust cannot name VFP registers as asm operands without the unstable
-/// `vfp2` target feature, so they are not operands but saved by hand).
+/// The sums live in s0–s3 inside the loop; s0–s11 are saved on the stack
+/// around it and restored (stable Rust cannot name VFP registers as asm
+/// operands without the unstable `vfp2` target feature, so they are saved
+/// by hand instead).
 #[cfg(target_feature = "fpregs")]
 #[inline(always)]
-pub(crate) fn dot4_f32(w: [&[u8]; 4], x: &[f32], acc: [f32; 4]) -> ([f32; 4], usize) {
-    let k = w.iter().fold(x.len(), |k, r| k.min(r.len() / 4)) & !3;
-    if k == 0 {
-        return (acc, 0);
+pub(crate) fn dot4_f32(g: &[u8], n: usize, lo: usize, x: &[f32], acc: &mut [f32; 4]) -> usize {
+    let k = x.len().min(n.saturating_sub(lo) / 4) & !3;
+    if k == 0 || g.len() / 4 < n {
+        return 0;
     }
-    let mut a = acc.map(f32::to_bits);
-    let p = w.map(|r| r.as_ptr());
-    if p.iter().all(|&q| q as usize & 3 == 0) {
-        // SAFETY: reads `x[..k]` and the first `4k` bytes of each row (k ≤
-        // every length, see above) with `VLDM`, at 4-byte aligned addresses
-        // (`x` is a `&[f32]`, the rows were checked just above, and each
-        // pointer advances by 16). The only memory written is the 48 bytes
-        // `VPUSH` puts below the stack pointer, popped before the end, so
-        // every VFP register is as it was; the core registers written are
-        // declared operands. `VMLA.F32` uses FPSCR's rounding, flush-to-zero
-        // and default-NaN settings exactly as `VMUL` + `VADD` do.
+    let p0 = g.as_ptr().wrapping_add(lo);
+    if (p0 as usize | n) & 3 == 0 {
+        // SAFETY: reads `x[..k]` and bytes `[j·n + lo, j·n + lo + 4k)` of
+        // `g` for j < 4 (inside `g`: lo + 4k ≤ n, 4n ≤ g.len()) with
+        // `VLDM`, at 4-byte aligned addresses (`x` is a `&[f32]`; `g + lo`
+        // and `n` were checked just above; each pointer advances by 16);
+        // reads and writes the 16 bytes of `acc` (a `&mut [f32; 4]`,
+        // aligned) with `VLDM`/`VSTM`. The only other memory written is the
+        // 48 bytes `VPUSH` puts below the stack pointer, popped before the
+        // end, so every VFP register is as it was; the core registers
+        // written are declared operands. `VMLA.F32` uses FPSCR's rounding,
+        // flush-to-zero and default-NaN settings exactly as `VMUL` + `VADD`.
         unsafe {
             asm!(
                 "vpush {{s0-s11}}",
-                "vmov s0, s1, {a0}, {a1}",
-                "vmov s2, s3, {a2}, {a3}",
+                "vldmia {ap}, {{s0-s3}}",
+                "add {p1}, {p0}, {n}",
+                "add {p2}, {p1}, {n}",
+                "add {p3}, {p2}, {n}",
                 "2:",
                 "vldmia {xp}!, {{s4-s7}}",
                 "vldmia {p0}!, {{s8-s11}}",
@@ -194,93 +205,90 @@ pub(crate) fn dot4_f32(w: [&[u8]; 4], x: &[f32], acc: [f32; 4]) -> ([f32; 4], us
                 "vmla.f32 s3, s11, s7",
                 "subs {m}, {m}, #1",
                 "bne 2b",
-                "vmov {a0}, {a1}, s0, s1",
-                "vmov {a2}, {a3}, s2, s3",
+                "vstmia {ap}, {{s0-s3}}",
                 "vpop {{s0-s11}}",
                 m = inout(reg) k / 4 => _,
                 xp = inout(reg) x.as_ptr() => _,
-                p0 = inout(reg) p[0] => _,
-                p1 = inout(reg) p[1] => _,
-                p2 = inout(reg) p[2] => _,
-                p3 = inout(reg) p[3] => _,
-                a0 = inout(reg) a[0],
-                a1 = inout(reg) a[1],
-                a2 = inout(reg) a[2],
-                a3 = inout(reg) a[3],
-                options(readonly),
+                ap = in(reg) acc.as_mut_ptr(),
+                n = in(reg) n,
+                p0 = inout(reg) p0 => _,
+                p1 = out(reg) _,
+                p2 = out(reg) _,
+                p3 = out(reg) _,
             );
         }
     } else {
-        // SAFETY: as above, except that the weights are read with `LDR`
-        // (into the sum registers, free inside the loop), which the
-        // Cortex-M4/M7 allows unaligned on normal memory (flash, SRAM;
-        // `CCR.UNALIGN_TRP` is 0 out of reset and never set by the
-        // firmware), then copied to s8–s11 with `VMOV` (bit copies).
+        // SAFETY: as above, except that the weights are read with `LDR`,
+        // which the Cortex-M4/M7 allow unaligned on normal memory (flash,
+        // SRAM; `CCR.UNALIGN_TRP` is 0 out of reset and never set by the
+        // firmware), then copied to s8–s11 with `VMOV` (bit copies); `n` is
+        // free once p1–p3 are set and serves as the fourth temporary.
         unsafe {
             asm!(
                 "vpush {{s0-s11}}",
-                "vmov s0, s1, {a0}, {a1}",
-                "vmov s2, s3, {a2}, {a3}",
+                "vldmia {ap}, {{s0-s3}}",
+                "add {p1}, {p0}, {n}",
+                "add {p2}, {p1}, {n}",
+                "add {p3}, {p2}, {n}",
                 "2:",
                 "vldmia {xp}!, {{s4-s7}}",
-                "ldr {a0}, [{p0}], #4",
-                "ldr {a1}, [{p0}], #4",
-                "ldr {a2}, [{p0}], #4",
-                "ldr {a3}, [{p0}], #4",
-                "vmov s8, s9, {a0}, {a1}",
-                "vmov s10, s11, {a2}, {a3}",
+                "ldr {n}, [{p0}], #4",
+                "ldr {t1}, [{p0}], #4",
+                "ldr {t2}, [{p0}], #4",
+                "ldr {t3}, [{p0}], #4",
+                "vmov s8, s9, {n}, {t1}",
+                "vmov s10, s11, {t2}, {t3}",
                 "vmla.f32 s0, s8, s4",
                 "vmla.f32 s0, s9, s5",
                 "vmla.f32 s0, s10, s6",
                 "vmla.f32 s0, s11, s7",
-                "ldr {a0}, [{p1}], #4",
-                "ldr {a1}, [{p1}], #4",
-                "ldr {a2}, [{p1}], #4",
-                "ldr {a3}, [{p1}], #4",
-                "vmov s8, s9, {a0}, {a1}",
-                "vmov s10, s11, {a2}, {a3}",
+                "ldr {n}, [{p1}], #4",
+                "ldr {t1}, [{p1}], #4",
+                "ldr {t2}, [{p1}], #4",
+                "ldr {t3}, [{p1}], #4",
+                "vmov s8, s9, {n}, {t1}",
+                "vmov s10, s11, {t2}, {t3}",
                 "vmla.f32 s1, s8, s4",
                 "vmla.f32 s1, s9, s5",
                 "vmla.f32 s1, s10, s6",
                 "vmla.f32 s1, s11, s7",
-                "ldr {a0}, [{p2}], #4",
-                "ldr {a1}, [{p2}], #4",
-                "ldr {a2}, [{p2}], #4",
-                "ldr {a3}, [{p2}], #4",
-                "vmov s8, s9, {a0}, {a1}",
-                "vmov s10, s11, {a2}, {a3}",
+                "ldr {n}, [{p2}], #4",
+                "ldr {t1}, [{p2}], #4",
+                "ldr {t2}, [{p2}], #4",
+                "ldr {t3}, [{p2}], #4",
+                "vmov s8, s9, {n}, {t1}",
+                "vmov s10, s11, {t2}, {t3}",
                 "vmla.f32 s2, s8, s4",
                 "vmla.f32 s2, s9, s5",
                 "vmla.f32 s2, s10, s6",
                 "vmla.f32 s2, s11, s7",
-                "ldr {a0}, [{p3}], #4",
-                "ldr {a1}, [{p3}], #4",
-                "ldr {a2}, [{p3}], #4",
-                "ldr {a3}, [{p3}], #4",
-                "vmov s8, s9, {a0}, {a1}",
-                "vmov s10, s11, {a2}, {a3}",
+                "ldr {n}, [{p3}], #4",
+                "ldr {t1}, [{p3}], #4",
+                "ldr {t2}, [{p3}], #4",
+                "ldr {t3}, [{p3}], #4",
+                "vmov s8, s9, {n}, {t1}",
+                "vmov s10, s11, {t2}, {t3}",
                 "vmla.f32 s3, s8, s4",
                 "vmla.f32 s3, s9, s5",
                 "vmla.f32 s3, s10, s6",
                 "vmla.f32 s3, s11, s7",
                 "subs {m}, {m}, #1",
                 "bne 2b",
-                "vmov {a0}, {a1}, s0, s1",
-                "vmov {a2}, {a3}, s2, s3",
+                "vstmia {ap}, {{s0-s3}}",
                 "vpop {{s0-s11}}",
                 m = inout(reg) k / 4 => _,
                 xp = inout(reg) x.as_ptr() => _,
-                p0 = inout(reg) p[0] => _,
-                p1 = inout(reg) p[1] => _,
-                p2 = inout(reg) p[2] => _,
-                p3 = inout(reg) p[3] => _,
-                a0 = inout(reg) a[0],
-                a1 = inout(reg) a[1],
-                a2 = inout(reg) a[2],
-                a3 = inout(reg) a[3],
-                options(readonly),
+                ap = in(reg) acc.as_mut_ptr(),
+                n = inout(reg) n => _,
+                p0 = inout(reg) p0 => _,
+                p1 = out(reg) _,
+                p2 = out(reg) _,
+                p3 = out(reg) _,
+                t1 = out(reg) _,
+                t2 = out(reg) _,
+                t3 = out(reg) _,
             );
         }
     }
-    (a.map(f32::from_bits), k)
+    k
 }
