@@ -11,15 +11,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
-/// Hidden-layer activation of every MLP.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Activation {
-    /// SIREN: `sin(w0 * (W x + b))` (G-PECNet).
-    Sine,
-    /// `max(0, W x + b)` (the original PECNet).
-    Relu,
-}
+use crate::network::Act;
 
 /// Which data set to train on.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -104,7 +96,7 @@ pub struct TrainConfig {
     /// Minibatch size (windows, after time-reversal augmentation).
     pub batch_size: usize,
     /// Hidden activation: `"sine"` (G-PECNet) or `"relu"` (PECNet).
-    pub activation: Activation,
+    pub activation: Act,
     /// SIREN frequency factor `w0` (sine only).
     pub w0: f32,
     /// Coordinate scale of the networks (model units, i.e. after `data_scale`):
@@ -278,7 +270,7 @@ impl Default for TrainConfig {
             learning_rate: 3e-4,
             num_epochs: 650,
             batch_size: 512,
-            activation: Activation::Sine,
+            activation: Act::Sine,
             w0: 30.0,
             coord_scale: 100.0,
             seed: 1,
@@ -405,7 +397,12 @@ impl TrainConfig {
         positive("data_scale", f64::from(self.data_scale))?;
         positive("coord_scale", f64::from(self.coord_scale))?;
         positive("point_reg", f64::from(self.point_reg))?;
-        if self.activation == Activation::Sine {
+        if self.activation == Act::Linear {
+            bail!(
+                "activation = \"linear\" is not a hidden activation: allowed \"sine\" or \"relu\""
+            );
+        }
+        if self.activation == Act::Sine {
             positive("w0", f64::from(self.w0))?;
         } else {
             non_negative("w0", f64::from(self.w0))?;

@@ -110,8 +110,8 @@ pub fn predict_reference(
                 .collect(),
         };
     }
-    let p = model.predict(&past, seed, k, sine, !model.predictor.is_empty());
-    let trajectories = if model.predictor.is_empty() {
+    let p = model.predict(&past, seed, k, sine, !model.nets.predictor.is_empty());
+    let trajectories = if model.nets.predictor.is_empty() {
         p.endpoints
             .iter()
             .map(|e| linear_fill(past[PAST - 1], *e))

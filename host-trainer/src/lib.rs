@@ -8,6 +8,7 @@ pub mod eval;
 pub mod export;
 pub mod frame;
 pub mod model;
+pub mod network;
 pub mod optim;
 pub mod quantize;
 pub mod reference;

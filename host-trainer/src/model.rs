@@ -18,56 +18,12 @@
 //! from the crate's seeded [`Rng`]; no candle randomness is used.
 
 use candle_core::{DType, Device, Tensor, Var};
-use serde::{Deserialize, Serialize};
 
-use crate::config::{Activation, TrainConfig};
+use crate::config::TrainConfig;
 use crate::data::{Sample, FUTURE, PAST};
+use crate::network::{Act, Layer, Networks};
 use crate::rng::Rng;
 use crate::social::SocialPooling;
-
-/// Activation of one exported layer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Act {
-    /// No activation (the last layer of every network).
-    Linear,
-    /// `max(0, .)`.
-    Relu,
-    /// `sin(.)`, with the SIREN `w0` already folded into the weights.
-    Sine,
-}
-
-/// One dense layer as shipped to the embedded runtime: `y = act(W' x + b')`.
-///
-/// For [`Act::Sine`] layers the SIREN factor is folded in (`W' = w0 * W`, `b' = w0 * b`,
-/// computed in f32), so the layer is exactly `sin(W' x + b')`. Other layers are unchanged.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ExportedLayer {
-    /// Input width.
-    pub in_dim: usize,
-    /// Output width.
-    pub out_dim: usize,
-    /// Activation applied after the affine map.
-    pub activation: Act,
-    /// Row-major `[out_dim][in_dim]`.
-    pub weight: Vec<f32>,
-    /// `[out_dim]`.
-    pub bias: Vec<f32>,
-}
-
-/// The four networks the embedded predictor needs (the latent encoder is training-only).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ExportedNetworks {
-    /// `2 * PAST` -> `fdim`.
-    pub encoder_past: Vec<ExportedLayer>,
-    /// `fdim + zdim` -> 2.
-    pub decoder: Vec<ExportedLayer>,
-    /// 2 -> `fdim`.
-    pub encoder_dest: Vec<ExportedLayer>,
-    /// `2 * fdim + 2` -> `2 * (FUTURE - 1)`.
-    pub predictor: Vec<ExportedLayer>,
-    /// The point-forecast head, `2 * PAST` -> `2 * FUTURE` (empty: the model has none).
-    pub point_head: Vec<ExportedLayer>,
-}
 
 /// One affine layer; weight `[out, in]` (PyTorch layout), bias `[out]`.
 #[derive(Clone, Debug)]
@@ -82,7 +38,7 @@ pub struct Dense {
 #[derive(Clone, Debug)]
 pub struct Mlp {
     layers: Vec<Dense>,
-    activation: Activation,
+    activation: Act,
     w0: f32,
     /// Inputs are multiplied by `1 / in_scale` before the first layer.
     in_scale: f32,
@@ -105,7 +61,7 @@ impl Mlp {
         input: usize,
         hidden: &[usize],
         output: usize,
-        activation: Activation,
+        activation: Act,
         w0: f32,
         rng: &mut Rng,
     ) -> candle_core::Result<Self> {
@@ -115,9 +71,9 @@ impl Mlp {
         for (i, &out) in hidden.iter().chain(std::iter::once(&output)).enumerate() {
             let n = prev as f32;
             let wb = match activation {
-                Activation::Sine if i == 0 => 1.0 / n,
-                Activation::Sine => (6.0 / n).sqrt() / w0,
-                Activation::Relu => 1.0 / n.sqrt(),
+                Act::Sine if i == 0 => 1.0 / n,
+                Act::Sine => (6.0 / n).sqrt() / w0,
+                Act::Relu | Act::Linear => 1.0 / n.sqrt(),
             };
             let w = uniform_vec(rng, out * prev, wb);
             let b = uniform_vec(rng, out, 1.0 / n.sqrt());
@@ -161,8 +117,9 @@ impl Mlp {
                 .broadcast_add(l.bias.as_tensor())?;
             if i < last {
                 h = match self.activation {
-                    Activation::Sine => h.affine(f64::from(self.w0), 0.0)?.sin()?,
-                    Activation::Relu => h.relu()?,
+                    Act::Sine => h.affine(f64::from(self.w0), 0.0)?.sin()?,
+                    Act::Relu => h.relu()?,
+                    Act::Linear => h,
                 };
             }
         }
@@ -185,8 +142,8 @@ impl Mlp {
         &self.layers
     }
 
-    /// Export with `w0` folded into sine layers (see [`ExportedLayer`]).
-    pub fn export(&self) -> candle_core::Result<Vec<ExportedLayer>> {
+    /// Export with `w0` folded into sine layers (see [`Layer`]).
+    pub fn export(&self) -> candle_core::Result<Vec<Layer>> {
         let last = self.layers.len() - 1;
         let mut out = Vec::with_capacity(self.layers.len());
         for (i, l) in self.layers.iter().enumerate() {
@@ -204,22 +161,13 @@ impl Mlp {
             let activation = if i == last {
                 Act::Linear
             } else {
-                match self.activation {
-                    Activation::Relu => Act::Relu,
-                    Activation::Sine => {
-                        weight.iter_mut().for_each(|x| *x *= self.w0);
-                        bias.iter_mut().for_each(|x| *x *= self.w0);
-                        Act::Sine
-                    }
+                if self.activation == Act::Sine {
+                    weight.iter_mut().for_each(|x| *x *= self.w0);
+                    bias.iter_mut().for_each(|x| *x *= self.w0);
                 }
+                self.activation
             };
-            out.push(ExportedLayer {
-                in_dim,
-                out_dim,
-                activation,
-                weight,
-                bias,
-            });
+            out.push(Layer::new(in_dim, out_dim, activation, weight, bias));
         }
         Ok(out)
     }
@@ -603,10 +551,10 @@ impl Model {
         Tensor::cat(&[&inter, &dest], 1)?.reshape((b, FUTURE, 2))
     }
 
-    /// The embedded networks with `w0` folded in (see [`ExportedLayer`]). Refuses a model
+    /// The embedded networks with `w0` folded in (see [`Layer`]). Refuses a model
     /// with social pooling: it needs the other pedestrians at inference, which the embedded
     /// core does not support (such models exist to reproduce PECNet on the host).
-    pub fn export_networks(&self) -> candle_core::Result<ExportedNetworks> {
+    pub fn export_networks(&self) -> candle_core::Result<Networks> {
         if self.has_social() {
             candle_core::bail!(
                 "this model uses social pooling (social_pooling = true), which needs the other \
@@ -614,7 +562,7 @@ impl Model {
                  so it cannot be exported (it is for reproducing PECNet on the host)"
             );
         }
-        Ok(ExportedNetworks {
+        Ok(Networks {
             encoder_past: self.encoder_past.export()?,
             decoder: self.decoder.export()?,
             encoder_dest: self.encoder_dest.export()?,
@@ -656,19 +604,19 @@ mod tests {
         let cfg = tiny();
         let m = Model::new(&cfg, &mut Rng::new(3)).unwrap();
         let ex = m.export_networks().unwrap();
-        assert_eq!(ex.encoder_past[0].activation, Act::Sine);
-        assert_eq!(ex.encoder_past.last().unwrap().activation, Act::Linear);
+        assert_eq!(ex.encoder_past[0].act, Act::Sine);
+        assert_eq!(ex.encoder_past.last().unwrap().act, Act::Linear);
         let x: Vec<f32> = (0..16).map(|i| i as f32 * 0.37 - 2.0).collect();
         // Reference forward of the exported layers in f64.
         let mut h: Vec<f64> = x.iter().map(|&v| v as f64).collect();
         for l in &ex.encoder_past {
             let mut y = vec![0.0f64; l.out_dim];
             for (o, yo) in y.iter_mut().enumerate() {
-                let mut s = l.bias[o] as f64;
+                let mut s = l.b[o] as f64;
                 for (i, hi) in h.iter().enumerate() {
-                    s += l.weight[o * l.in_dim + i] as f64 * hi;
+                    s += l.w[o * l.in_dim + i] as f64 * hi;
                 }
-                *yo = match l.activation {
+                *yo = match l.act {
                     Act::Sine => s.sin(),
                     Act::Relu => s.max(0.0),
                     Act::Linear => s,

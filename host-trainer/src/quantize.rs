@@ -18,14 +18,15 @@
 //!   compare the two bit for bit.
 
 use anyhow::{anyhow, bail, Context, Result};
-use gpecnet_core::blob::{LayerWireQ, NumericKind, CRC32};
+use gpecnet_core::blob::NumericKind;
 use serde::{Deserialize, Serialize};
 
 use crate::core_eval::linear_fill;
 use crate::data::{Dataset, Window, PAST};
 use crate::eval::{dist_metrics, DistMetrics, Metrics, Prediction};
 use crate::export::GoldenCase;
-use crate::reference::{Act, Normals, RefConfig, RefFrame, RefLayer, RefModel};
+use crate::network::{Act, InferenceModel, Layer, Networks, QScale, Q15};
+use crate::reference::{Normals, RefModel};
 
 /// Headroom over the calibrated maximum of each activation vector.
 pub const MARGIN: f64 = 1.5;
@@ -35,45 +36,10 @@ const MIN_EXP: i32 = -8;
 const MAX_EXP: i32 = 30;
 
 /// One quantized layer (mirrors `LayerWireQ`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct QLayer {
-    /// Input width.
-    pub in_dim: usize,
-    /// Output width.
-    pub out_dim: usize,
-    /// Activation.
-    pub act: Act,
-    /// Input exponent.
-    pub in_exp: i8,
-    /// Output exponent (15 for sine layers).
-    pub out_exp: i8,
-    /// `out_dim × in_dim` weights, row-major.
-    pub w: Vec<i16>,
-    /// Biases in accumulator units.
-    pub b: Vec<i32>,
-    /// Per-channel shifts.
-    pub s: Vec<i8>,
-}
+pub type QLayer = Layer<Q15>;
 
-/// A quantized model.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct QModel {
-    /// Model name.
-    pub name: String,
-    /// Hyper-parameters (as in the f32 model).
-    pub config: RefConfig,
-    /// Past encoder.
-    pub encoder_past: Vec<QLayer>,
-    /// Decoder.
-    pub decoder: Vec<QLayer>,
-    /// Endpoint encoder (empty for endpoint-only models).
-    pub encoder_dest: Vec<QLayer>,
-    /// Trajectory predictor (empty for endpoint-only models).
-    pub predictor: Vec<QLayer>,
-    /// Point-forecast head (empty when absent); reads encoder_past's quantised input.
-    #[serde(default)]
-    pub point_head: Vec<QLayer>,
-}
+/// A quantized model (the same networks as its f32 source, int16/int32 with scales).
+pub type QModel = InferenceModel<Q15>;
 
 // ---------------------------------------------------------------- calibration
 
@@ -92,7 +58,7 @@ pub struct Calibration {
     pub windows: usize,
 }
 
-fn run_f64(net: &[RefLayer], x: &[f64], maxes: &mut [f64]) -> Vec<f64> {
+fn run_f64(net: &[Layer], x: &[f64], maxes: &mut [f64]) -> Vec<f64> {
     let mut cur = x.to_vec();
     for (l, m) in net.iter().zip(maxes.iter_mut()) {
         let mut y = Vec::with_capacity(l.out_dim);
@@ -117,13 +83,7 @@ fn run_f64(net: &[RefLayer], x: &[f64], maxes: &mut [f64]) -> Vec<f64> {
 /// Runs `model` on `windows` with `k` latent samples each (window `i` uses seed `i`).
 pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration {
     let c = &model.config;
-    let nets = [
-        &model.encoder_past,
-        &model.decoder,
-        &model.encoder_dest,
-        &model.predictor,
-        &model.point_head,
-    ];
+    let nets = model.nets.in_blob_order();
     let mut cal = Calibration {
         layers: nets.map(|n| vec![0.0; n.len()]),
         ..Default::default()
@@ -136,9 +96,9 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
             .flat_map(|p| fr.input(*p, c.data_scale).map(f64::from))
             .collect();
         cal.input = x.iter().fold(cal.input, |m, v| m.max(v.abs()));
-        let f = run_f64(&model.encoder_past, &x, &mut cal.layers[0]);
-        if !model.point_head.is_empty() {
-            run_f64(&model.point_head, &x, &mut cal.layers[4]);
+        let f = run_f64(&model.nets.encoder_past, &x, &mut cal.layers[0]);
+        if !model.nets.point_head.is_empty() {
+            run_f64(&model.nets.point_head, &x, &mut cal.layers[4]);
         }
         let mut normals = Normals::new(wi as u64);
         let last = fr.predictor_position(past[PAST - 1]);
@@ -149,9 +109,9 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
                 cal.z = cal.z.max(z.abs() as f64);
                 input.push(z as f64);
             }
-            let d = run_f64(&model.decoder, &input, &mut cal.layers[1]);
-            if !model.predictor.is_empty() {
-                let g = run_f64(&model.encoder_dest, &d, &mut cal.layers[2]);
+            let d = run_f64(&model.nets.decoder, &input, &mut cal.layers[1]);
+            if !model.nets.predictor.is_empty() {
+                let g = run_f64(&model.nets.encoder_dest, &d, &mut cal.layers[2]);
                 let mut pin = f.clone();
                 pin.extend(g);
                 for v in last {
@@ -159,7 +119,7 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
                     cal.init = cal.init.max(ip.abs());
                     pin.push(ip);
                 }
-                run_f64(&model.predictor, &pin, &mut cal.layers[3]);
+                run_f64(&model.nets.predictor, &pin, &mut cal.layers[3]);
             }
         }
         cal.windows += 1;
@@ -174,7 +134,7 @@ fn exp_for(max: f64) -> i32 {
     ((32767.0 / (max * MARGIN)).log2().floor() as i32).clamp(MIN_EXP, MAX_EXP)
 }
 
-fn quantize_layer(l: &RefLayer, in_exp: i32, out_exp: i32) -> QLayer {
+fn quantize_layer(l: &Layer, in_exp: i32, out_exp: i32) -> QLayer {
     let (fold, target, s_lo) = match l.act {
         Act::Sine => (1.0 / std::f64::consts::TAU, 32, -31),
         _ => (1.0, out_exp, 0),
@@ -183,15 +143,17 @@ fn quantize_layer(l: &RefLayer, in_exp: i32, out_exp: i32) -> QLayer {
         in_dim: l.in_dim,
         out_dim: l.out_dim,
         act: l.act,
-        in_exp: in_exp as i8,
-        out_exp: if l.act == Act::Sine {
-            15
-        } else {
-            out_exp as i8
-        },
         w: Vec::with_capacity(l.w.len()),
         b: Vec::with_capacity(l.out_dim),
-        s: Vec::with_capacity(l.out_dim),
+        scale: QScale {
+            in_exp: in_exp as i8,
+            out_exp: if l.act == Act::Sine {
+                15
+            } else {
+                out_exp as i8
+            },
+            shifts: Vec::with_capacity(l.out_dim),
+        },
     };
     for j in 0..l.out_dim {
         let row: Vec<f64> = l.w[j * l.in_dim..(j + 1) * l.in_dim]
@@ -218,14 +180,14 @@ fn quantize_layer(l: &RefLayer, in_exp: i32, out_exp: i32) -> QLayer {
                 .round()
                 .clamp(-2_147_483_648.0, 2_147_483_647.0) as i32,
         );
-        q.s.push((ew + in_exp - target) as i8);
+        q.scale.shifts.push((ew + in_exp - target) as i8);
     }
     q
 }
 
 /// Quantizes one network: input exponent `e_in`, output exponent `e_out`,
 /// hidden non-sine layers from their calibrated maxima.
-fn quantize_net(net: &[RefLayer], maxes: &[f64], e_in: i32, e_out: i32) -> Vec<QLayer> {
+fn quantize_net(net: &[Layer], maxes: &[f64], e_in: i32, e_out: i32) -> Vec<QLayer> {
     let mut e = e_in;
     net.iter()
         .enumerate()
@@ -238,7 +200,7 @@ fn quantize_net(net: &[RefLayer], maxes: &[f64], e_in: i32, e_out: i32) -> Vec<Q
                 exp_for(maxes[i])
             };
             let q = quantize_layer(l, e, out);
-            e = q.out_exp as i32;
+            e = q.scale.out_exp as i32;
             q
         })
         .collect()
@@ -248,13 +210,7 @@ fn quantize_net(net: &[RefLayer], maxes: &[f64], e_in: i32, e_out: i32) -> Vec<Q
 pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QModel> {
     model.validate()?;
     let last_max = |n: usize| cal.layers[n].last().copied().unwrap_or(0.0);
-    for net in [
-        &model.encoder_past,
-        &model.decoder,
-        &model.encoder_dest,
-        &model.predictor,
-        &model.point_head,
-    ] {
+    for net in model.nets.in_blob_order() {
         if net.last().is_some_and(|l| l.act == Act::Sine) {
             bail!("a network ending in a sine layer is not supported by the fixed-point kind");
         }
@@ -266,7 +222,7 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
     let e_in = exp_for(cal.input).min(15 - gpecnet_core::frame::MAX_INPUT.log2() as i32);
     let mut e_f = exp_for(last_max(0)).min(exp_for(cal.z));
     let e_d = exp_for(last_max(1));
-    let has_pred = !model.predictor.is_empty();
+    let has_pred = !model.nets.predictor.is_empty();
     if has_pred {
         e_f = e_f.min(exp_for(last_max(2))).min(exp_for(cal.init));
     }
@@ -274,24 +230,26 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
     Ok(QModel {
         name: name.to_string(),
         config: model.config.clone(),
-        encoder_past: quantize_net(&model.encoder_past, &cal.layers[0], e_in, e_f),
-        decoder: quantize_net(&model.decoder, &cal.layers[1], e_f, e_d),
-        encoder_dest: if has_pred {
-            quantize_net(&model.encoder_dest, &cal.layers[2], e_d, e_f)
-        } else {
-            vec![]
+        nets: Networks {
+            encoder_past: quantize_net(&model.nets.encoder_past, &cal.layers[0], e_in, e_f),
+            decoder: quantize_net(&model.nets.decoder, &cal.layers[1], e_f, e_d),
+            encoder_dest: if has_pred {
+                quantize_net(&model.nets.encoder_dest, &cal.layers[2], e_d, e_f)
+            } else {
+                vec![]
+            },
+            predictor: if has_pred {
+                quantize_net(&model.nets.predictor, &cal.layers[3], e_f, e_q)
+            } else {
+                vec![]
+            },
+            point_head: quantize_net(
+                &model.nets.point_head,
+                &cal.layers[4],
+                e_in,
+                exp_for(last_max(4)),
+            ),
         },
-        predictor: if has_pred {
-            quantize_net(&model.predictor, &cal.layers[3], e_f, e_q)
-        } else {
-            vec![]
-        },
-        point_head: quantize_net(
-            &model.point_head,
-            &cal.layers[4],
-            e_in,
-            exp_for(last_max(4)),
-        ),
     })
 }
 
@@ -357,7 +315,7 @@ impl QLayer {
                 let row = &self.w[j * self.in_dim..(j + 1) * self.in_dim];
                 let acc: i64 =
                     self.b[j] as i64 + row.iter().zip(x).map(|(&w, &v)| w as i64 * v).sum::<i64>();
-                let s = self.s[j] as i32;
+                let s = self.scale.shifts[j] as i32;
                 match self.act {
                     Act::Linear => round_shift(acc, s).clamp(-32768, 32767),
                     Act::Relu => round_shift(acc, s).clamp(0, 32767),
@@ -392,11 +350,11 @@ impl QModel {
         k: usize,
     ) -> (Vec<[f32; 2]>, Vec<Vec<[f32; 2]>>) {
         let c = &self.config;
-        let e_f = self.decoder[0].in_exp;
-        let e_d = self.decoder.last().map_or(0, |l| l.out_exp);
+        let e_f = self.nets.decoder[0].scale.in_exp;
+        let e_d = self.nets.decoder.last().map_or(0, |l| l.scale.out_exp);
         let fr = self.frame(past);
         let x = self.input(past);
-        let f = run_q(&self.encoder_past, &x);
+        let f = run_q(&self.nets.encoder_past, &x);
         let mut normals = Normals::new(seed);
         let last = fr.predictor_position(past[past.len() - 1]);
         let (mut ends, mut trajs) = (Vec::with_capacity(k), Vec::new());
@@ -405,16 +363,16 @@ impl QModel {
             for _ in 0..c.zdim {
                 input.push(quantize_value(c.sigma * normals.next_normal(), e_f));
             }
-            let d = run_q(&self.decoder, &input);
+            let d = run_q(&self.nets.decoder, &input);
             let e = fr.output([deq(d[0], e_d), deq(d[1], e_d)], c.data_scale);
             ends.push(e);
-            if !self.predictor.is_empty() {
+            if !self.nets.predictor.is_empty() {
                 let mut pin = f.clone();
-                pin.extend(run_q(&self.encoder_dest, &d));
+                pin.extend(run_q(&self.nets.encoder_dest, &d));
                 pin.push(quantize_value(last[0] / c.initial_pos_divisor, e_f));
                 pin.push(quantize_value(last[1] / c.initial_pos_divisor, e_f));
-                let q = run_q(&self.predictor, &pin);
-                let e_q = self.predictor.last().map_or(0, |l| l.out_exp);
+                let q = run_q(&self.nets.predictor, &pin);
+                let e_q = self.nets.predictor.last().map_or(0, |l| l.scale.out_exp);
                 let mut t: Vec<[f32; 2]> = q
                     .chunks(2)
                     .map(|p| fr.output([deq(p[0], e_q), deq(p[1], e_q)], c.data_scale))
@@ -426,15 +384,10 @@ impl QModel {
         (ends, trajs)
     }
 
-    /// The frame of `past` (the same rule as the f32 reference).
-    fn frame(&self, past: &[[f32; 2]]) -> RefFrame {
-        RefFrame::of(past, self.config.heading_steps)
-    }
-
     /// The quantised network input (encoder_past's exponent; the point head shares it).
     fn input(&self, past: &[[f32; 2]]) -> Vec<i64> {
         let (c, fr) = (&self.config, self.frame(past));
-        let e_in = self.encoder_past[0].in_exp;
+        let e_in = self.nets.encoder_past[0].scale.in_exp;
         past.iter()
             .flat_map(|p| fr.input(*p, c.data_scale).map(|v| quantize_value(v, e_in)))
             .collect()
@@ -452,74 +405,19 @@ impl QModel {
 
     /// The point head's forecast by the integer specification, or `None` without a head.
     pub fn predict_point(&self, past: &[[f32; 2]]) -> Option<Vec<[f32; 2]>> {
-        let last = self.point_head.last()?;
+        let last = self.nets.point_head.last()?;
         let (c, fr) = (&self.config, self.frame(past));
-        let q = run_q(&self.point_head, &self.input(past));
-        let e = last.out_exp;
+        let q = run_q(&self.nets.point_head, &self.input(past));
+        let e = last.scale.out_exp;
         Some(
             q.chunks(2)
                 .map(|p| fr.output([deq(p[0], e), deq(p[1], e)], c.data_scale))
                 .collect(),
         )
     }
-
-    /// Weights and biases.
-    pub fn parameter_count(&self) -> usize {
-        [
-            &self.encoder_past,
-            &self.decoder,
-            &self.encoder_dest,
-            &self.predictor,
-            &self.point_head,
-        ]
-        .iter()
-        .flat_map(|n| n.iter())
-        .map(|l| l.w.len() + l.b.len())
-        .sum()
-    }
 }
 
 // ------------------------------------------------------------------ export
-
-/// Serialises a fixed-point blob (checked by `gpecnet-core`'s reader).
-pub fn qblob_bytes(m: &QModel) -> Result<Vec<u8>> {
-    let mut out = Vec::new();
-    let v2 = m.config.needs_v2() || !m.point_head.is_empty();
-    crate::export::push_head(&mut out, NumericKind::Int16Q15, &m.name, &m.config, v2)?;
-    let nets = [
-        &m.encoder_past,
-        &m.decoder,
-        &m.encoder_dest,
-        &m.predictor,
-        &m.point_head,
-    ];
-    for net in nets.into_iter().take(if v2 { 5 } else { 4 }) {
-        crate::export::push(&mut out, &u8::try_from(net.len())?)?;
-        for l in net {
-            let w: Vec<u8> = l.w.iter().flat_map(|v| v.to_le_bytes()).collect();
-            let b: Vec<u8> = l.b.iter().flat_map(|v| v.to_le_bytes()).collect();
-            let s: Vec<u8> = l.s.iter().map(|&v| v as u8).collect();
-            crate::export::push(
-                &mut out,
-                &LayerWireQ {
-                    in_dim: u16::try_from(l.in_dim)?,
-                    out_dim: u16::try_from(l.out_dim)?,
-                    activation: crate::export::act_to_wire(l.act),
-                    in_exp: l.in_exp,
-                    out_exp: l.out_exp,
-                    weights: &w,
-                    bias: &b,
-                    shifts: &s,
-                },
-            )?;
-        }
-    }
-    let crc = CRC32.checksum(&out);
-    out.extend(crc.to_le_bytes());
-    gpecnet_core::Model::from_blob(&out)
-        .map_err(|e| anyhow!("fixed-point blob rejected by gpecnet-core: {e}"))?;
-    Ok(out)
-}
 
 /// Golden cases of a fixed-point model from the integer reference (sine name [`SINE_NAME`]).
 pub fn qgolden_bytes(
@@ -547,14 +445,7 @@ pub fn qgolden_bytes(
             })
         })
         .collect::<Result<_>>()?;
-    crate::export::golden_file_bytes(
-        &m.name,
-        model_crc,
-        SINE_NAME,
-        (c.past_len, c.future_len),
-        k,
-        &cases,
-    )
+    crate::export::golden_bytes(m, model_crc, SINE_NAME, k, &cases)
 }
 
 // -------------------------------------------------------------- evaluation
@@ -754,8 +645,8 @@ pub fn quantize_blob_with(
     }
     let mut model = crate::export::read_blob(&src_bytes)?;
     if endpoint_only {
-        model.encoder_dest.clear();
-        model.predictor.clear();
+        model.nets.encoder_dest.clear();
+        model.nets.predictor.clear();
     }
     let train = load_sdd(data_root, SddSplit::Train)?;
     let cal_windows: Vec<Window> = train
@@ -770,7 +661,7 @@ pub fn quantize_blob_with(
     );
     let cal = calibrate(&model, &cal_windows, cal_k);
     let q = quantize(&model, &cal, &name)?;
-    let blob = qblob_bytes(&q)?;
+    let blob = crate::export::blob_bytes(&q)?;
     let core = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow!("{e}"))?;
     let test = load_sdd(data_root, SddSplit::Test)?;
     let sine = crate::ship::sine_of_blob(src).unwrap_or(crate::reference::SineKind::Libm);
@@ -884,25 +775,20 @@ fn quant_card_v2_rows(c: &QuantCard) -> String {
 
 fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
     let (f, x) = (&c.test_f32, &c.test_fixed);
-    let exps: Vec<String> = [
-        ("encoder_past", &q.encoder_past),
-        ("decoder", &q.decoder),
-        ("encoder_dest", &q.encoder_dest),
-        ("predictor", &q.predictor),
-        ("point_head", &q.point_head),
-    ]
-    .iter()
-    .filter(|(_, n)| !n.is_empty())
-    .map(|(name, n)| {
-        format!(
-            "{name}: {}",
-            n.iter()
-                .map(|l| format!("{}→{}", l.in_exp, l.out_exp))
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })
-    .collect();
+    let exps: Vec<String> = crate::network::NETWORK_NAMES
+        .iter()
+        .zip(q.nets.in_blob_order())
+        .filter(|(_, n)| !n.is_empty())
+        .map(|(name, n)| {
+            format!(
+                "{name}: {}",
+                n.iter()
+                    .map(|l| format!("{}→{}", l.scale.in_exp, l.scale.out_exp))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })
+        .collect();
     format!(
         "# Model card: `{name}` (fixed point)\n\n\
 Post-training quantization of `weights/{src}` to the `Int16Q15` blob kind (`weights/FORMAT.md`): int16 weights with a \
@@ -929,14 +815,14 @@ Latent seed of window `i` = {seed} + i.\n\n\
 Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
         name = c.name,
         src = c.source,
-        nets = if q.predictor.is_empty() {
+        nets = if q.nets.predictor.is_empty() {
             "encoder_past + decoder only (endpoint-only: the trajectory predictor is left out; \
 endpoints are the product, e.g. for a drone's path planner; ADE below uses the straight line \
 from the last observation to each endpoint, FDE is unaffected)"
         } else {
             "encoder_past, decoder, encoder_dest, predictor"
         },
-        flag = if q.predictor.is_empty() { " --endpoint-only" } else { "" },
+        flag = if q.nets.predictor.is_empty() { " --endpoint-only" } else { "" },
         bytes = c.blob_bytes,
         sbytes = c.source_bytes,
         crc = c.blob_crc,

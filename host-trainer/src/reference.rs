@@ -10,31 +10,7 @@
 
 use anyhow::{bail, Result};
 
-/// Activation of one layer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Act {
-    /// Affine only.
-    Linear,
-    /// `max(x, 0)`, NaN passes through.
-    Relu,
-    /// `sin(x)` (w0 already folded into the weights).
-    Sine,
-}
-
-/// One dense layer in memory: `W` row-major `[out][in]`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct RefLayer {
-    /// Input width.
-    pub in_dim: usize,
-    /// Output width.
-    pub out_dim: usize,
-    /// Activation.
-    pub act: Act,
-    /// Weights, `out_dim × in_dim`, row-major.
-    pub w: Vec<f32>,
-    /// Biases, `out_dim`.
-    pub b: Vec<f32>,
-}
+use crate::network::{Act, InferenceModel, Layer, F32};
 
 /// Hyper-parameters the inference needs (mirrors the blob's `ModelConfig`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -78,25 +54,8 @@ impl RefConfig {
     }
 }
 
-/// A whole model in memory, exactly what gets exported.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct RefModel {
-    /// Model name.
-    pub name: String,
-    /// Hyper-parameters.
-    pub config: RefConfig,
-    /// `2·past_len → fdim`.
-    pub encoder_past: Vec<RefLayer>,
-    /// `fdim + zdim → 2`.
-    pub decoder: Vec<RefLayer>,
-    /// `2 → ddim`, empty for endpoint-only models.
-    pub encoder_dest: Vec<RefLayer>,
-    /// `fdim + ddim + 2 → 2·(future_len − 1)`, empty for endpoint-only models.
-    pub predictor: Vec<RefLayer>,
-    /// The point-forecast head `2·past_len → 2·future_len`, empty when absent.
-    #[serde(default)]
-    pub point_head: Vec<RefLayer>,
-}
+/// The f32 model as exported: what the reference path runs and an f32 blob holds.
+pub type RefModel = InferenceModel<F32>;
 
 /// Which sine the SIREN layers use (must match the device's choice).
 #[derive(
@@ -241,7 +200,7 @@ fn sine(kind: SineKind, x: f32) -> f32 {
     }
 }
 
-impl RefLayer {
+impl Layer<F32> {
     /// `y_j = act(b_j + Σ_i W_ji x_i)`, summed left to right. Four rows are
     /// processed together (independent sums, each in the documented order).
     pub fn forward_into(&self, x: &[f32], y: &mut Vec<f32>, kind: SineKind) {
@@ -300,7 +259,7 @@ fn accumulate(w: &[f32], in_dim: usize, col0: usize, x: &[f32], acc: &mut [f32])
     }
 }
 
-fn run(net: &[RefLayer], x: &[f32], kind: SineKind) -> Vec<f32> {
+fn run(net: &[Layer<F32>], x: &[f32], kind: SineKind) -> Vec<f32> {
     let mut cur = x.to_vec();
     let mut next = Vec::new();
     for l in net {
@@ -382,80 +341,6 @@ pub struct RefPrediction {
 }
 
 impl RefModel {
-    /// Checks the dimensions chain as the blob format requires.
-    pub fn validate(&self) -> Result<()> {
-        let c = &self.config;
-        let chain =
-            |name: &str, net: &[RefLayer], input: usize, output: Option<usize>| -> Result<usize> {
-                let mut w = input;
-                if net.is_empty() {
-                    bail!("{name}: no layers");
-                }
-                for (i, l) in net.iter().enumerate() {
-                    if l.in_dim != w || l.w.len() != l.in_dim * l.out_dim || l.b.len() != l.out_dim
-                    {
-                        bail!(
-                            "{name} layer {i}: shape {}x{} does not chain from width {w}",
-                            l.out_dim,
-                            l.in_dim
-                        );
-                    }
-                    if l.w.iter().chain(&l.b).any(|v| !v.is_finite()) {
-                        bail!("{name} layer {i}: non-finite weight");
-                    }
-                    w = l.out_dim;
-                }
-                if let Some(o) = output {
-                    if w != o {
-                        bail!("{name}: output width {w}, expected {o}");
-                    }
-                }
-                Ok(w)
-            };
-        chain(
-            "encoder_past",
-            &self.encoder_past,
-            2 * c.past_len,
-            Some(c.fdim),
-        )?;
-        chain("decoder", &self.decoder, c.fdim + c.zdim, Some(2))?;
-        if !self.predictor.is_empty() {
-            let ddim = chain("encoder_dest", &self.encoder_dest, 2, None)?;
-            chain(
-                "predictor",
-                &self.predictor,
-                c.fdim + ddim + 2,
-                Some(2 * (c.future_len - 1)),
-            )?;
-        }
-        if !self.point_head.is_empty() {
-            chain(
-                "point_head",
-                &self.point_head,
-                2 * c.past_len,
-                Some(2 * c.future_len),
-            )?;
-        }
-        if c.heading_steps >= c.past_len {
-            bail!(
-                "heading_steps {} must be below past_len {}",
-                c.heading_steps,
-                c.past_len
-            );
-        }
-        Ok(())
-    }
-
-    /// Whether the blob needs format version 2.
-    pub fn needs_v2(&self) -> bool {
-        self.config.needs_v2() || !self.point_head.is_empty()
-    }
-
-    /// The frame of `past` under this model's `heading_steps`.
-    pub(crate) fn frame(&self, past: &[[f32; 2]]) -> RefFrame {
-        RefFrame::of(past, self.config.heading_steps)
-    }
-
     /// The model's endpoint set (the blob's protocol, `gpecnet_core::sampling`): the first `k`
     /// samples, or the k-means reduction ([`crate::tts::kmeans`], written independently of
     /// the core) of the first `tts_samples` samples.
@@ -485,13 +370,13 @@ impl RefModel {
     /// The deterministic point forecast of the point head (`future_len` points, caller's
     /// units), or `None` without a head.
     pub fn predict_point(&self, past: &[[f32; 2]], kind: SineKind) -> Option<Vec<[f32; 2]>> {
-        if self.point_head.is_empty() {
+        if self.nets.point_head.is_empty() {
             return None;
         }
         let c = &self.config;
         let fr = self.frame(past);
         let x = self.input(&fr, past);
-        let q = run(&self.point_head, &x, kind);
+        let q = run(&self.nets.point_head, &x, kind);
         Some(
             q.chunks(2)
                 .map(|p| fr.output([p[0], p[1]], c.data_scale))
@@ -513,7 +398,7 @@ impl RefModel {
         let c = &self.config;
         let fr = self.frame(past);
         let x = self.input(&fr, past);
-        let f = run(&self.encoder_past, &x, kind);
+        let f = run(&self.nets.encoder_past, &x, kind);
         let mut normals = Normals::new(seed);
         let last = fr.predictor_position(past[past.len() - 1]);
         let mut out = RefPrediction {
@@ -526,16 +411,16 @@ impl RefModel {
             for _ in 0..c.zdim {
                 input.push(c.sigma * normals.next_normal());
             }
-            let d = run(&self.decoder, &input, kind);
+            let d = run(&self.nets.decoder, &input, kind);
             let e = fr.output([d[0], d[1]], c.data_scale);
             out.endpoints.push(e);
-            if trajectories && !self.predictor.is_empty() {
-                let g = run(&self.encoder_dest, &d, kind);
+            if trajectories && !self.nets.predictor.is_empty() {
+                let g = run(&self.nets.encoder_dest, &d, kind);
                 let mut pin = f.clone();
                 pin.extend_from_slice(&g);
                 pin.push(last[0] / c.initial_pos_divisor);
                 pin.push(last[1] / c.initial_pos_divisor);
-                let q = run(&self.predictor, &pin, kind);
+                let q = run(&self.nets.predictor, &pin, kind);
                 let mut t: Vec<[f32; 2]> = q
                     .chunks(2)
                     .map(|p| fr.output([p[0], p[1]], c.data_scale))
@@ -545,21 +430,6 @@ impl RefModel {
             }
         }
         out
-    }
-
-    /// Multiply-accumulates of all layers.
-    pub fn parameter_count(&self) -> usize {
-        [
-            &self.encoder_past,
-            &self.decoder,
-            &self.encoder_dest,
-            &self.predictor,
-            &self.point_head,
-        ]
-        .iter()
-        .flat_map(|n| n.iter())
-        .map(|l| l.w.len() + l.b.len())
-        .sum()
     }
 }
 

@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{load_model, Which};
-use crate::config::{Activation, TrainConfig};
+use crate::config::TrainConfig;
 use crate::core_eval::{evaluate_core, evaluate_reference};
 use crate::data::{default_sdd_val_scenes, load_sdd, split_by_scene, Dataset, SddSplit, PAST};
 use crate::eval::{
@@ -19,8 +19,7 @@ use crate::eval::{
     evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
 };
 use crate::export::{blob_bytes, golden_bytes, golden_cases};
-use crate::model::{Act as ModelAct, ExportedLayer};
-use crate::reference::{Act, RefConfig, RefLayer, RefModel, SineKind};
+use crate::reference::{RefConfig, RefModel, SineKind};
 use crate::rundir::write_atomic;
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case.
@@ -100,7 +99,7 @@ impl Inference {
             tts_samples: m.config.tts_samples,
             tts_iters: m.config.tts_iters,
             tts_init: m.config.tts_init,
-            point_head: !m.point_head.is_empty(),
+            point_head: !m.nets.point_head.is_empty(),
         })
     }
 }
@@ -167,23 +166,6 @@ pub fn card_v2_rows(
     s
 }
 
-fn convert(layers: &[ExportedLayer]) -> Vec<RefLayer> {
-    layers
-        .iter()
-        .map(|l| RefLayer {
-            in_dim: l.in_dim,
-            out_dim: l.out_dim,
-            act: match l.activation {
-                ModelAct::Linear => Act::Linear,
-                ModelAct::Relu => Act::Relu,
-                ModelAct::Sine => Act::Sine,
-            },
-            w: l.weight.clone(),
-            b: l.bias.clone(),
-        })
-        .collect()
-}
-
 /// Builds the in-memory exported model of a run (best validation epoch).
 pub fn model_from_run(run: &Path, name: &str) -> Result<(TrainConfig, RefModel, usize)> {
     let (cfg, model, epoch) = load_model(run, Which::Best)?;
@@ -199,20 +181,13 @@ pub fn model_from_run(run: &Path, name: &str) -> Result<(TrainConfig, RefModel, 
             sigma: cfg.sigma,
             initial_pos_divisor: 1000.0,
             w0: cfg.w0,
-            hidden_act: match cfg.activation {
-                Activation::Sine => Act::Sine,
-                Activation::Relu => Act::Relu,
-            },
+            hidden_act: cfg.activation,
             heading_steps: cfg.heading_steps,
             tts_samples: 0,
             tts_iters: 0,
             tts_init: 0,
         },
-        encoder_past: convert(&nets.encoder_past),
-        decoder: convert(&nets.decoder),
-        encoder_dest: convert(&nets.encoder_dest),
-        predictor: convert(&nets.predictor),
-        point_head: convert(&nets.point_head),
+        nets,
     };
     m.validate()?;
     Ok((cfg, m, epoch))
@@ -264,7 +239,7 @@ pub fn ship(
         .map(|(i, w)| (w.pos[..PAST].to_vec(), base_seed.wrapping_add(i as u64)))
         .collect();
     let cases = golden_cases(&model, &inputs, k, sine)?;
-    let golden = golden_bytes(&model, core_model.crc(), sine, k, &cases)?;
+    let golden = golden_bytes(&model, core_model.crc(), sine.core_name(), k, &cases)?;
     let ckpt = crate::checkpoint::load(run)?;
     let ckpt_val = ckpt.best.map(|b| b.val);
     let val_point = ckpt.best_point.map(|b| b.val);

@@ -32,6 +32,11 @@ const BAD: &[(&str, &str, &[&str])] = &[
         &["learning_rate = NaN", "(0, 1]"],
     ),
     ("", "data_scale = inf", &["data_scale = inf", "> 0"]),
+    (
+        "",
+        "activation = \"linear\"",
+        &["activation = \"linear\"", "\"sine\" or \"relu\""],
+    ),
     ("", "data_scale = 0.0", &["data_scale = 0", "> 0"]),
     ("", "sigma = inf", &["sigma = inf", ">= 0"]),
     ("", "sigma = -1.0", &["sigma = -1", ">= 0"]),

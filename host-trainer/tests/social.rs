@@ -6,9 +6,10 @@ use std::path::PathBuf;
 
 use candle_core::{Device, Tensor};
 use gpecnet_trainer::checkpoint;
-use gpecnet_trainer::config::{Activation, TrainConfig};
+use gpecnet_trainer::config::TrainConfig;
 use gpecnet_trainer::data::{self, Window, PAST};
-use gpecnet_trainer::model::{Act, ExportedLayer, Model};
+use gpecnet_trainer::model::Model;
+use gpecnet_trainer::network::{Act, Layer};
 use gpecnet_trainer::rng::Rng;
 use gpecnet_trainer::social::{block_mask_values, group_windows, pack_groups, SocialPooling};
 use gpecnet_trainer::train::{train_new, train_resume, TrainOptions};
@@ -147,7 +148,7 @@ fn tiny_social() -> TrainConfig {
         k: 5,
         seed: 11,
         threads: 2,
-        activation: Activation::Relu,
+        activation: Act::Relu,
         social_pooling: true,
         nonlocal_pools: 3,
         non_local_dim: 8,
@@ -158,16 +159,16 @@ fn tiny_social() -> TrainConfig {
     }
 }
 
-fn mlp_f64(layers: &[ExportedLayer], x: &[f64]) -> Vec<f64> {
+fn mlp_f64(layers: &[Layer], x: &[f64]) -> Vec<f64> {
     let mut h = x.to_vec();
     for l in layers {
         h = (0..l.out_dim)
             .map(|o| {
-                let s = f64::from(l.bias[o])
+                let s = f64::from(l.b[o])
                     + (0..l.in_dim)
-                        .map(|i| f64::from(l.weight[o * l.in_dim + i]) * h[i])
+                        .map(|i| f64::from(l.w[o * l.in_dim + i]) * h[i])
                         .sum::<f64>();
-                match l.activation {
+                match l.act {
                     Act::Relu => s.max(0.0),
                     Act::Sine => s.sin(),
                     Act::Linear => s,

@@ -2,7 +2,8 @@
 
 use std::path::PathBuf;
 
-use gpecnet_trainer::reference::{Act, RefConfig, RefLayer, RefModel};
+use gpecnet_trainer::network::{Act, Layer, Networks};
+use gpecnet_trainer::reference::{RefConfig, RefModel};
 
 /// The workspace root.
 pub fn workspace_root() -> PathBuf {
@@ -50,7 +51,7 @@ pub fn random_siren(
         s ^= s << 5;
         (s >> 8) as f32 / 16_777_216.0 * 2.0 - 1.0
     };
-    let mut net = |dims: Vec<usize>| -> Vec<RefLayer> {
+    let mut net = |dims: Vec<usize>| -> Vec<Layer> {
         let n = dims.len() - 1;
         (0..n)
             .map(|l| {
@@ -64,13 +65,7 @@ pub fn random_siren(
                 let fold = if last { 1.0 } else { w0 };
                 let w = (0..i * o).map(|_| uni() * bound * fold).collect();
                 let b = (0..o).map(|_| uni() / (i as f32).sqrt() * fold).collect();
-                RefLayer {
-                    in_dim: i,
-                    out_dim: o,
-                    act: if last { Act::Linear } else { Act::Sine },
-                    w,
-                    b,
-                }
+                Layer::new(i, o, if last { Act::Linear } else { Act::Sine }, w, b)
             })
             .collect()
     };
@@ -93,11 +88,13 @@ pub fn random_siren(
             tts_iters: 0,
             tts_init: 0,
         },
-        encoder_past: net(with(16, enc, fdim)),
-        decoder: net(with(fdim + zdim, dec, 2)),
-        encoder_dest: net(with(2, &dest[..dest.len() - 1], ddim)),
-        predictor: net(with(fdim + ddim + 2, pred, 22)),
-        point_head: Vec::new(),
+        nets: Networks {
+            encoder_past: net(with(16, enc, fdim)),
+            decoder: net(with(fdim + zdim, dec, 2)),
+            encoder_dest: net(with(2, &dest[..dest.len() - 1], ddim)),
+            predictor: net(with(fdim + ddim + 2, pred, 22)),
+            point_head: Vec::new(),
+        },
     }
 }
 
@@ -114,7 +111,7 @@ pub fn with_v2_features(
     let donor = random_siren("donor", head, &[8], &[8, 16], &[8], seed);
     // The donor's past encoder has the point head's input width; re-draw its output layer
     // at the head's output width (2 · future_len) with the same bounds.
-    let mut layers = donor.encoder_past;
+    let mut layers = donor.nets.encoder_past;
     if let Some(last) = layers.last_mut() {
         let out = 2 * m.config.future_len;
         let i = last.in_dim;
@@ -124,7 +121,7 @@ pub fn with_v2_features(
             .collect();
         last.b = (0..out).map(|j| last.b[j % last.b.len()]).collect();
     }
-    m.point_head = layers;
+    m.nets.point_head = layers;
     m.config.heading_steps = heading_steps;
     m.config.tts_samples = tts;
     m.config.tts_iters = if tts > 0 { 3 } else { 0 };

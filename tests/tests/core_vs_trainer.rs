@@ -49,14 +49,14 @@ fn random_siren_matches_on_sdd_test_set() {
 fn relu_model_matches() {
     let mut m = random_siren("relu", &[32], &[64], &[8, 16], &[64], 3);
     for net in [
-        &mut m.encoder_past,
-        &mut m.decoder,
-        &mut m.encoder_dest,
-        &mut m.predictor,
+        &mut m.nets.encoder_past,
+        &mut m.nets.decoder,
+        &mut m.nets.encoder_dest,
+        &mut m.nets.predictor,
     ] {
         for l in net.iter_mut() {
-            if l.act == gpecnet_trainer::reference::Act::Sine {
-                l.act = gpecnet_trainer::reference::Act::Relu;
+            if l.act == gpecnet_trainer::network::Act::Sine {
+                l.act = gpecnet_trainer::network::Act::Relu;
             }
         }
     }

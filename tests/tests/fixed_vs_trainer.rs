@@ -7,8 +7,7 @@ use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::export::blob_bytes;
 use gpecnet_trainer::quantize::{
-    evaluate_core_fixed, evaluate_reference_fixed, qblob_bytes, qgolden_bytes, quantize_with_data,
-    sin_q15_ref,
+    evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize_with_data, sin_q15_ref,
 };
 use gpecnet_trainer::reference::SineKind;
 
@@ -38,7 +37,7 @@ fn random_siren_fixed_matches_on_sdd_test_set() {
     let test = load_sdd(&data_root(), SddSplit::Test).expect("SDD test set");
     let m = random_siren("bitexact-q", &[64, 32], &[128, 64], &[8, 16], &[128, 64], 7);
     let q = quantize_with_data(&m, &train, 50, 4, "bitexact-q").unwrap();
-    let blob = qblob_bytes(&q).unwrap();
+    let blob = blob_bytes(&q).unwrap();
     let core = Model::from_blob(&blob).unwrap();
     assert_eq!(core.parameter_count(), m.parameter_count());
     let (mc, pc) = evaluate_core_fixed(&blob, &test, 20, 0).unwrap();

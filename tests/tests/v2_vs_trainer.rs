@@ -9,7 +9,7 @@ use gpecnet_trainer::data::{load_sdd, Dataset, SddSplit};
 use gpecnet_trainer::eval::Prediction;
 use gpecnet_trainer::export::{blob_bytes, read_blob};
 use gpecnet_trainer::quantize::{
-    evaluate_core_fixed, evaluate_reference_fixed, qblob_bytes, qgolden_bytes, quantize_with_data,
+    evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize_with_data,
 };
 use gpecnet_trainer::reference::SineKind;
 
@@ -86,7 +86,7 @@ fn heading_frame_point_head_and_tts_match_in_fixed_point() {
     let test = test_subset(3);
     let m = with_v2_features(base(), 3, &[64, 64], 60, 9);
     let q = quantize_with_data(&m, &train, 20, 8, "v2-q").unwrap();
-    let blob = qblob_bytes(&q).unwrap();
+    let blob = blob_bytes(&q).unwrap();
     assert_eq!(blob[4], 2);
     let core = Model::from_blob(&blob).unwrap();
     assert!(core.has_point_head());

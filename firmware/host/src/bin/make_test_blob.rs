@@ -3,12 +3,14 @@
 //! (its outputs, computed here with gpecnet-core + LibmSine). It exercises the
 //! firmware pipeline (embedding, golden replay, host comparison, profiling)
 //! before trained weights exist. Never ship its output in weights/.
-use gpecnet_core::blob::{
-    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, MIN_FORMAT_VERSION,
-    MAGIC,
-};
-use gpecnet_core::golden::{
-    GoldenCaseWire, GoldenInfo, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
+//!
+//! Both files are written by the project's one blob/golden writer (`gpecnet-blob-writer`).
+use std::error::Error;
+use std::path::PathBuf;
+
+use gpecnet_blob_writer::{
+    blob_bytes, golden_bytes, Activation, BlobHead, GoldenCase, GoldenInfo, ModelConfig,
+    NumericKind, WireLayer,
 };
 use gpecnet_core::{LibmSine, Model, Predictor, Sine};
 
@@ -23,108 +25,67 @@ impl Lcg {
     }
 }
 
-fn f32s(v: &[f32]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
-
-fn put<T: serde_like::Ser>(out: &mut Vec<u8>, v: &T) {
-    out.extend(v.ser());
-}
-
-mod serde_like {
-    pub trait Ser {
-        fn ser(&self) -> Vec<u8>;
-    }
-    impl<T: serde::Serialize> Ser for T {
-        fn ser(&self) -> Vec<u8> {
-            postcard::to_allocvec(self).expect("postcard")
-        }
-    }
-}
-
 fn main() {
+    if let Err(e) = run() {
+        eprintln!("make-test-blob: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> Result<(), Box<dyn Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = std::path::PathBuf::from(args.first().expect("usage: make-test-blob DIR [NAME]"));
+    let dir = PathBuf::from(args.first().ok_or("usage: make-test-blob DIR [NAME]")?);
     let name = args
         .get(1)
         .cloned()
         .unwrap_or_else(|| "synthetic-test".into());
-    std::fs::create_dir_all(&dir).unwrap();
-    let (past_len, future_len, fdim, zdim) = (8u8, 12u8, 16u16, 16u16);
+    std::fs::create_dir_all(&dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    let (past_len, future_len, fdim, zdim) = (8usize, 12usize, 16u16, 16u16);
     let mut rng = Lcg(0x1234_5678);
     // encoder_past 16 -> 64 -> 32 -> 16 ; decoder 32 -> 64 -> 64 -> 2 (SIREN: first layer w0 = 30 folded)
     let shapes_enc = [
-        (16u16, 64u16, Activation::Sine, 30.0f32),
+        (16usize, 64usize, Activation::Sine, 30.0f32),
         (64, 32, Activation::Sine, 1.0),
         (32, 16, Activation::Linear, 1.0),
     ];
     let shapes_dec = [
-        (32u16, 64u16, Activation::Sine, 30.0f32),
+        (32usize, 64usize, Activation::Sine, 30.0f32),
         (64, 64, Activation::Sine, 1.0),
         (64, 2, Activation::Linear, 1.0),
     ];
-    let mut tensors: Vec<(u16, u16, Activation, Vec<u8>, Vec<u8>)> = Vec::new();
+    let mut layers = Vec::new();
     for &(i, o, a, w0) in shapes_enc.iter().chain(shapes_dec.iter()) {
         let lim = if w0 > 1.0 {
             1.0 / i as f32
         } else {
             (6.0 / i as f32).sqrt()
         };
-        let w: Vec<f32> = (0..i as usize * o as usize)
-            .map(|_| rng.next() * lim * w0)
-            .collect();
-        let b: Vec<f32> = (0..o as usize).map(|_| rng.next() * 0.1).collect();
-        tensors.push((i, o, a, f32s(&w), f32s(&b)));
+        let w: Vec<f32> = (0..i * o).map(|_| rng.next() * lim * w0).collect();
+        let b: Vec<f32> = (0..o).map(|_| rng.next() * 0.1).collect();
+        layers.push(WireLayer::f32(i, o, a, &w, &b));
     }
-    let mut blob = Vec::new();
-    put(
-        &mut blob,
-        &Preamble {
-            magic: MAGIC,
-            version: MIN_FORMAT_VERSION,
+    let head = BlobHead {
+        numeric: NumericKind::F32,
+        name: &name,
+        config: ModelConfig {
+            past_len: past_len as u8,
+            future_len: future_len as u8,
+            fdim,
+            zdim,
+            data_scale: 1.86,
+            sigma: 1.3,
+            initial_pos_divisor: 1000.0,
+            w0: 30.0,
+            hidden_activation: Activation::Sine,
         },
-    );
-    let config = ModelConfig {
-        past_len,
-        future_len,
-        fdim,
-        zdim,
-        data_scale: 1.86,
-        sigma: 1.3,
-        initial_pos_divisor: 1000.0,
-        w0: 30.0,
-        hidden_activation: Activation::Sine,
+        extensions: None,
     };
-    put(
-        &mut blob,
-        &ModelInfo {
-            numeric: NumericKind::F32,
-            name: &name,
-            config,
-        },
-    );
-    for net in [&tensors[0..3], &tensors[3..6], &[][..], &[][..]] {
-        put(&mut blob, &(net.len() as u8));
-        for (i, o, a, w, b) in net {
-            put(
-                &mut blob,
-                &LayerWire {
-                    in_dim: *i,
-                    out_dim: *o,
-                    activation: *a,
-                    weights: w,
-                    bias: b,
-                },
-            );
-        }
-    }
-    let crc = CRC32.checksum(&blob);
-    blob.extend(crc.to_le_bytes());
-    let model = Model::from_blob(&blob).expect("generated blob must validate");
+    let blob = blob_bytes(&head, [&layers[0..3], &layers[3..6], &[], &[], &[]])?;
+    let model = Model::from_blob(&blob).map_err(|e| format!("generated blob: {e}"))?;
 
-    let k = 20u8;
+    let k = 20usize;
     let n_cases = 12u32;
-    let mut p = Predictor::<LibmSine, 128>::new(model).unwrap();
+    let mut p = Predictor::<LibmSine, 128>::new(model).map_err(|e| format!("predictor: {e:?}"))?;
     let mut cases = Vec::new();
     for c in 0..n_cases {
         let (x0, y0) = (100.0 + 50.0 * c as f32, 700.0 - 40.0 * c as f32);
@@ -138,52 +99,37 @@ fn main() {
             })
             .collect();
         let seed = 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(c as u64 + 1);
-        let mut ends = vec![[0.0f32; 2]; k as usize];
-        p.predict_samples(&past, seed, &mut ends).unwrap();
-        let pb = f32s(&past.iter().flatten().copied().collect::<Vec<_>>());
-        let eb = f32s(&ends.iter().flatten().copied().collect::<Vec<_>>());
-        cases.push((pb, seed, eb));
+        let mut endpoints = vec![[0.0f32; 2]; k];
+        p.predict_samples(&past, seed, &mut endpoints)
+            .map_err(|e| format!("prediction: {e:?}"))?;
+        cases.push(GoldenCase {
+            past,
+            seed,
+            endpoints,
+            ..GoldenCase::default()
+        });
     }
-    let mut g = Vec::new();
-    put(
-        &mut g,
-        &GoldenPreamble {
-            magic: GOLDEN_MAGIC,
-            version: GOLDEN_VERSION,
-        },
-    );
-    put(
-        &mut g,
+    let golden = golden_bytes(
         &GoldenInfo {
             model_name: &name,
             model_crc: model.crc(),
             sine: LibmSine::NAME,
-            past_len,
-            future_len,
-            k,
+            past_len: past_len as u8,
+            future_len: future_len as u8,
+            k: k as u8,
             n_cases,
         },
-    );
-    for (pb, seed, eb) in &cases {
-        put(
-            &mut g,
-            &GoldenCaseWire {
-                past: pb,
-                seed: *seed,
-                endpoints: eb,
-                trajectory0: &[],
-            },
-        );
+        &cases,
+    )?;
+    for (ext, bytes) in [("gpec", &blob), ("golden", &golden)] {
+        let path = dir.join(format!("{name}.{ext}"));
+        std::fs::write(&path, bytes).map_err(|e| format!("writing {}: {e}", path.display()))?;
     }
-    let crc = CRC32.checksum(&g);
-    g.extend(crc.to_le_bytes());
-    gpecnet_core::golden::GoldenSet::parse(&g).expect("generated golden must validate");
-    std::fs::write(dir.join(format!("{name}.gpec")), &blob).unwrap();
-    std::fs::write(dir.join(format!("{name}.golden")), &g).unwrap();
     println!(
         "wrote {}/{name}.gpec ({} B) and .golden ({} B, {n_cases} cases)",
         dir.display(),
         blob.len(),
-        g.len()
+        golden.len()
     );
+    Ok(())
 }

@@ -1,0 +1,289 @@
+//! The host's one family of inference networks, generic over the numeric kind: the activation
+//! ([`Act`]), a dense layer ([`Layer`]), the five networks a blob ships ([`Networks`]) and a
+//! whole exported model ([`InferenceModel`]). [`F32`] is the trained model as exported and run
+//! by the reference path ([`crate::reference::RefModel`]); [`Q15`] is its post-training
+//! quantization ([`crate::quantize::QModel`]). The candle training model
+//! ([`crate::model::Model::export_networks`]) exports into [`Networks<F32>`], the blob reader
+//! ([`crate::export::read_blob`]) reads into it, and [`crate::export::blob_bytes`] writes either
+//! kind through the shared writer (`gpecnet-blob-writer`).
+
+use anyhow::{bail, Result};
+use gpecnet_blob_writer::{FixedScale, NumericKind, WireLayer};
+use gpecnet_core::blob::Activation;
+use serde::{Deserialize, Serialize};
+
+use crate::reference::{RefConfig, RefFrame};
+
+/// Activation of one layer; in a training config (`activation = "sine"` or `"relu"`), the
+/// hidden activation of every MLP.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Act {
+    /// Affine only (the last layer of every network).
+    Linear,
+    /// `max(x, 0)`, NaN passes through.
+    Relu,
+    /// `sin(x)`; in an exported layer the SIREN `w0` is already folded into the weights
+    /// (in training: `sin(w0 · (W x + b))`, G-PECNet).
+    Sine,
+}
+
+impl From<Act> for Activation {
+    fn from(a: Act) -> Self {
+        match a {
+            Act::Linear => Activation::Linear,
+            Act::Relu => Activation::Relu,
+            Act::Sine => Activation::Sine,
+        }
+    }
+}
+
+impl From<Activation> for Act {
+    fn from(a: Activation) -> Self {
+        match a {
+            Activation::Linear => Act::Linear,
+            Activation::Relu => Act::Relu,
+            Activation::Sine => Act::Sine,
+        }
+    }
+}
+
+/// A numeric kind of the blob format: what a layer's weights, biases and scaling are.
+pub trait Numeric: Clone + Copy + std::fmt::Debug + PartialEq + 'static {
+    /// One weight.
+    type Weight: Copy + std::fmt::Debug + PartialEq + Into<f64>;
+    /// One bias.
+    type Bias: Copy + std::fmt::Debug + PartialEq + Into<f64>;
+    /// The layer's scaling (none for f32).
+    type Scale: Clone + std::fmt::Debug + PartialEq;
+    /// The blob's numeric kind.
+    const KIND: NumericKind;
+    /// The layer as the blob stores it.
+    fn wire(l: &Layer<Self>) -> WireLayer;
+}
+
+/// f32 weights and biases (`NumericKind::F32`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct F32;
+
+/// int16 weights, int32 biases, power-of-two scales (`NumericKind::Int16Q15`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Q15;
+
+/// The fixed-point scaling of a [`Q15`] layer: input and output exponents, per-channel shifts.
+pub type QScale = FixedScale;
+
+impl Numeric for F32 {
+    type Weight = f32;
+    type Bias = f32;
+    type Scale = ();
+    const KIND: NumericKind = NumericKind::F32;
+    fn wire(l: &Layer<Self>) -> WireLayer {
+        WireLayer::f32(l.in_dim, l.out_dim, l.act.into(), &l.w, &l.b)
+    }
+}
+
+impl Numeric for Q15 {
+    type Weight = i16;
+    type Bias = i32;
+    type Scale = QScale;
+    const KIND: NumericKind = NumericKind::Int16Q15;
+    fn wire(l: &Layer<Self>) -> WireLayer {
+        WireLayer::q15(
+            l.in_dim,
+            l.out_dim,
+            l.act.into(),
+            &l.w,
+            &l.b,
+            l.scale.clone(),
+        )
+    }
+}
+
+/// One dense layer: `y = act(W x + b)`, `W` row-major `[out][in]`.
+///
+/// For an exported [`Act::Sine`] layer the SIREN factor is folded in (`W = w0 · W_train`,
+/// `b = w0 · b_train`, computed in f32), so the layer is exactly `sin(W x + b)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layer<K: Numeric = F32> {
+    /// Input width.
+    pub in_dim: usize,
+    /// Output width.
+    pub out_dim: usize,
+    /// Activation after the affine map.
+    pub act: Act,
+    /// Weights, `out_dim × in_dim`, row-major.
+    pub w: Vec<K::Weight>,
+    /// Biases, `out_dim` (for [`Q15`]: in accumulator units).
+    pub b: Vec<K::Bias>,
+    /// The scaling (`()` for [`F32`]).
+    pub scale: K::Scale,
+}
+
+impl Layer<F32> {
+    /// An f32 layer.
+    pub fn new(in_dim: usize, out_dim: usize, act: Act, w: Vec<f32>, b: Vec<f32>) -> Self {
+        Self {
+            in_dim,
+            out_dim,
+            act,
+            w,
+            b,
+            scale: (),
+        }
+    }
+}
+
+impl<K: Numeric> Layer<K> {
+    /// The layer as the blob stores it.
+    pub fn wire(&self) -> WireLayer {
+        K::wire(self)
+    }
+
+    /// Whether every weight and bias is finite.
+    pub fn is_finite(&self) -> bool {
+        let w = self.w.iter().map(|&v| v.into());
+        w.chain(self.b.iter().map(|&v| v.into()))
+            .all(|v: f64| v.is_finite())
+    }
+}
+
+/// The networks a blob ships (PECNet names; the latent encoder is training-only).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Networks<K: Numeric = F32> {
+    /// `2·past_len → fdim`.
+    pub encoder_past: Vec<Layer<K>>,
+    /// `fdim + zdim → 2` (the endpoint).
+    pub decoder: Vec<Layer<K>>,
+    /// `2 → ddim`, empty for endpoint-only models.
+    pub encoder_dest: Vec<Layer<K>>,
+    /// `fdim + ddim + 2 → 2·(future_len − 1)`, empty for endpoint-only models.
+    pub predictor: Vec<Layer<K>>,
+    /// The point-forecast head `2·past_len → 2·future_len`, empty when absent.
+    pub point_head: Vec<Layer<K>>,
+}
+
+/// The networks' names in the blob's order.
+pub const NETWORK_NAMES: [&str; 5] = [
+    "encoder_past",
+    "decoder",
+    "encoder_dest",
+    "predictor",
+    "point_head",
+];
+
+impl<K: Numeric> Networks<K> {
+    /// The five networks in the blob's order ([`NETWORK_NAMES`]).
+    pub fn in_blob_order(&self) -> [&[Layer<K>]; 5] {
+        [
+            &self.encoder_past,
+            &self.decoder,
+            &self.encoder_dest,
+            &self.predictor,
+            &self.point_head,
+        ]
+    }
+
+    /// Weights and biases of all layers.
+    pub fn parameter_count(&self) -> usize {
+        self.in_blob_order()
+            .iter()
+            .flat_map(|n| n.iter())
+            .map(|l| l.w.len() + l.b.len())
+            .sum()
+    }
+}
+
+/// A whole exported model: name, hyper-parameters and networks — exactly what a blob holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InferenceModel<K: Numeric = F32> {
+    /// Model name.
+    pub name: String,
+    /// Hyper-parameters.
+    pub config: RefConfig,
+    /// The networks.
+    pub nets: Networks<K>,
+}
+
+impl<K: Numeric> InferenceModel<K> {
+    /// Checks the dimensions chain as the blob format requires (and that every weight is
+    /// finite).
+    pub fn validate(&self) -> Result<()> {
+        let c = &self.config;
+        let n = &self.nets;
+        let chain =
+            |name: &str, net: &[Layer<K>], input: usize, output: Option<usize>| -> Result<usize> {
+                let mut w = input;
+                if net.is_empty() {
+                    bail!("{name}: no layers");
+                }
+                for (i, l) in net.iter().enumerate() {
+                    if l.in_dim != w || l.w.len() != l.in_dim * l.out_dim || l.b.len() != l.out_dim
+                    {
+                        bail!(
+                            "{name} layer {i}: shape {}x{} does not chain from width {w}",
+                            l.out_dim,
+                            l.in_dim
+                        );
+                    }
+                    if !l.is_finite() {
+                        bail!("{name} layer {i}: non-finite weight");
+                    }
+                    w = l.out_dim;
+                }
+                if let Some(o) = output {
+                    if w != o {
+                        bail!("{name}: output width {w}, expected {o}");
+                    }
+                }
+                Ok(w)
+            };
+        chain(
+            "encoder_past",
+            &n.encoder_past,
+            2 * c.past_len,
+            Some(c.fdim),
+        )?;
+        chain("decoder", &n.decoder, c.fdim + c.zdim, Some(2))?;
+        if !n.predictor.is_empty() {
+            let ddim = chain("encoder_dest", &n.encoder_dest, 2, None)?;
+            chain(
+                "predictor",
+                &n.predictor,
+                c.fdim + ddim + 2,
+                Some(2 * (c.future_len - 1)),
+            )?;
+        }
+        if !n.point_head.is_empty() {
+            chain(
+                "point_head",
+                &n.point_head,
+                2 * c.past_len,
+                Some(2 * c.future_len),
+            )?;
+        }
+        if c.heading_steps >= c.past_len {
+            bail!(
+                "heading_steps {} must be below past_len {}",
+                c.heading_steps,
+                c.past_len
+            );
+        }
+        Ok(())
+    }
+
+    /// Whether the blob needs format version 2 (a version-2 setting or a point head).
+    pub fn needs_v2(&self) -> bool {
+        self.config.needs_v2() || !self.nets.point_head.is_empty()
+    }
+
+    /// The frame of `past` under this model's `heading_steps`.
+    pub(crate) fn frame(&self, past: &[[f32; 2]]) -> RefFrame {
+        RefFrame::of(past, self.config.heading_steps)
+    }
+
+    /// Weights and biases.
+    pub fn parameter_count(&self) -> usize {
+        self.nets.parameter_count()
+    }
+}
