@@ -177,7 +177,7 @@ impl SocialPooling {
         let theta = self.theta.forward(feat)?;
         let phi = self.phi.forward(feat)?;
         let f = theta.matmul(&phi.t()?)?;
-        let w = candle_nn_softmax_last(&f)?.mul(mask)?;
+        let w = softmax_last(&f)?.mul(mask)?;
         // F.normalize(p=1, dim=1): x / max(||x||_1, 1e-12).
         let norm = w.abs()?.sum_keepdim(1)?.maximum(1e-12)?;
         let w = w.broadcast_div(&norm)?;
@@ -194,8 +194,10 @@ impl SocialPooling {
     }
 }
 
-/// Numerically stable softmax over the last dimension (`exp(x - max) / sum`).
-fn candle_nn_softmax_last(x: &Tensor) -> candle_core::Result<Tensor> {
+/// Numerically stable softmax over the last dimension (`exp(x - max) / sum`). Not
+/// `candle_nn::ops::softmax`: the subtracted maximum is detached here (the gradient does not
+/// flow through it), which the trained bits depend on.
+fn softmax_last(x: &Tensor) -> candle_core::Result<Tensor> {
     let max = x.max_keepdim(D::Minus1)?.detach();
     let e = x.broadcast_sub(&max)?.exp()?;
     let s = e.sum_keepdim(D::Minus1)?;
