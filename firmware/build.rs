@@ -4,15 +4,105 @@ use std::{env, fs, path::PathBuf};
 /// Largest blob linked into the image (see xtask's MAX_MCU_BLOB).
 const MAX_MCU_BLOB: u64 = 512 * 1024;
 
+/// One supported chip (a `chip-*` cargo feature).
+struct Chip {
+    /// The feature without `chip-`.
+    feature: &'static str,
+    /// The only target it builds for.
+    target: &'static str,
+    /// Memory map: `memory.x` (repository root) or a file in firmware/memory/.
+    memory: &'static str,
+    /// Whether the core has an MPU for the stack guard (firmware/src/guard.rs).
+    mpu: bool,
+    /// For the boot line.
+    describe: &'static str,
+}
+
+/// Every chip the firmware supports; keep in step with xtask/src/mcu.rs.
+const CHIPS: &[Chip] = &[
+    Chip {
+        feature: "stm32f405",
+        target: "thumbv7em-none-eabihf",
+        memory: "memory.x",
+        mpu: true,
+        describe: "STM32F405 (Cortex-M4F)",
+    },
+    Chip {
+        feature: "nrf51",
+        target: "thumbv6m-none-eabi",
+        memory: "nrf51.x",
+        mpu: false,
+        describe: "nRF51822 (Cortex-M0)",
+    },
+    Chip {
+        feature: "mps2-an500",
+        target: "thumbv7em-none-eabihf",
+        memory: "mps2-an500.x",
+        mpu: true,
+        describe: "MPS2 AN500 (Cortex-M7)",
+    },
+    Chip {
+        feature: "stm32f767",
+        target: "thumbv7em-none-eabihf",
+        memory: "stm32f767.x",
+        mpu: true,
+        describe: "STM32F767 (Cortex-M7)",
+    },
+];
+
+/// The chip selected by exactly one `chip-*` feature.
+fn chip() -> &'static Chip {
+    let on: Vec<&Chip> = CHIPS
+        .iter()
+        .filter(|c| {
+            let var = format!(
+                "CARGO_FEATURE_CHIP_{}",
+                c.feature.to_uppercase().replace('-', "_")
+            );
+            env::var_os(var).is_some()
+        })
+        .collect();
+    match on.as_slice() {
+        [one] => one,
+        [] => panic!("no chip selected: enable one of the features chip-stm32f405 (default), chip-nrf51, chip-mps2-an500, chip-stm32f767"),
+        _ => panic!("more than one chip-* feature enabled: pick one (use --no-default-features to drop chip-stm32f405)"),
+    }
+}
+
 fn main() {
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap());
     let root = manifest.parent().unwrap().to_path_buf();
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap());
 
-    // The memory map lives at the repository root (one source of truth); the
-    // linker (cortex-m-rt's link.x does `INCLUDE memory.x`) finds it in OUT_DIR.
-    let memx = root.join("memory.x");
-    fs::copy(&memx, out.join("memory.x")).expect("copy ../memory.x into OUT_DIR");
+    // The chip: exactly one `chip-*` feature, which picks the memory map, the
+    // target it needs and the cfgs the code branches on (`has_mpu`: the stack
+    // guard of guard.rs; `armv6m`: no CFSR/HFSR, no DWT cycle counter).
+    let chip = chip();
+    let target = env::var("TARGET").unwrap_or_default();
+    if target != chip.target {
+        panic!(
+            "feature chip-{} builds for --target {}, not {target} (cargo xtask qemu --mcu ... picks both)",
+            chip.feature, chip.target
+        );
+    }
+    println!("cargo::rustc-check-cfg=cfg(has_mpu)");
+    println!("cargo::rustc-check-cfg=cfg(armv6m)");
+    if chip.mpu {
+        println!("cargo:rustc-cfg=has_mpu");
+    }
+    if target.starts_with("thumbv6m") {
+        println!("cargo:rustc-cfg=armv6m");
+    }
+    println!("cargo:rustc-env=GPECNET_CHIP={}", chip.describe);
+    // The STM32F405's memory map lives at the repository root (one source of
+    // truth, also used by the core's embassy example); the others in
+    // firmware/memory/. cortex-m-rt's link.x does `INCLUDE memory.x`, found in OUT_DIR.
+    let memx = match chip.memory {
+        "memory.x" => root.join("memory.x"),
+        other => manifest.join("memory").join(other),
+    };
+    fs::copy(&memx, out.join("memory.x"))
+        .unwrap_or_else(|e| panic!("copy {} into OUT_DIR: {e}", memx.display()));
     println!("cargo:rustc-link-search={}", out.display());
     // Linker scripts from here rather than [target] rustflags: an exported
     // RUSTFLAGS (CI!) replaces config rustflags but not these.

@@ -47,6 +47,20 @@ fn defmt_panic() -> ! {
     exit(1)
 }
 
+#[cfg(armv6m)]
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    // ARMv6-M has no fault status registers (CFSR/HFSR) and no MPU guard: the
+    // frame is readable unless the stack itself is gone, which this core cannot tell.
+    defmt::error!(
+        "HardFault: pc={=u32:#010x} lr={=u32:#010x}",
+        ef.pc(),
+        ef.lr()
+    );
+    exit(1)
+}
+
+#[cfg(not(armv6m))]
 #[exception]
 unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
     // SAFETY: CFSR (0xE000_ED28) and HFSR (0xE000_ED2C) are always-readable
@@ -83,6 +97,7 @@ unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
 /// MemManage: with the guard of [`crate::guard`] armed, a stack overflow ends
 /// here (a stacking error, or a data access into the guard region); the
 /// handler runs on the main stack, which the overflow cannot reach.
+#[cfg(has_mpu)]
 #[exception]
 unsafe fn MemoryManagement() -> ! {
     // SAFETY: CFSR (0xE000_ED28) and MMFAR (0xE000_ED34) are always-readable

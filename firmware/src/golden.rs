@@ -22,8 +22,10 @@ use heapless::Vec;
 
 /// Scratch width of the predictor: the widest layer the firmware supports
 /// (`Predictor` holds 5 × SCRATCH f32). 128 fits the `sdd-small`/`quick`
-/// configurations; raise it for wider models (RAM: 20 B per unit).
-pub const SCRATCH: usize = 128;
+/// configurations; raise it for wider models (RAM: 20 B per unit). The
+/// Cortex-M0 build (16 KiB of RAM) takes 64: the `sdd-tiny*` models; `cargo
+/// xtask qemu --mcu m0` embeds only models that fit.
+pub const SCRATCH: usize = if cfg!(armv6m) { 64 } else { 128 };
 /// Maximum endpoints per golden case / prediction.
 pub const MAX_K: usize = 20;
 /// Most latent samples one prediction draws (test-time sampling reduces them to K):
@@ -142,27 +144,35 @@ fn predict_case<S: Sine>(
     Ok((ends, point))
 }
 
+/// (`model` by reference: a `Model` is about 1.5 KiB, copied once, into the predictor.)
+///
 /// Every case of `set` through `Predictor<S>` (the engine follows the blob's kind; `S` is
 /// the sine of f32 blobs). `Err` if the predictor's sine is not `sine`.
+///
+/// Out of line, and the predictor used where `new` put it (not moved out of
+/// the `Result`): one predictor (4 KiB at `SCRATCH` = 128) on the stack at a
+/// time, which the Cortex-M0's 16 KiB of RAM needs.
+#[inline(never)]
 fn cases_with<S: Sine>(
-    model: Model<'_>,
+    model: &Model<'_>,
     set: &GoldenSet<'_>,
     sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
 ) -> Result<(), &'static str> {
-    let Ok(mut p) = Predictor::<S, SCRATCH>::new(model) else {
+    let mut made = Predictor::<S, SCRATCH>::new(*model);
+    let Ok(p) = made.as_mut() else {
         return Err("no predictor for this blob");
     };
     if p.sine_name() != sine {
         return Err("the sidecar's sine is not this blob's numeric path");
     }
-    check_cases(set, emit, &mut |c| predict_case(&mut p, c));
+    check_cases(set, emit, &mut |c| predict_case(p, c));
     Ok(())
 }
 
 /// [`cases_with`] for the sine named `sine` (fixed-point blobs: `q15-table`).
 fn cases_named(
-    model: Model<'_>,
+    model: &Model<'_>,
     set: &GoldenSet<'_>,
     sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
@@ -256,7 +266,7 @@ pub fn verify_all(
                 });
             }
         };
-        if let Err(what) = cases_named(model, &set, sine, &mut emit) {
+        if let Err(what) = cases_named(&model, &set, sine, &mut emit) {
             s.errors += 1;
             out(Line::Error {
                 model: m.name,
@@ -285,7 +295,7 @@ pub fn verify_all(
                         });
                     }
                 };
-                let _ = cases_named(model, &set, other, &mut emit);
+                let _ = cases_named(&model, &set, other, &mut emit);
             }
         }
     }

@@ -18,14 +18,20 @@
 //! the outputs and ends the run with exit 1 (`fatal`). Without the guard the
 //! same overflow would silently corrupt .bss and end in a lockup.
 //!
+//! Chips without an MPU (`cfg(not(has_mpu))`, the Cortex-M0 nRF51) run
+//! everything on the main stack, unguarded; see [`task_stack`].
+//!
 //! `unsafe` here: MPU/SCB register writes and the switch of stack pointers,
 //! each with its SAFETY note.
 
+#[cfg(has_mpu)]
 use core::arch::asm;
 
 /// Bytes of the main stack kept for exception handlers.
+#[cfg(has_mpu)]
 pub const HANDLER_STACK: usize = 2048;
-/// Size of the guard region (the MPU's smallest region).
+/// Size of the guard region (the MPU's smallest region; without an MPU, the
+/// alignment of the stack's bottom).
 pub const GUARD: usize = 32;
 
 extern "C" {
@@ -39,12 +45,30 @@ pub fn guard_base() -> usize {
 }
 
 /// The task stack: `(lowest usable address, top)`.
+#[cfg(has_mpu)]
 pub fn task_stack() -> (usize, usize) {
     let top = (core::ptr::addr_of!(_stack_start) as usize - HANDLER_STACK) & !7;
     (guard_base() + GUARD, top)
 }
 
+/// The stack without an MPU (Cortex-M0, feature `chip-nrf51`): everything
+/// from the end of static data to the top of RAM, one stack for tasks and
+/// handlers, no guard. An overflow there runs into .bss unnoticed; the
+/// high-water mark of every run (`stack::high_water`) shows the margin.
+#[cfg(not(has_mpu))]
+pub fn task_stack() -> (usize, usize) {
+    let top = core::ptr::addr_of!(_stack_start) as usize & !7;
+    (guard_base(), top)
+}
+
+/// Without an MPU there is nothing to arm: runs `f` on the main stack.
+#[cfg(not(has_mpu))]
+pub fn run_guarded(f: extern "C" fn() -> !) -> ! {
+    f()
+}
+
 /// Arms the guard and continues in `f` on the task stack; never returns.
+#[cfg(has_mpu)]
 /// Call first thing in `main` (after painting the stack), while nothing on
 /// the main stack needs to survive.
 pub fn run_guarded(f: extern "C" fn() -> !) -> ! {

@@ -1,4 +1,6 @@
-//! gpecnet firmware for STM32F405 (Cortex-M4F); runs on QEMU `netduinoplus2`.
+//! gpecnet firmware for Cortex-M0, M4F and M7 (one `chip-*` feature): runs on
+//! QEMU `netduinoplus2` (STM32F405, the default), `microbit` (nRF51822) and
+//! `mps2-an500`, and on real boards with `board`.
 //!
 //! Boot: paint the stack, start the embassy executor, then
 //!  * `golden` (feature, default): every golden case of every embedded model
@@ -53,8 +55,9 @@ extern "C" fn tasks() -> ! {
 #[embassy_executor::task]
 async fn supervisor(spawner: Spawner) {
     defmt::println!(
-        "boot: gpecnet firmware {=str} on STM32F405 (embassy executor up), {=usize} model(s) embedded",
+        "boot: gpecnet firmware {=str} on {=str} (embassy executor up), {=usize} model(s) embedded",
         env!("CARGO_PKG_VERSION"),
+        env!("GPECNET_CHIP"),
         models::BLOBS.len()
     );
     let _ = &spawner;

@@ -88,9 +88,9 @@ pub fn run() -> bool {
     if !ok {
         defmt::error!("profile: no model embedded");
     }
-    #[cfg(feature = "board")]
+    #[cfg(all(feature = "board", not(armv6m)))]
     let mut cp = unsafe { cortex_m::Peripherals::steal() };
-    #[cfg(feature = "board")]
+    #[cfg(all(feature = "board", not(armv6m)))]
     {
         cp.DCB.enable_trace();
         cp.DWT.enable_cycle_counter();
@@ -114,12 +114,12 @@ pub fn run() -> bool {
             }
         };
         let base = crate::stack::repaint();
-        #[cfg(feature = "board")]
+        #[cfg(all(feature = "board", not(armv6m)))]
         let c0 = cortex_m::peripheral::DWT::cycle_count();
         bench_start();
         let r = gpecnet_predict_k20(black_box(&mut p), black_box(&PAST), black_box(0x5eed));
         bench_end();
-        #[cfg(feature = "board")]
+        #[cfg(all(feature = "board", not(armv6m)))]
         {
             let c1 = cortex_m::peripheral::DWT::cycle_count();
             defmt::println!("cycles {=str} {=u32}", name, c1.wrapping_sub(c0));

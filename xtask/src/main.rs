@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 use std::process::{exit, Command, Stdio};
 
 mod ffi;
+mod mcu;
+mod replay;
 
 const DEB_CARGO: &str = "/usr/bin/cargo";
 const DEB_RUSTC: &str = "/usr/bin/rustc";
@@ -44,11 +46,13 @@ const USAGE: &str = "usage: cargo xtask <command>
   fw-build [ARGS]    build the firmware (release; ARGS go to cargo, e.g. --features force-panic)
   fw-run [ARGS]      build + run the firmware in QEMU netduinoplus2 (decoded defmt on stdout)
   qemu               golden verification: firmware in QEMU + the same cases on the host, hashes compared
+                     (--mcu m0|m4f|m7: Cortex-M0 nRF51 / M4F STM32F405 (default) / M7 MPS2-AN500;
+                     --all-targets: all three, plus the MCU x model table in target/fw-qemu/matrix.md)
   fw-faults          prove the failure paths: an injected panic, HardFault and stack overflow must each log and exit 1
   fw-test            host unit tests of the firmware's target-independent modules (golden.rs; the track table is tested in core)
   profile            flash/RAM/stack/instruction count per model and numeric path (TCG plugin)
   ffi-arm            gpecnet-ffi on a Cortex-M4F: the C golden replay (arm-none-eabi-gcc, newlib) in QEMU netduinoplus2
-options for qemu/profile/fw-build/fw-run:
+options for qemu/profile/fw-build/fw-run (--mcu also for fw-build/fw-run):
   --weights DIR      use DIR instead of weights/ (needs <name>.gpec + <name>.golden)
   --test-blob        generate a synthetic blob + golden (firmware/host make-test-blob) and use it";
 
@@ -364,12 +368,18 @@ fn build_core_thumb() -> i32 {
 
 struct Opts {
     weights: Option<PathBuf>,
+    /// `--mcu NAME`: the class for `qemu` (default: the M4F).
+    mcu: Option<&'static mcu::Mcu>,
+    /// `--all-targets`: `qemu` on every class, plus the MCU × model table.
+    all_targets: bool,
     rest: Vec<String>,
 }
 
 fn parse_opts(args: &[String]) -> Opts {
     let mut o = Opts {
         weights: None,
+        mcu: None,
+        all_targets: false,
         rest: Vec::new(),
     };
     let mut it = args.iter();
@@ -385,6 +395,15 @@ fn parse_opts(args: &[String]) -> Opts {
                 );
             }
             "--test-blob" => o.weights = Some(make_test_blob()),
+            "--mcu" => {
+                let n = it
+                    .next()
+                    .unwrap_or_else(|| die("--mcu needs a name: m0, m4f or m7"));
+                o.mcu = Some(mcu::by_name(n).unwrap_or_else(|| {
+                    die(&format!("--mcu {n}: unknown MCU class (m0, m4f or m7)"))
+                }));
+            }
+            "--all-targets" => o.all_targets = true,
             _ => o.rest.push(a.clone()),
         }
     }
@@ -437,35 +456,6 @@ fn models_in(dir: &Path) -> Vec<String> {
     v
 }
 
-/// Flash left for blobs and golden files in one golden-verification image: 1 MiB minus a
-/// 128 KiB reserve for the code (about 64 KiB today) and the vector table.
-const IMAGE_DATA_BUDGET: u64 = (1024 - 128) * 1024;
-
-/// `models` (sorted) split into runs of consecutive models whose blobs and golden files
-/// fit [`IMAGE_DATA_BUDGET`] together (a model larger than the budget alone gets its own).
-fn image_batches(dir: &Path, models: &[String]) -> Vec<Vec<String>> {
-    let size = |m: &String| -> u64 {
-        ["gpec", "golden"]
-            .iter()
-            .map(|e| std::fs::metadata(dir.join(format!("{m}.{e}"))).map_or(0, |md| md.len()))
-            .sum()
-    };
-    let mut batches: Vec<Vec<String>> = Vec::new();
-    let mut used = 0;
-    for m in models {
-        let n = size(m);
-        match batches.last_mut() {
-            Some(b) if used + n <= IMAGE_DATA_BUDGET => b.push(m.clone()),
-            _ => {
-                batches.push(vec![m.clone()]);
-                used = 0;
-            }
-        }
-        used += n;
-    }
-    batches
-}
-
 fn require_models(dir: &Path) -> Vec<String> {
     let m = models_in(dir);
     if m.is_empty() {
@@ -486,168 +476,37 @@ fn fw_cargo(o: &Opts) -> Command {
     c
 }
 
-fn elf_path() -> PathBuf {
-    root()
-        .join("firmware/target")
-        .join(TARGET)
-        .join("release/gpecnet-firmware")
-}
-
 fn fw_build(o: &Opts, extra: &[&str]) -> i32 {
     require(false);
     let mut c = fw_cargo(o);
-    c.args(["build", "--release"]).args(extra).args(&o.rest);
+    c.arg("build");
+    fw_class_args(o, &mut c);
+    c.args(extra).args(&o.rest);
     status(c)
 }
 
 fn fw_run(o: &Opts) -> i32 {
     require(true);
     let mut c = fw_cargo(o);
-    c.args(["run", "--release"]).args(&o.rest);
+    c.arg("run");
+    fw_class_args(o, &mut c);
+    c.args(&o.rest);
     status(c)
 }
 
-fn lines_with<'a>(text: &'a str, prefixes: &[&str]) -> Vec<&'a str> {
-    text.lines()
-        .map(str::trim_end)
-        .filter(|l| prefixes.iter().any(|p| l.starts_with(p)))
-        // Totals differ by construction when the firmware runs several images.
-        .filter(|l| !l.starts_with("golden summary"))
-        .collect()
-}
-
-/// Golden verification in QEMU + on the host, compared line by line.
-/// Full logs go to target/fw-qemu/{firmware,host}.log; stdout gets one line
-/// per model, the firmware's own summary lines, errors and the verdict.
-fn qemu(o: &Opts) -> i32 {
-    require(true);
-    let dir = weights_dir(o);
-    let models = require_models(&dir);
-    eprintln!("xtask: models: {}", models.join(", "));
-    let log_dir = root().join("target/fw-qemu");
-    std::fs::create_dir_all(&log_dir).unwrap();
-    // The models' blobs and golden files do not all fit one 1 MiB image: one image (and
-    // QEMU run) per batch of consecutive models, so the firmware's lines, concatenated,
-    // come in the host's order.
-    let batches = image_batches(&dir, &models);
-    let (mut fw_rc, mut fw_out) = (0, String::new());
-    for batch in &batches {
-        eprintln!("xtask: image with {}", batch.join(", "));
-        // Same numeric paths on both sides: micromath is compiled in for the xcheck lines.
-        let mut c = fw_cargo(o);
-        c.env("GPECNET_MODELS", batch.join(","));
-        c.args(["run", "--release", "--features", "micromath"])
-            .args(&o.rest);
-        let (rc, out, err) = output(c);
-        fw_out.push_str(&out);
-        if rc != 0 {
-            fw_rc = rc;
-            // build errors / QEMU stderr
-            eprint!(
-                "{}",
-                err.lines()
-                    .filter(|l| !l.starts_with("warning"))
-                    .collect::<Vec<_>>()
-                    .join("\n")
-            );
-            eprintln!();
+/// `--release`, and with `--mcu`: that class's chip, target, QEMU machine and
+/// its golden image's modes (without: the firmware's defaults, the M4F).
+fn fw_class_args(o: &Opts, c: &mut Command) {
+    match o.mcu {
+        Some(m) => {
+            let mut modes = vec!["golden"];
+            modes.extend_from_slice(m.golden_features);
+            m.firmware_args(c, &root(), &modes);
+        }
+        None => {
+            c.arg("--release");
         }
     }
-    let _ = std::fs::write(log_dir.join("firmware.log"), &fw_out);
-    let mut h = host_cargo();
-    h.args([
-        "run",
-        "-q",
-        "--release",
-        "--manifest-path",
-        "firmware/host/Cargo.toml",
-        "--features",
-        "micromath",
-    ])
-    .args(["--bin", "golden-host", "--"])
-    .arg(&dir);
-    let (host_rc, host_out, host_err) = output(h);
-    let _ = std::fs::write(log_dir.join("host.log"), format!("{host_out}{host_err}"));
-    eprint!("{host_err}");
-    // The firmware's summary lines and everything it reports as an error.
-    for l in fw_out.lines().map(str::trim_end).filter(|l| {
-        [
-            "boot:",
-            "golden summary",
-            "demo:",
-            "stack:",
-            "result:",
-            "ERROR",
-            "WARN",
-        ]
-        .iter()
-        .any(|p| l.starts_with(p))
-            || l.contains("panicked")
-            || l.contains("HardFault")
-    }) {
-        println!("firmware| {l}");
-    }
-    let keep = ["model ", "golden ", "xcheck "];
-    let fl = lines_with(&fw_out, &keep);
-    let hl = lines_with(&host_out, &keep);
-    let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
-        .filter_map(|i| {
-            let (a, b) = (
-                fl.get(i).copied().unwrap_or("<missing>"),
-                hl.get(i).copied().unwrap_or("<missing>"),
-            );
-            (a != b).then_some((i, a, b))
-        })
-        .collect();
-    let count = |prefix: &str| {
-        fl.iter()
-            .filter(|l| l.starts_with(prefix) && l.len() > prefix.len())
-            .count()
-    };
-    // Every shipped model must have been verified, each with all its cases.
-    let mut missing_models = 0;
-    for m in &models {
-        let head = fl
-            .iter()
-            .find(|l| l.split_whitespace().nth(1) == Some(m.as_str()) && l.starts_with("model "));
-        let golden = count(&format!("golden {m} "));
-        let xcheck = count(&format!("xcheck {m} "));
-        let (numeric, sine, n) = head
-            .map(|l| {
-                let w: Vec<&str> = l.split_whitespace().collect();
-                (
-                    w.get(2).copied().unwrap_or("?"),
-                    w.get(3).copied().unwrap_or("?"),
-                    w.get(4).and_then(|v| v.parse::<usize>().ok()).unwrap_or(0),
-                )
-            })
-            .unwrap_or(("?", "?", 0));
-        let ok = head.is_some() && n > 0 && golden == n;
-        missing_models += (!ok) as usize;
-        println!(
-            "qemu: {m:<16} {numeric:<8} sine {sine:<10} {golden}/{n} golden cases, {xcheck} xcheck lines{}",
-            if ok { "" } else { "  <- NOT VERIFIED" }
-        );
-    }
-    println!(
-        "qemu: firmware exit {fw_rc}, host exit {host_rc}; {} firmware lines, {} host lines, {} differ (logs: target/fw-qemu/)",
-        fl.len(),
-        hl.len(),
-        differ.len()
-    );
-    for (i, a, b) in differ.iter().take(20) {
-        println!("  line {i}: firmware {a:?} != host {b:?}");
-    }
-    let ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && missing_models == 0;
-    println!(
-        "qemu: {}",
-        if ok {
-            "PASS (bit-exact: firmware == sidecar == host, every model)"
-        } else {
-            "FAIL"
-        }
-    );
-    (!ok) as i32
 }
 
 fn fw_faults(o: &Opts) -> i32 {
@@ -661,7 +520,8 @@ fn fw_faults(o: &Opts) -> i32 {
         ("force-stack-overflow", "stack overflow"),
     ] {
         let mut c = fw_cargo(o);
-        c.args(["run", "--release", "--no-default-features", "--features", f]);
+        c.arg("run");
+        mcu::M4F.firmware_args(&mut c, &root(), &[f]);
         let (rc, out, _) = output(c);
         let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
         let ok = rc == 1 && !last.is_empty();
@@ -958,20 +818,15 @@ fn profile(o: &Opts) -> i32 {
         for &sine in paths {
             let mut c = fw_cargo(o);
             c.env("GPECNET_MODELS", m).env("GPECNET_SINE", sine);
-            c.args([
-                "build",
-                "--release",
-                "--no-default-features",
-                "--features",
-                "profile,micromath",
-            ]);
+            c.arg("build");
+            mcu::M4F.firmware_args(&mut c, &root(), &["profile", "micromath"]);
             let (rc, _, err) = output(c);
             if rc != 0 {
                 eprintln!("{err}");
                 die(&format!("profile build {m}/{sine} failed"));
             }
             let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
-            std::fs::copy(elf_path(), &elf_copy).unwrap();
+            std::fs::copy(mcu::M4F.elf(&root()), &elf_copy).unwrap();
             let elf = read_elf(&elf_copy);
             let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
                 (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
@@ -1209,7 +1064,7 @@ fn demo(o: &Opts) -> i32 {
     if rc != 0 {
         return rc;
     }
-    qemu(o)
+    replay::qemu(o)
 }
 
 fn main() {
@@ -1225,7 +1080,7 @@ fn main() {
         "build-core-thumb" => build_core_thumb(),
         "fw-build" => fw_build(&o, &[]),
         "fw-run" => fw_run(&o),
-        "qemu" => qemu(&o),
+        "qemu" => replay::qemu(&o),
         "fw-faults" => fw_faults(&o),
         "fw-test" => fw_test(),
         "profile" => profile(&o),

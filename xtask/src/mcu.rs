@@ -1,0 +1,122 @@
+//! The MCU classes the firmware runs on in QEMU: one [`Mcu`] per class, and
+//! how a firmware build, a QEMU run and the host's matching golden run are
+//! set up for it. Keep in step with `CHIPS` in firmware/build.rs.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// One MCU class: a chip feature of the firmware, its target and QEMU machine.
+pub struct Mcu {
+    /// Short name for `--mcu` (`m0`, `m4f`, `m7`).
+    pub name: &'static str,
+    /// Core and chip, for reports.
+    pub describe: &'static str,
+    /// The firmware's chip feature.
+    pub feature: &'static str,
+    /// Rust target.
+    pub target: &'static str,
+    /// `qemu-system-arm -machine`.
+    pub machine: &'static str,
+    /// Flash left for blobs and golden files in one golden-verification image
+    /// (the chip's flash minus room for the code and the vector table).
+    pub image_data_budget: u64,
+    /// The firmware's `golden::SCRATCH` on this chip: wider models are not embedded.
+    pub max_width: usize,
+    /// Extra firmware features of the golden image besides `golden` (the host run
+    /// enables `micromath` to match).
+    pub golden_features: &'static [&'static str],
+    /// Extra rustc flags (the core's own tuning, e.g. `-C target-cpu=cortex-m7`).
+    pub rustflags: Option<&'static str>,
+}
+
+/// The Cortex-M4F of today's CI: STM32F405 on `netduinoplus2`; builds into
+/// firmware/target/ (the default of `cargo build` in firmware/).
+pub const M4F: Mcu = Mcu {
+    name: "m4f",
+    describe: "Cortex-M4F (STM32F405, QEMU netduinoplus2)",
+    feature: "chip-stm32f405",
+    target: "thumbv7em-none-eabihf",
+    machine: "netduinoplus2",
+    image_data_budget: (1024 - 128) * 1024,
+    max_width: 128,
+    golden_features: &["demo", "micromath"],
+    rustflags: None,
+};
+
+/// Cortex-M0 without FPU or MPU: nRF51822 (BBC micro:bit v1) on `microbit`,
+/// 256 KiB flash, 16 KiB RAM. f32 runs in software floating point.
+pub const M0: Mcu = Mcu {
+    name: "m0",
+    describe: "Cortex-M0 (nRF51822, QEMU microbit)",
+    feature: "chip-nrf51",
+    target: "thumbv6m-none-eabi",
+    machine: "microbit",
+    image_data_budget: (256 - 80) * 1024,
+    max_width: 64,
+    golden_features: &[],
+    rustflags: None,
+};
+
+/// Cortex-M7 with FPU and MPU: ARM MPS2 AN500 on `mps2-an500`.
+pub const M7: Mcu = Mcu {
+    name: "m7",
+    describe: "Cortex-M7 (MPS2 AN500, QEMU mps2-an500)",
+    feature: "chip-mps2-an500",
+    target: "thumbv7em-none-eabihf",
+    machine: "mps2-an500",
+    image_data_budget: (4096 - 128) * 1024,
+    max_width: 128,
+    golden_features: &["demo", "micromath"],
+    rustflags: Some("-C target-cpu=cortex-m7"),
+};
+
+/// Every class, in the order `--all-targets` runs them.
+pub const ALL: [&Mcu; 3] = [&M0, &M4F, &M7];
+
+/// The class named `name` (`m0`, `m4f`, `m7`).
+pub fn by_name(name: &str) -> Option<&'static Mcu> {
+    ALL.into_iter().find(|m| m.name == name)
+}
+
+impl Mcu {
+    /// The firmware's cargo target directory for this class: firmware/target
+    /// for the M4F (the firmware's default), firmware/target/mcu-<name> for
+    /// the others, so switching classes never rebuilds another's artefacts.
+    pub fn target_dir(&self, root: &Path) -> PathBuf {
+        if self.name == M4F.name {
+            root.join("firmware/target")
+        } else {
+            root.join("firmware/target")
+                .join(format!("mcu-{}", self.name))
+        }
+    }
+
+    /// The firmware ELF a release build leaves.
+    pub fn elf(&self, root: &Path) -> PathBuf {
+        self.target_dir(root)
+            .join(self.target)
+            .join("release/gpecnet-firmware")
+    }
+
+    /// Adds to a firmware cargo command (`build`/`run`, after the verb): release,
+    /// this chip's feature plus `modes`, target and target dir; and the runner's
+    /// QEMU machine and the rustc flags in the environment.
+    pub fn firmware_args(&self, c: &mut Command, root: &Path, modes: &[&str]) {
+        let mut features = vec![self.feature];
+        features.extend_from_slice(modes);
+        c.args(["--release", "--no-default-features", "--features"])
+            .arg(features.join(","))
+            .args(["--target", self.target, "--target-dir"])
+            .arg(self.target_dir(root))
+            .env("QEMU_MACHINE", self.machine);
+        if let Some(f) = self.rustflags {
+            c.env("RUSTFLAGS", f);
+        }
+    }
+
+    /// Whether a blob of `width` ([`gpecnet_core::Model::scratch_width`]) and
+    /// `bytes` (blob + golden file) can be embedded on this class.
+    pub fn fits(&self, width: usize, bytes: u64) -> bool {
+        width <= self.max_width && bytes <= self.image_data_budget
+    }
+}

@@ -1,0 +1,496 @@
+//! `cargo xtask qemu`: the golden replay. Every embedded model's golden cases
+//! run in QEMU on one MCU class (`--mcu m0|m4f|m7`, default `m4f`) or on all
+//! of them (`--all-targets`), the same cases run on the host, and the two
+//! runs' lines are compared one by one. With `--all-targets` each class is
+//! also profiled (one image per numeric path, the QEMU instruction-window
+//! plugin around one call per model) and the MCU × model table is written to
+//! `target/fw-qemu/matrix.md`.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+use crate::mcu::{self, Mcu};
+use crate::{
+    defmt_decode, die, field, fw_cargo, host_cargo, output, plugin, read_elf, require, root, show,
+    weights_dir, Opts,
+};
+
+/// What one class's golden replay found, per model.
+struct Replay {
+    /// Firmware == sidecar == host for every embedded model, and both runs exited 0.
+    ok: bool,
+    /// Per model: verified (all cases bit-exact) and the stack high-water mark
+    /// of the image that ran it.
+    models: BTreeMap<String, (bool, Option<u32>)>,
+}
+
+/// A model of `dir` on `mcu`: `Ok(width)` when it can be embedded, else why not.
+fn fit(dir: &Path, m: &str, mcu: &Mcu) -> Result<usize, String> {
+    let blob = std::fs::read(dir.join(format!("{m}.gpec"))).unwrap_or_default();
+    let golden = std::fs::metadata(dir.join(format!("{m}.golden"))).map_or(0, |md| md.len());
+    let width = gpecnet_core::Model::from_blob(&blob).map_or(0, |m| m.scratch_width());
+    let bytes = blob.len() as u64 + golden;
+    if mcu.fits(width, bytes) {
+        Ok(width)
+    } else if width > mcu.max_width {
+        Err(format!(
+            "not embedded: scratch width {width} > {} (RAM)",
+            mcu.max_width
+        ))
+    } else {
+        Err(format!(
+            "not embedded: blob + golden {bytes} B > {} B of image data (flash)",
+            mcu.image_data_budget
+        ))
+    }
+}
+
+/// `models` (sorted) split into runs of consecutive models whose files (the
+/// extensions `exts`) fit `budget` bytes together (a larger model alone gets its own).
+fn image_batches(dir: &Path, models: &[String], exts: &[&str], budget: u64) -> Vec<Vec<String>> {
+    let size = |m: &String| -> u64 {
+        exts.iter()
+            .map(|e| std::fs::metadata(dir.join(format!("{m}.{e}"))).map_or(0, |md| md.len()))
+            .sum()
+    };
+    let mut batches: Vec<Vec<String>> = Vec::new();
+    let mut used = 0;
+    for m in models {
+        let n = size(m);
+        match batches.last_mut() {
+            Some(b) if used + n <= budget => b.push(m.clone()),
+            _ => {
+                batches.push(vec![m.clone()]);
+                used = 0;
+            }
+        }
+        used += n;
+    }
+    batches
+}
+
+fn lines_with<'a>(text: &'a str, prefixes: &[&str]) -> Vec<&'a str> {
+    text.lines()
+        .map(str::trim_end)
+        .filter(|l| prefixes.iter().any(|p| l.starts_with(p)))
+        // Totals differ by construction when the firmware runs several images.
+        .filter(|l| !l.starts_with("golden summary"))
+        .collect()
+}
+
+/// The firmware's stack report: `stack: high-water N B of M B`.
+fn high_water(text: &str) -> Option<u32> {
+    text.lines()
+        .find_map(|l| l.split("high-water ").nth(1))
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+}
+
+/// `cargo xtask qemu [--mcu NAME | --all-targets]`.
+pub fn qemu(o: &Opts) -> i32 {
+    require(true);
+    let dir = weights_dir(o);
+    let models = crate::require_models(&dir);
+    let classes: Vec<&Mcu> = if o.all_targets {
+        mcu::ALL.to_vec()
+    } else {
+        vec![o.mcu.unwrap_or(&mcu::M4F)]
+    };
+    let mut ok = true;
+    let mut rows = Vec::new();
+    for m in &classes {
+        println!("qemu: == {} ==", m.describe);
+        let r = replay(o, m, &dir, &models);
+        ok &= r.ok;
+        if o.all_targets {
+            let (prof_ok, mut class_rows) = profile_class(o, m, &dir, &models, &r);
+            ok &= prof_ok;
+            rows.append(&mut class_rows);
+        }
+    }
+    if o.all_targets {
+        let t = matrix_table(&rows);
+        print!("{t}");
+        let md = root().join("target/fw-qemu/matrix.md");
+        std::fs::write(&md, &t).unwrap_or_else(|e| die(&format!("{}: {e}", md.display())));
+        eprintln!("xtask: wrote {}", md.display());
+    }
+    println!(
+        "qemu: {}",
+        if ok {
+            if o.all_targets {
+                "PASS on every MCU class (bit-exact: firmware == sidecar == host, every model that fits)"
+            } else {
+                "PASS (bit-exact: firmware == sidecar == host, every model)"
+            }
+        } else {
+            "FAIL"
+        }
+    );
+    (!ok) as i32
+}
+
+/// Golden verification of every model that fits `mcu`, in QEMU and on the
+/// host, compared line by line. Logs: target/fw-qemu/<mcu>/{firmware,host}.log.
+fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
+    let mut models = Vec::new();
+    for m in all {
+        match fit(dir, m, mcu) {
+            Ok(_) => models.push(m.clone()),
+            Err(why) => println!("qemu: {m:<16} {why}"),
+        }
+    }
+    let log_dir = root().join("target/fw-qemu").join(mcu.name);
+    std::fs::create_dir_all(&log_dir)
+        .unwrap_or_else(|e| die(&format!("{}: {e}", log_dir.display())));
+    let mut per: BTreeMap<String, (bool, Option<u32>)> = BTreeMap::new();
+    if models.is_empty() {
+        println!("qemu: no model fits {}", mcu.describe);
+        return Replay {
+            ok: false,
+            models: per,
+        };
+    }
+    // Not every model fits one image: one image (and QEMU run) per batch of
+    // consecutive models, so the firmware's lines, concatenated, come in the host's order.
+    let batches = image_batches(dir, &models, &["gpec", "golden"], mcu.image_data_budget);
+    let (mut fw_rc, mut fw_out) = (0, String::new());
+    let mut modes = vec!["golden"];
+    modes.extend_from_slice(mcu.golden_features);
+    for batch in &batches {
+        eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
+        let mut c = fw_cargo(o);
+        c.env("GPECNET_MODELS", batch.join(","));
+        c.arg("run");
+        mcu.firmware_args(&mut c, &root(), &modes);
+        c.args(&o.rest);
+        let (rc, out, err) = output(c);
+        let stack = high_water(&out);
+        for m in batch {
+            per.insert(m.clone(), (false, stack));
+        }
+        fw_out.push_str(&out);
+        if rc != 0 {
+            fw_rc = rc;
+            // build errors / QEMU stderr
+            eprint!(
+                "{}",
+                err.lines()
+                    .filter(|l| !l.starts_with("warning"))
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            );
+            eprintln!();
+        }
+    }
+    let _ = std::fs::write(log_dir.join("firmware.log"), &fw_out);
+    // The host runs the same code (firmware/src/golden.rs) with the same
+    // compiled-in sines, on the same models.
+    let mut h = host_cargo();
+    h.args([
+        "run",
+        "-q",
+        "--release",
+        "--manifest-path",
+        "firmware/host/Cargo.toml",
+    ]);
+    if mcu.golden_features.contains(&"micromath") {
+        h.args(["--features", "micromath"]);
+    }
+    h.env("GPECNET_MODELS", models.join(","))
+        .args(["--bin", "golden-host", "--"])
+        .arg(dir);
+    let (host_rc, host_out, host_err) = output(h);
+    let _ = std::fs::write(log_dir.join("host.log"), format!("{host_out}{host_err}"));
+    eprint!("{host_err}");
+    // The firmware's summary lines and everything it reports as an error.
+    for l in fw_out.lines().map(str::trim_end).filter(|l| {
+        [
+            "boot:",
+            "golden summary",
+            "demo:",
+            "stack:",
+            "result:",
+            "ERROR",
+            "WARN",
+        ]
+        .iter()
+        .any(|p| l.starts_with(p))
+            || l.contains("panicked")
+            || l.contains("HardFault")
+    }) {
+        println!("firmware| {l}");
+    }
+    let keep = ["model ", "golden ", "xcheck "];
+    let fl = lines_with(&fw_out, &keep);
+    let hl = lines_with(&host_out, &keep);
+    let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
+        .filter_map(|i| {
+            let (a, b) = (
+                fl.get(i).copied().unwrap_or("<missing>"),
+                hl.get(i).copied().unwrap_or("<missing>"),
+            );
+            (a != b).then_some((i, a, b))
+        })
+        .collect();
+    let count = |prefix: &str| {
+        fl.iter()
+            .filter(|l| l.starts_with(prefix) && l.len() > prefix.len())
+            .count()
+    };
+    let run_ok = fw_rc == 0 && host_rc == 0 && differ.is_empty();
+    // Every embedded model must have been verified, each with all its cases.
+    let mut missing_models = 0;
+    for m in &models {
+        let head = fl
+            .iter()
+            .find(|l| l.split_whitespace().nth(1) == Some(m.as_str()) && l.starts_with("model "));
+        let golden = count(&format!("golden {m} "));
+        let xcheck = count(&format!("xcheck {m} "));
+        let (numeric, sine, n) = head
+            .map(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                (
+                    w.get(2).copied().unwrap_or("?"),
+                    w.get(3).copied().unwrap_or("?"),
+                    w.get(4).and_then(|v| v.parse::<usize>().ok()).unwrap_or(0),
+                )
+            })
+            .unwrap_or(("?", "?", 0));
+        let verified = head.is_some() && n > 0 && golden == n;
+        missing_models += (!verified) as usize;
+        if let Some(e) = per.get_mut(m) {
+            e.0 = verified && run_ok;
+        }
+        println!(
+            "qemu: {m:<16} {numeric:<8} sine {sine:<10} {golden}/{n} golden cases, {xcheck} xcheck lines{}",
+            if verified { "" } else { "  <- NOT VERIFIED" }
+        );
+    }
+    println!(
+        "qemu: {}: firmware exit {fw_rc}, host exit {host_rc}; {} firmware lines, {} host lines, {} differ (logs: target/fw-qemu/{}/)",
+        mcu.name,
+        fl.len(),
+        hl.len(),
+        differ.len(),
+        mcu.name
+    );
+    for (i, a, b) in differ.iter().take(20) {
+        println!("  line {i}: firmware {a:?} != host {b:?}");
+    }
+    Replay {
+        ok: run_ok && missing_models == 0,
+        models: per,
+    }
+}
+
+/// One row of the MCU × model table.
+struct Row {
+    mcu: &'static str,
+    model: String,
+    /// Numeric path of the profiled call, or why the model is not on this class.
+    path: String,
+    flash: Option<u32>,
+    ram: Option<u32>,
+    /// Golden run's whole-image high-water mark.
+    stack_run: Option<u32>,
+    /// Predictor + the extra depth of one call.
+    stack_call: Option<u32>,
+    insns: Option<u64>,
+    macs: Option<u64>,
+    bit_exact: Option<bool>,
+}
+
+/// Profiles every model that fits `mcu`: one image per numeric path (f32
+/// models through `fast-f32`, fixed-point ones through `q15-table`), one K = 20
+/// call (point forecast + endpoint set) per model between the bench markers,
+/// counted by the QEMU plugin. Flash per model = the image's flash minus the
+/// other models' blobs.
+fn profile_class(
+    o: &Opts,
+    mcu: &Mcu,
+    dir: &Path,
+    all: &[String],
+    replay: &Replay,
+) -> (bool, Vec<Row>) {
+    let so = plugin();
+    let out_dir = root().join("target/fw-qemu").join(mcu.name);
+    let mut rows = Vec::new();
+    let mut ok = true;
+    let mut by_path: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+    for m in all {
+        match fit(dir, m, mcu) {
+            Ok(_) => {
+                let path = if crate::blob_is_fixed(&dir.join(format!("{m}.gpec"))) {
+                    crate::FIXED_PATH
+                } else {
+                    "fast-f32"
+                };
+                by_path.entry(path).or_default().push(m.clone());
+            }
+            Err(why) => rows.push(Row {
+                mcu: mcu.name,
+                model: m.clone(),
+                path: why,
+                flash: None,
+                ram: None,
+                stack_run: None,
+                stack_call: None,
+                insns: None,
+                macs: None,
+                bit_exact: None,
+            }),
+        }
+    }
+    let blob_len =
+        |m: &str| std::fs::metadata(dir.join(format!("{m}.gpec"))).map_or(0, |md| md.len() as u32);
+    for (path, models) in by_path {
+        for (i, batch) in image_batches(dir, &models, &["gpec"], mcu.image_data_budget)
+            .iter()
+            .enumerate()
+        {
+            let mut c = fw_cargo(o);
+            c.env("GPECNET_MODELS", batch.join(","))
+                .env("GPECNET_SINE", path)
+                .arg("build");
+            mcu.firmware_args(&mut c, &root(), &["profile"]);
+            let (rc, _, err) = output(c);
+            if rc != 0 {
+                eprintln!("{err}");
+                die(&format!("{} profile build ({path}) failed", mcu.name));
+            }
+            let elf_copy = out_dir.join(format!("profile-{path}-{i}.elf"));
+            std::fs::copy(mcu.elf(&root()), &elf_copy)
+                .unwrap_or_else(|e| die(&format!("{}: {e}", elf_copy.display())));
+            let elf = read_elf(&elf_copy);
+            let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
+                (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
+                _ => die("bench_start/bench_end missing or merged in the profile ELF"),
+            };
+            let log = out_dir.join(format!("profile-{path}-{i}.plugin.log"));
+            let mut q = Command::new("qemu-system-arm");
+            q.args(["-machine", mcu.machine, "-nographic", "-monitor", "none"])
+                .args([
+                    "-serial",
+                    "null",
+                    "-semihosting-config",
+                    "enable=on,target=native",
+                ])
+                .arg("-plugin")
+                .arg(format!("{},start={s:#x},end={e:#x}", so.display()))
+                .args(["-d", "plugin", "-D"])
+                .arg(&log)
+                .arg("-kernel")
+                .arg(&elf_copy);
+            eprintln!("xtask: $ {}", show(&q));
+            let qo = q
+                .stdin(Stdio::null())
+                .output()
+                .unwrap_or_else(|e| die(&format!("qemu-system-arm: {e}")));
+            let text = defmt_decode(&elf_copy, &qo.stdout);
+            let _ = std::fs::write(out_dir.join(format!("profile-{path}-{i}.log")), &text);
+            let plog = std::fs::read_to_string(&log).unwrap_or_default();
+            let windows: Vec<u64> = plog
+                .lines()
+                .filter_map(|l| {
+                    l.strip_prefix("window ")
+                        .and_then(|r| r.split(" insns ").nth(1))
+                        .and_then(|n| n.trim().parse().ok())
+                })
+                .collect();
+            let lines: Vec<&str> = text
+                .lines()
+                .filter(|l| l.contains("profile ") && l.contains("sine="))
+                .collect();
+            if qo.status.code() != Some(0)
+                || lines.len() != batch.len()
+                || windows.len() != batch.len()
+            {
+                eprintln!("{text}{plog}");
+                eprintln!(
+                    "xtask: {} profile run ({path}) failed (exit {:?})",
+                    mcu.name,
+                    qo.status.code()
+                );
+                ok = false;
+            }
+            let blobs: u32 = batch.iter().map(|m| blob_len(m)).sum();
+            for (j, m) in batch.iter().enumerate() {
+                let line = lines
+                    .iter()
+                    .find(|l| l.split_whitespace().nth(1) == Some(m.as_str()));
+                let num = |key: &str| {
+                    line.and_then(|l| field(l, key))
+                        .and_then(|v| v.parse::<u64>().ok())
+                };
+                let (verified, stack_run) = replay.models.get(m).copied().unwrap_or((false, None));
+                rows.push(Row {
+                    mcu: mcu.name,
+                    model: m.clone(),
+                    path: path.to_string(),
+                    flash: Some(elf.flash() - blobs + blob_len(m)),
+                    ram: Some(elf.ram()),
+                    stack_run,
+                    stack_call: num("predict_stack")
+                        .zip(num("predictor_size"))
+                        .map(|(a, b)| (a + b) as u32),
+                    insns: windows.get(j).copied(),
+                    macs: num("macs"),
+                    bit_exact: Some(verified),
+                });
+            }
+        }
+    }
+    rows.sort_by(|a, b| a.model.cmp(&b.model));
+    (ok, rows)
+}
+
+/// The MCU × model table (markdown).
+fn matrix_table(rows: &[Row]) -> String {
+    let opt = |v: Option<u64>| v.map_or("-".to_string(), |v| v.to_string());
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "\nGolden replay and profile per MCU class (`cargo xtask qemu --all-targets`; release, opt-level 3, fat LTO; one call = point forecast + 20 endpoints):\n"
+    );
+    let _ = writeln!(
+        t,
+        "| MCU | model | path | flash B (code + blob) | static RAM B | stack B (golden run / predictor + one call) | instructions per call | insns/MAC | bit-exact with host |"
+    );
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let per = match (r.insns, r.macs) {
+            (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
+            _ => "-".into(),
+        };
+        let _ = writeln!(
+            t,
+            "| {} | {} | {} | {} | {} | {} / {} | {} | {} | {} |",
+            r.mcu,
+            r.model,
+            r.path,
+            opt(r.flash.map(u64::from)),
+            opt(r.ram.map(u64::from)),
+            opt(r.stack_run.map(u64::from)),
+            opt(r.stack_call.map(u64::from)),
+            opt(r.insns),
+            per,
+            match r.bit_exact {
+                Some(true) => "pass",
+                Some(false) => "FAIL",
+                None => "-",
+            }
+        );
+    }
+    let _ = writeln!(
+        t,
+        "\nm0 = {}, m4f = {}, m7 = {}. Instructions are QEMU guest instructions between the bench markers \
+         (TCG plugin firmware/tools/insn_window.c), not cycles. f32 on the M0 is software floating point.",
+        mcu::M0.describe,
+        mcu::M4F.describe,
+        mcu::M7.describe
+    );
+    t
+}
