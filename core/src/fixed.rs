@@ -59,18 +59,23 @@
 //! [`crate::engine::Engine`]`<Q15, W>` holds four `i16` rows and one `i64`
 //! row of `W` (`16·W` bytes). The sine table is 514 bytes of flash.
 //!
-//! # Speed (Cortex-M4)
+//! # Speed (Cortex-M4/M7)
 //!
-//! Weights are read as `[u8; 2]` pairs and activations are packed `i16`, so
-//! that LLVM's ARM parallel-DSP pass turns each pair of MACs into one
-//! unaligned `ldr` of two weights, one `ldr` of two activations and one
-//! `smlald` (dual 16×16 multiply-accumulate into 64 bits: the exact sum
-//! above). Each layer's weights, biases and shifts are walked in one pass
-//! ([`crate::blob::Layer::tensors_q`], no per-row bounds checks), the
-//! activation is chosen once per layer, the rounding shift needs one
-//! variable 64-bit shift, and the decoder's 16 latent columns use a
-//! fixed-length product. `cargo xtask profile` measures the result; see
-//! `firmware/README.md`.
+//! Portable path (every target without the Arm DSP extension, and the
+//! reference): weights are read as `[u8; 2]` pairs and activations are
+//! packed `i16`, so that LLVM's ARM parallel-DSP pass turns each pair of
+//! MACs into `ldr`/`ldr`/`smlald` where it can. On `thumbv7em` (Cortex-M4/M7,
+//! `cfg(all(target_arch = "arm", target_feature = "dsp"))`) the rows go two
+//! at a time through the private `kernels` module: one `LDRD` of four
+//! activations shared by both rows, one unaligned `LDR` of two weights and
+//! one `SMLALD` (two exact 16 × 16 MACs into the 64-bit accumulator) per
+//! row and pair of inputs, 16 inputs per loop iteration; the rest of a row
+//! (fewer than 4 columns, or an unaligned `x`) and an odd last row take the
+//! portable loop. The sums are exact integers either way, so both paths
+//! give the same bits (bound and measurements: `docs/kernels.md`). Each
+//! layer's weights, biases and shifts are walked in one pass
+//! ([`crate::blob::Layer::tensors_q`], no per-row bounds checks), and the
+//! activation is chosen once per layer.
 
 use core::ops::RangeInclusive;
 
@@ -282,7 +287,7 @@ fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
 /// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for the two rows of `g`
 /// (stride `n` bytes), columns from byte `lo`: the portable
 /// [`dot1`]/[`dot_even`] twice, or on a Cortex-M4/M7 the `SMLALD` kernel
-/// ([`crate::kernels::dot2_q15`], two rows per pass) over the longest
+/// (`kernels::dot2_q15`, two rows per pass) over the longest
 /// prefix it takes and [`dot1`] on the rest. Integer sums are exact, so
 /// both give the same `i64`s.
 #[inline(always)]
@@ -337,13 +342,13 @@ fn dot2_rest(g: &[u8], n: usize, lo: usize, x: &[i16], k: usize, a0: i64, a1: i6
 
 /// For each output `o_j` of `out` zipped with `inits` (`(init_j, s_j)`),
 /// calls `f(o_j, init_j + Σ_i q_j,i · x_i, s_j)` (exact, in `i64`), where
-/// row `j` of `w` has `n` bytes and its columns start at byte `lo`: two
+/// row `j` of `w` has `n` bytes and its columns start at byte `lo`
+/// (`(n, lo)`, the second argument): two
 /// rows at a time ([`dot2`]; an odd last row with `dot`).
 #[inline(always)]
 fn rows_with<T>(
     w: &[u8],
-    n: usize,
-    lo: usize,
+    (n, lo): (usize, usize),
     x: &[i16],
     mut inits: impl Iterator<Item = (i64, i8)>,
     out: &mut [T],
@@ -395,7 +400,7 @@ fn accumulate<T>(
         };
         (i64::from(b), s as i8)
     });
-    rows_with(w, 2 * layer.in_dim(), 2 * skip, x, inits, out, f, dot);
+    rows_with(w, (2 * layer.in_dim(), 2 * skip), x, inits, out, f, dot);
 }
 
 /// `dense_q` with the activation chosen once per layer.

@@ -52,7 +52,7 @@ fn row_sum(w: &[u8], x: &[f32], mut s: f32) -> f32 {
     s
 }
 
-/// The columns `k..` that [`crate::kernels::dot4_f32`] left, for the four
+/// The columns `k..` that `kernels::dot4_f32` left, for the four
 /// rows of `g` (stride `n` bytes, columns from byte `lo`), continued with
 /// [`row_sum`] (out of line: compiled once).
 #[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
@@ -70,7 +70,7 @@ fn quad_rest(g: &[u8], n: usize, lo: usize, x: &[f32], k: usize, acc: &mut [f32;
 /// `acc_j += Σ_{i} W[j][col0 + i] · x[i]`, left to right, for `j < acc.len()`.
 ///
 /// On a Cortex-M4F/M7 (`thumbv7em-none-eabihf`) four rows at a time go
-/// through the `VMLA.F32` kernel ([`crate::kernels::dot4_f32`]: the same
+/// through the `VMLA.F32` kernel (`kernels::dot4_f32`: the same
 /// roundings in the same order) for the longest prefix of columns it takes,
 /// and [`row_sum`] continues each row from there; the result is the same
 /// bits as the portable loop.

@@ -21,14 +21,18 @@
 //! # f32: four rows per pass, `VMLA.F32`
 //!
 //! [`dot4_f32`] continues four left-to-right sums `s_j += W_ji · x_i`.
-//! `VMLA.F32 Sd, Sn, Sm` is defined (Arm ARMv7-M ARM, A7.7.239) as
-//! `FPAdd(Sd, FPMul(Sn, Sm))`, each rounded with the FPSCR's rounding
-//! mode, flush-to-zero and default-NaN settings: the same two operations,
-//! in the same operand order, as `VMUL` then `VADD` — what the portable
-//! `s += w * x` compiles to — so the result is bit-identical (it is *not*
-//! a fused multiply-add, which `VFMA` would be). The weights are read
-//! with unaligned `LDR` + `VMOV` (blobs are not 4-byte aligned; `VLDR`
-//! would fault), the input once per four rows.
+//! `VMLA.F32 Sd, Sn, Sm` is defined (Armv7-M Architecture Reference
+//! Manual, VMLA/VMLS pseudocode: `addend32 = FPMul(S[n], S[m], TRUE);
+//! S[d] = FPAdd(S[d], addend32, TRUE)`; the fused `FPMulAdd` belongs to
+//! `VFMA`) as a rounded product then a rounded
+//! sum, each with FPSCR's rounding mode, flush-to-zero and default-NaN
+//! settings: the same two operations, in the same operand order, as
+//! `VMUL` then `VADD` — what the portable `s += w * x` compiles to — so
+//! the result is bit-identical (it is not a fused multiply-add, which
+//! `VFMA` would be). Per four inputs: one `VLDM` of `x_i .. x_i+3` shared by
+//! the four rows; per row either one `VLDM` of four weights (row and stride
+//! 4-byte aligned) or four unaligned `LDR` + two `VMOV` (any alignment:
+//! `VLDR`/`VLDM` would fault), then four `VMLA`.
 
 use core::arch::asm;
 

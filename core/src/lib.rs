@@ -1,7 +1,8 @@
 //! # gpecnet-core
 //!
 //! G-PECNet pedestrian endpoint prediction for microcontrollers: `#![no_std]`,
-//! no heap, no `unsafe`, no panics on any input or blob bytes.
+//! no heap, no panics on any input or blob bytes; `unsafe` only in one private
+//! module of Cortex-M4/M7 inner loops (inline assembly, see below).
 //!
 //! G-PECNet (Garg & Rameshan, ICLR 2024 tiny paper) is PECNet (Mangalam et
 //! al., ECCV 2020) with its ReLUs replaced by SIREN sines. Given the last 8
@@ -67,6 +68,15 @@
 //! firmware; not part of the semver surface, see `tests/public-api.txt`):
 //! `cluster`, `golden`, `math`, `prng`, the blob's wire structs and the
 //! fixed-point quantisation helpers.
+//!
+//! ## `unsafe`
+//! The crate is `#![deny(unsafe_code)]`; the one exception is the private
+//! `kernels` module (`#[allow(unsafe_code)]`), compiled only for
+//! `cfg(all(target_arch = "arm", target_feature = "dsp"))` (`thumbv7em`):
+//! the dense layers' inner loops in inline assembly (`SMLALD` for Q15,
+//! `VMLA.F32` for f32), each block with a `SAFETY:` note. Every other
+//! target runs the portable loops of [`fixed`] and [`float`], which are the
+//! reference; both give the same bits (`docs/kernels.md`).
 //!
 //! ## Features
 //! - `defmt`: `defmt::Format` on public types, for logging on a device.

@@ -461,10 +461,10 @@ fn accumulators_exact_at_extremes() {
             for len in [N, N - 1, 16, 4, 3, 0] {
                 let xs = &xs[..len];
                 let mut part = [0i64; M];
-                Q15::partial(&l, xs, &mut part);
+                Q15::partial(l, xs, &mut part);
                 let mut out = [0i16; M];
                 if len == N {
-                    Q15::dense(&l, xs, &mut out);
+                    Q15::dense(l, xs, &mut out);
                 }
                 for j in 0..M {
                     let want: i128 = i128::from(wide.b[j])
