@@ -593,14 +593,22 @@ pub fn sdd_metres_per_pixel(root: &Path) -> Result<HashMap<String, f64>, DataErr
         }
     })?;
     let mut out = HashMap::new();
-    for (i, raw) in text.split(|&b| b == b'\n').enumerate() {
-        let line = i + 1;
-        let s = std::str::from_utf8(raw).map_err(|_| DataError::Encoding {
+    for rec in crate::csvfile::records(&text) {
+        let (line, rec) = rec.map_err(|e| DataError::BadScale {
             path: path.clone(),
-            line,
+            line: e.position().map_or(0, |p| p.line() as usize),
+            msg: e.to_string(),
         })?;
-        let s = s.trim();
-        if s.is_empty() || (line == 1 && s.starts_with("scene")) {
+        let line = line as usize;
+        let cols = rec
+            .iter()
+            .map(std::str::from_utf8)
+            .collect::<Result<Vec<&str>, _>>()
+            .map_err(|_| DataError::Encoding {
+                path: path.clone(),
+                line,
+            })?;
+        if line == 1 && cols[0].starts_with("scene") {
             continue;
         }
         let bad = |msg: String| DataError::BadScale {
@@ -608,7 +616,6 @@ pub fn sdd_metres_per_pixel(root: &Path) -> Result<HashMap<String, f64>, DataErr
             line,
             msg,
         };
-        let cols: Vec<&str> = s.split(',').map(str::trim).collect();
         if cols.len() != 2 {
             return Err(bad(format!(
                 "expected 2 columns (scene,meters_per_pixel), found {}",

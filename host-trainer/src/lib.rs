@@ -2,6 +2,7 @@
 pub mod checkpoint;
 pub mod config;
 pub mod core_eval;
+pub mod csvfile;
 pub mod data;
 pub mod draw;
 pub mod eval;

@@ -1015,31 +1015,45 @@ fn epoch_line(m: &EpochMetrics, unit: Unit) -> String {
 
 /// Write `metrics.csv` and `metrics.jsonl` (whole history, atomically).
 pub fn write_metrics(run_dir: &Path, history: &[EpochMetrics]) -> Result<()> {
-    let mut csv = String::from(
-        "epoch,train_loss,train_rcl,train_kld,train_adl,val_min_ade,val_min_fde,val_ade_k1,val_fde_k1,val_mean_ade,val_mean_fde,seconds\n",
-    );
     let mut jsonl = String::new();
+    let mut rows = Vec::with_capacity(history.len());
     for m in history {
         let v =
             |f: fn(&Metrics) -> f64| m.val.as_ref().map(|x| f(x).to_string()).unwrap_or_default();
-        csv += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{:.3}\n",
-            m.epoch,
-            m.train_loss,
-            m.train_rcl,
-            m.train_kld,
-            m.train_adl,
+        rows.push([
+            m.epoch.to_string(),
+            m.train_loss.to_string(),
+            m.train_rcl.to_string(),
+            m.train_kld.to_string(),
+            m.train_adl.to_string(),
             v(|x| x.min_ade),
             v(|x| x.min_fde),
             v(|x| x.ade_k1),
             v(|x| x.fde_k1),
             v(|x| x.mean_ade),
             v(|x| x.mean_fde),
-            m.seconds
-        );
+            format!("{:.3}", m.seconds),
+        ]);
         jsonl += &serde_json::to_string(m)?;
         jsonl.push('\n');
     }
+    let csv = crate::csvfile::to_csv(
+        &[
+            "epoch",
+            "train_loss",
+            "train_rcl",
+            "train_kld",
+            "train_adl",
+            "val_min_ade",
+            "val_min_fde",
+            "val_ade_k1",
+            "val_fde_k1",
+            "val_mean_ade",
+            "val_mean_fde",
+            "seconds",
+        ],
+        rows,
+    )?;
     crate::rundir::write_atomic(&run_dir.join("metrics.csv"), csv.as_bytes())?;
     crate::rundir::write_atomic(&run_dir.join("metrics.jsonl"), jsonl.as_bytes())?;
     Ok(())

@@ -30,7 +30,7 @@ fn pool(n: usize) -> Vec<PoolItem> {
 fn write_pool(dir: &Path, n: usize) -> (String, Vec<PoolItem>) {
     let p = pool(n);
     let path = dir.join("pool.csv");
-    std::fs::write(&path, pool_csv(&p)).unwrap();
+    std::fs::write(&path, pool_csv(&p).unwrap()).unwrap();
     (path.to_string_lossy().into_owned(), p)
 }
 

@@ -45,7 +45,7 @@ fn csv_round_trip_and_first_k_percent() {
     let pool = build_pool(50, &shares(&counts()), &policy, 7).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("pool.csv");
-    std::fs::write(&path, pool_csv(&pool)).unwrap();
+    std::fs::write(&path, pool_csv(&pool).unwrap()).unwrap();
     let back = read_pool(&path).unwrap();
     assert_eq!(back, pool);
     let w = take_first_pct(&back, 10.0, 300).unwrap();

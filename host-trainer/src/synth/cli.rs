@@ -27,15 +27,25 @@ pub fn run_abscore(data: &Path, out: &Path, max: Option<f64>, which: Which) -> R
     let train = load_sdd(data, SddSplit::Train)?;
     let test = load_sdd(data, SddSplit::Test)?;
     let mut rep = String::new();
-    let mut csv = String::from("split,scene,ped_id,abscore,abscore_scaled\n");
+    let mut rows = Vec::new();
     let mut all = Vec::new();
     for ds in [&train, &test] {
         let (u, s) = abscore::scores(ds);
         for ((w, a), b) in ds.windows.iter().zip(&u).zip(&s) {
-            let _ = writeln!(csv, "{},{},{},{a},{b}", ds.name, w.scene, w.ped_id);
+            rows.push([
+                ds.name.clone(),
+                w.scene.clone(),
+                w.ped_id.to_string(),
+                a.to_string(),
+                b.to_string(),
+            ]);
         }
         all.push((ds.name.clone(), u, s));
     }
+    let csv = crate::csvfile::to_csv(
+        &["split", "scene", "ped_id", "abscore", "abscore_scaled"],
+        rows,
+    )?;
     let _ = writeln!(rep, "AbScore (unscaled, px²)\n\n{}", Stats::md_header());
     for (n, u, _) in &all {
         let _ = writeln!(rep, "{}", Stats::of(u).md_row(n));
@@ -209,14 +219,17 @@ pub fn run_rl_train(
     out: &Path,
 ) -> Result<(String, agent::Mlp)> {
     let tr = agent::train(episodes, batch, lr, seed);
-    let mut csv = String::from("episodes,mean_reward,mean_final_dist_px,mean_ics\n");
-    for c in &tr.curve {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{}",
-            c.episodes, c.mean_reward, c.mean_final_dist, c.mean_ics
-        );
-    }
+    let csv = crate::csvfile::to_csv(
+        &["episodes", "mean_reward", "mean_final_dist_px", "mean_ics"],
+        tr.curve.iter().map(|c| {
+            [
+                c.episodes.to_string(),
+                c.mean_reward.to_string(),
+                c.mean_final_dist.to_string(),
+                c.mean_ics.to_string(),
+            ]
+        }),
+    )?;
     write(out, "rl_curve.csv", &csv)?;
     let x: Vec<f64> = tr.curve.iter().map(|c| c.episodes as f64).collect();
     let smooth = |f: &dyn Fn(&agent::CurvePoint) -> f64| {
@@ -323,7 +336,7 @@ pub fn run_synth(
         .unwrap_or(Path::new("."));
     let (_, policy) = run_rl_train(rl_episodes, 16, 3e-3, seed, &dir.join("rl"))?;
     let pool = sample::build_pool(n, &sample::shares(&ct), &policy, seed)?;
-    std::fs::write(out_csv, sample::pool_csv(&pool))
+    std::fs::write(out_csv, sample::pool_csv(&pool)?)
         .with_context(|| format!("{}: cannot write", out_csv.display()))?;
     let mut cp = [0usize; 10];
     for it in &pool {

@@ -19,7 +19,6 @@
 //! 20–300 px jump; 5 a constant-velocity walk with 2–4 jumps. Every trajectory is translated into
 //! the SDD pixel range.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
@@ -224,53 +223,60 @@ pub fn build_pool(n: usize, p: &[f64; 10], policy: &Mlp, seed: u64) -> Result<Ve
 }
 
 /// CSV: `index,type,source,x0,y0,…,x19,y19` (one header line).
-pub fn pool_csv(pool: &[PoolItem]) -> String {
-    let mut s = String::from("index,type,source");
-    for k in 0..WINDOW {
-        let _ = write!(s, ",x{k},y{k}");
-    }
-    s.push('\n');
-    for (i, it) in pool.iter().enumerate() {
-        let _ = write!(s, "{i},{},{}", it.ty.label(), it.source.name());
-        for p in &it.traj {
-            let _ = write!(s, ",{},{}", p[0], p[1]);
-        }
-        s.push('\n');
-    }
-    s
+pub fn pool_csv(pool: &[PoolItem]) -> Result<String> {
+    let coords: Vec<String> = (0..WINDOW)
+        .flat_map(|k| [format!("x{k}"), format!("y{k}")])
+        .collect();
+    let header: Vec<&str> = ["index", "type", "source"]
+        .into_iter()
+        .chain(coords.iter().map(String::as_str))
+        .collect();
+    crate::csvfile::to_csv(
+        &header,
+        pool.iter().enumerate().map(|(i, it)| {
+            [
+                i.to_string(),
+                it.ty.label().to_string(),
+                it.source.name().to_string(),
+            ]
+            .into_iter()
+            .chain(it.traj.iter().flatten().map(f32::to_string))
+        }),
+    )
 }
 
 /// Read a pool written by [`pool_csv`].
 pub fn read_pool(path: &Path) -> Result<Vec<PoolItem>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read pool", path.display()))?;
+    let bytes =
+        std::fs::read(path).with_context(|| format!("{}: cannot read pool", path.display()))?;
     let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate().skip(1) {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').collect();
+    for rec in crate::csvfile::records(&bytes).skip(1) {
+        let (line, rec) = rec.with_context(|| format!("{}: bad CSV", path.display()))?;
+        let f = rec
+            .iter()
+            .map(std::str::from_utf8)
+            .collect::<Result<Vec<&str>, _>>()
+            .with_context(|| format!("{}:{line}: not UTF-8", path.display()))?;
         if f.len() != 3 + 2 * WINDOW {
             bail!(
-                "{}:{}: expected {} fields, found {}",
+                "{}:{line}: expected {} fields, found {}",
                 path.display(),
-                i + 1,
                 3 + 2 * WINDOW,
                 f.len()
             );
         }
         let ty = TrajType::from_label(f[1])
-            .with_context(|| format!("{}:{}: bad type {:?}", path.display(), i + 1, f[1]))?;
+            .with_context(|| format!("{}:{line}: bad type {:?}", path.display(), f[1]))?;
         let source = Source::parse(f[2])
-            .with_context(|| format!("{}:{}: bad source {:?}", path.display(), i + 1, f[2]))?;
+            .with_context(|| format!("{}:{line}: bad source {:?}", path.display(), f[2]))?;
         let mut traj = [[0.0f32; 2]; WINDOW];
         for (k, p) in traj.iter_mut().enumerate() {
             for c in 0..2 {
                 let v: f32 = f[3 + 2 * k + c]
                     .parse()
-                    .with_context(|| format!("{}:{}: bad number", path.display(), i + 1))?;
+                    .with_context(|| format!("{}:{line}: bad number", path.display()))?;
                 if !v.is_finite() {
-                    bail!("{}:{}: non-finite coordinate", path.display(), i + 1);
+                    bail!("{}:{line}: non-finite coordinate", path.display());
                 }
                 p[c] = v;
             }

@@ -210,31 +210,43 @@ fn run_point(opts: &SweepOptions, pct: f32, test: &crate::data::Dataset) -> Resu
 }
 
 /// The CSV of the rows.
-pub fn sweep_csv(rows: &[SweepRow]) -> String {
-    let mut s = String::from(
-        "augment_pct,n_real,n_synthetic,n_train_samples,epochs,best_epoch,val_min_ade,val_min_fde,test_min_ade,test_min_fde,test_ade_k1,test_fde_k1,test_k,train_seconds\n",
-    );
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1}",
-            r.pct,
-            r.n_real,
-            r.n_synthetic,
-            r.n_train,
-            r.epochs,
-            r.best_epoch,
-            r.val.min_ade,
-            r.val.min_fde,
-            r.test.min_ade,
-            r.test.min_fde,
-            r.test.ade_k1,
-            r.test.fde_k1,
-            r.test.k,
-            r.train_seconds
-        );
-    }
-    s
+pub fn sweep_csv(rows: &[SweepRow]) -> Result<String> {
+    crate::csvfile::to_csv(
+        &[
+            "augment_pct",
+            "n_real",
+            "n_synthetic",
+            "n_train_samples",
+            "epochs",
+            "best_epoch",
+            "val_min_ade",
+            "val_min_fde",
+            "test_min_ade",
+            "test_min_fde",
+            "test_ade_k1",
+            "test_fde_k1",
+            "test_k",
+            "train_seconds",
+        ],
+        rows.iter().map(|r| {
+            [
+                r.pct.to_string(),
+                r.n_real.to_string(),
+                r.n_synthetic.to_string(),
+                r.n_train.to_string(),
+                r.epochs.to_string(),
+                r.best_epoch.to_string(),
+                r.val.min_ade.to_string(),
+                r.val.min_fde.to_string(),
+                r.test.min_ade.to_string(),
+                r.test.min_fde.to_string(),
+                r.test.ade_k1.to_string(),
+                r.test.fde_k1.to_string(),
+                r.test.k.to_string(),
+                format!("{:.1}", r.train_seconds),
+            ]
+        }),
+    )
 }
 
 /// The markdown table of the rows.
@@ -269,7 +281,7 @@ pub fn sweep_md(opts: &SweepOptions, rows: &[SweepRow]) -> String {
 }
 
 fn write_tables(opts: &SweepOptions, rows: &[SweepRow]) -> Result<()> {
-    write_atomic(&opts.out.join("sweep.csv"), sweep_csv(rows).as_bytes())?;
+    write_atomic(&opts.out.join("sweep.csv"), sweep_csv(rows)?.as_bytes())?;
     write_atomic(&opts.out.join("sweep.md"), sweep_md(opts, rows).as_bytes())?;
     Ok(())
 }
