@@ -320,7 +320,7 @@ fn dot2(
 /// when it would run past its row (as the one-row walk has it).
 #[inline(always)]
 fn pair_rows(g: &[u8], n: usize, lo: usize, len: usize) -> (&[u8], &[u8]) {
-    if lo + len > n {
+    if lo.saturating_add(len) > n {
         return (&[], &[]);
     }
     (
@@ -355,9 +355,8 @@ fn rows_with<T>(
     mut f: impl FnMut(&mut T, i64, i8),
     dot: impl Fn(&[u8], &[i16], i64) -> i64,
 ) {
-    let mut outs = out.chunks_exact_mut(2);
     let mut done = 0;
-    for (o, g) in (&mut outs).zip(w.chunks_exact(2 * n.max(1))) {
+    for (o, g) in out.chunks_exact_mut(2).zip(w.chunks_exact(2 * n.max(1))) {
         let (Some((i0, s0)), Some((i1, s1))) = (inits.next(), inits.next()) else {
             return;
         };
@@ -368,13 +367,13 @@ fn rows_with<T>(
         }
         done += 2;
     }
-    if let (Some(o), Some((i0, s0))) = (outs.into_remainder().first_mut(), inits.next()) {
-        let start = done * n + lo;
-        let row = if lo + 2 * x.len() > n {
-            &[]
-        } else {
-            w.get(start..start + 2 * x.len()).unwrap_or(&[])
-        };
+    // One row left over (odd `out_dim`, or fewer rows than `out`).
+    if let (Some(o), Some(row), Some((i0, s0))) = (
+        out.get_mut(done),
+        w.chunks_exact(n.max(1)).nth(done),
+        inits.next(),
+    ) {
+        let row = row.get(lo..lo.saturating_add(2 * x.len())).unwrap_or(&[]);
         f(o, dot(row, x, i0), s0);
     }
 }
@@ -495,8 +494,7 @@ fn latent_with(
         let inits = part.iter().zip(shifts).map(|(&p, &s)| (p, s as i8));
         rows_with(
             w,
-            n,
-            2 * skip,
+            (n, 2 * skip),
             z,
             inits,
             out,

@@ -52,7 +52,11 @@ pub(crate) fn dot2_q15(
     a1: i64,
 ) -> (i64, i64, usize) {
     let k = x.len() & !3;
-    if k == 0 || (x.as_ptr() as usize) & 3 != 0 || g.len() / 2 < n || lo + 2 * x.len() > n {
+    if k == 0
+        || (x.as_ptr() as usize) & 3 != 0
+        || g.len() / 2 < n
+        || lo.saturating_add(2 * x.len()) > n
+    {
         return (a0, a1, 0);
     }
     let (mut a0l, mut a0h) = (a0 as u32, (a0 >> 32) as u32);
@@ -60,8 +64,8 @@ pub(crate) fn dot2_q15(
     // SAFETY: reads `x[..k]` (k ≤ x.len()) with `LDRD` at 4-byte aligned
     // addresses (`x` is 4-byte aligned, checked above, and advances by 8),
     // and bytes `[lo, lo + 2k)` and `[n + lo, n + lo + 2k)` of `g` (both
-    // inside `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) with `LDR` at `p` and
-    // `p + n`, `p` walking row 0 from `g + lo`. `LDR` may be unaligned: the
+    // inside `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) with
+    // `LDR` at `p` and `p + n`, `p` walking row 0 from `g + lo`. `LDR` may be unaligned: the
     // Cortex-M4/M7 allow it on normal memory (flash and SRAM;
     // `CCR.UNALIGN_TRP` is 0 out of reset and the firmware never sets it).
     // No writes to memory, no stack; the flags are clobbered (asm! assumes

@@ -465,6 +465,15 @@ fn accumulators_exact_at_extremes() {
                 let mut out = [0i16; M];
                 if len == N {
                     Q15::dense(l, xs, &mut out);
+                    // A longer output slice: the layer's rows only, the
+                    // rest untouched; a shorter one: its prefix.
+                    let mut longer = [7i16; M + 3];
+                    Q15::dense(l, xs, &mut longer);
+                    assert_eq!(longer[..M], out);
+                    assert_eq!(longer[M..], [7; 3]);
+                    let mut shorter = [0i16; M - 4];
+                    Q15::dense(l, xs, &mut shorter);
+                    assert_eq!(shorter, out[..M - 4]);
                 }
                 for j in 0..M {
                     let want: i128 = i128::from(wide.b[j])
