@@ -596,19 +596,8 @@ pub const GOLDEN_STRIDE: usize = 10;
 /// `cal_stride`-th SDD training window, `cal_k` latent samples each) and
 /// writes `<out>.gpec/.golden/.json/.md`, the numbers computed through
 /// `gpecnet-core` and cross-checked bit for bit against the integer reference.
-pub fn quantize_blob(
-    src: &std::path::Path,
-    out: &std::path::Path,
-    data_root: &std::path::Path,
-    k: usize,
-    base_seed: u64,
-    cal_stride: usize,
-    cal_k: usize,
-) -> Result<QuantCard> {
-    quantize_blob_with(src, out, data_root, k, base_seed, cal_stride, cal_k, false)
-}
-
-/// [`quantize_blob`], optionally `endpoint_only`: `encoder_dest` and
+///
+/// With `endpoint_only`: `encoder_dest` and
 /// `predictor` are dropped (the format allows both absent), so the blob holds
 /// only what endpoint prediction runs (`encoder_past` + `decoder`, about half
 /// the parameters); trajectories are then the straight line from the last

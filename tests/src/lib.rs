@@ -2,6 +2,9 @@
 
 use std::path::PathBuf;
 
+use gpecnet_core::golden::GoldenSet;
+use gpecnet_core::{Model, Predictor, Sine};
+
 use gpecnet_trainer::network::{Act, Layer, Networks};
 use gpecnet_trainer::reference::{RefConfig, RefModel};
 
@@ -127,4 +130,40 @@ pub fn with_v2_features(
     m.config.tts_iters = if tts > 0 { 3 } else { 0 };
     m.config.tts_init = 0;
     m
+}
+
+/// Replays every case of `golden` through `gpecnet_core::Predictor` with sine `S` (the engine
+/// of the blob's numeric kind): the endpoint set, the point forecast and sample 0's trajectory
+/// where recorded. Returns how many values differ from the recorded bits.
+pub fn replay_golden<S: Sine>(model: &Model<'_>, golden: &GoldenSet<'_>) -> usize {
+    let mut p = Box::new(Predictor::<S, 1024>::new(*model).unwrap());
+    let mut bad = 0;
+    for case in golden.cases() {
+        // The model's endpoint set (test-time sampling when the blob asks for it).
+        let mut ends = vec![[0.0f32; 2]; case.k()];
+        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(
+            &case.past, case.seed, &mut ends,
+        )
+        .unwrap();
+        for (i, e) in ends.iter().enumerate() {
+            bad += usize::from(e.map(f32::to_bits) != case.endpoint_bits(i));
+        }
+        // The point forecast, recorded for models with a point head (golden version 2).
+        assert_eq!(model.has_point_head(), case.point_len() > 0);
+        if model.has_point_head() {
+            let t = p.predict_point(&case.past).unwrap();
+            for (j, pt) in t.iter().enumerate() {
+                bad += usize::from(Some(pt.map(f32::to_bits)) != case.point_bits(j));
+            }
+        }
+        if case.trajectory0_len() > 0 {
+            let mut t = [gpecnet_core::Trajectory::new()];
+            p.predict_trajectories(&case.past, case.seed, &mut t)
+                .unwrap();
+            for (j, pt) in t[0].iter().enumerate() {
+                bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));
+            }
+        }
+    }
+    bad
 }

@@ -1,11 +1,12 @@
 //! Every shipped fixed-point blob (`weights/*-q.gpec`, `NumericKind::Int16Q15`):
-//! its golden vectors replay bit for bit through `gpecnet_core`'s fixed-point engine (`Engine<Q15>`),
+//! its golden vectors replay bit for bit through `gpecnet_core::Predictor` (its fixed-point engine,
+//! `Engine<Q15>`),
 //! and re-evaluating the SDD test set through `gpecnet-core` reproduces its card.
 
 use gpecnet_core::blob::NumericKind;
 use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::Model;
-use gpecnet_tests::{data_root, shipped_blobs};
+use gpecnet_core::{LibmSine, Model};
+use gpecnet_tests::{data_root, replay_golden, shipped_blobs};
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::eval::dist_metrics;
 use gpecnet_trainer::quantize::{evaluate_core_fixed, QuantCard};
@@ -48,36 +49,7 @@ fn fixed_golden_vectors_replay_bit_exact() {
         let golden = GoldenSet::parse(&gbytes).unwrap();
         assert_eq!(golden.info().model_crc, model.crc(), "{}", path.display());
         assert_eq!(golden.info().sine, "q15-table");
-        let mut p =
-            Box::new(gpecnet_core::Engine::<gpecnet_core::fixed::Q15, 1024>::new(model).unwrap());
-        let mut bad = 0usize;
-        for case in golden.cases() {
-            // The model's endpoint set (test-time sampling when the blob asks for it).
-            let mut ends = vec![[0.0f32; 2]; case.k()];
-            p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(
-                &case.past, case.seed, &mut ends,
-            )
-            .unwrap();
-            for (i, e) in ends.iter().enumerate() {
-                bad += usize::from(e.map(f32::to_bits) != case.endpoint_bits(i));
-            }
-            // The point forecast, recorded for models with a point head (golden version 2).
-            assert_eq!(model.has_point_head(), case.point_len() > 0);
-            if model.has_point_head() {
-                let t = p.predict_point(&case.past).unwrap();
-                for (j, pt) in t.iter().enumerate() {
-                    bad += usize::from(Some(pt.map(f32::to_bits)) != case.point_bits(j));
-                }
-            }
-            if case.trajectory0_len() > 0 {
-                let mut t = [gpecnet_core::Trajectory::new()];
-                p.predict_trajectories(&case.past, case.seed, &mut t)
-                    .unwrap();
-                for (j, pt) in t[0].iter().enumerate() {
-                    bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));
-                }
-            }
-        }
+        let bad = replay_golden::<LibmSine>(&model, &golden);
         assert_eq!(
             bad,
             0,

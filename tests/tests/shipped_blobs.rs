@@ -3,8 +3,8 @@
 //! whole SDD test set through `gpecnet-core` reproduces its model card exactly.
 
 use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine};
-use gpecnet_tests::{data_root, shipped_blobs};
+use gpecnet_core::{FastSine, LibmSine, Model, NumericKind};
+use gpecnet_tests::{data_root, replay_golden, shipped_blobs};
 use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::eval::dist_metrics;
@@ -20,39 +20,6 @@ fn f32_blobs() -> Vec<std::path::PathBuf> {
             Model::from_blob(&b).is_ok_and(|m| m.numeric() == NumericKind::F32)
         })
         .collect()
-}
-
-fn replay_core<S: Sine>(model: &Model<'_>, golden: &GoldenSet<'_>) -> usize {
-    let mut p = Box::new(Predictor::<S, 1024>::new(*model).unwrap());
-    let mut bad = 0;
-    for case in golden.cases() {
-        // The model's endpoint set (test-time sampling when the blob asks for it).
-        let mut ends = vec![[0.0f32; 2]; case.k()];
-        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(
-            &case.past, case.seed, &mut ends,
-        )
-        .unwrap();
-        for (i, e) in ends.iter().enumerate() {
-            bad += usize::from(e.map(f32::to_bits) != case.endpoint_bits(i));
-        }
-        // The point forecast, recorded for models with a point head (golden version 2).
-        assert_eq!(model.has_point_head(), case.point_len() > 0);
-        if model.has_point_head() {
-            let t = p.predict_point(&case.past).unwrap();
-            for (j, pt) in t.iter().enumerate() {
-                bad += usize::from(Some(pt.map(f32::to_bits)) != case.point_bits(j));
-            }
-        }
-        if case.trajectory0_len() > 0 {
-            let mut t = [gpecnet_core::Trajectory::new()];
-            p.predict_trajectories(&case.past, case.seed, &mut t)
-                .unwrap();
-            for (j, pt) in t[0].iter().enumerate() {
-                bad += usize::from(Some(pt.map(f32::to_bits)) != case.trajectory0_bits(j));
-            }
-        }
-    }
-    bad
 }
 
 #[test]
@@ -94,8 +61,8 @@ fn golden_vectors_replay_bit_exact() {
         );
         assert!(golden.info().n_cases >= 200, "a few hundred cases expected");
         let bad = match golden.info().sine {
-            "libm" => replay_core::<LibmSine>(&model, &golden),
-            "fast-f32" => replay_core::<FastSine>(&model, &golden),
+            "libm" => replay_golden::<LibmSine>(&model, &golden),
+            "fast-f32" => replay_golden::<FastSine>(&model, &golden),
             other => panic!("unknown sine {other}"),
         };
         assert_eq!(
