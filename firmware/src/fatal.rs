@@ -140,8 +140,9 @@ fn recurse(n: u32) -> u32 {
     }
 }
 
-/// `force-panic` / `force-hardfault` / `force-stack-overflow`: prove the
-/// failure paths end in exit 1.
+/// `force-panic` / `force-hardfault` / `force-stack-overflow` / `force-hang`:
+/// prove the failure paths end in exit 1 (`force-corrupt-blob` acts in
+/// build.rs: the golden run then rejects the blob and fails).
 pub fn self_tests() {
     if cfg!(feature = "force-stack-overflow") {
         defmt::println!("force-stack-overflow: recursing");
@@ -152,6 +153,12 @@ pub fn self_tests() {
         defmt::println!("force-hardfault: executing udf");
         // UsageFault (disabled) escalates to HardFault.
         cortex_m::asm::udf();
+    }
+    if cfg!(feature = "force-hang") {
+        defmt::println!("force-hang: spinning without feeding the watchdog");
+        loop {
+            core::hint::spin_loop();
+        }
     }
     if cfg!(feature = "force-panic") {
         let v = core::hint::black_box(7u32);

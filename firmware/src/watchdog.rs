@@ -1,8 +1,16 @@
-//! Independent watchdog for the real-board build (`--features board`): a hung
-//! task (a deadlock, a runaway loop) resets the MCU after about
-//! [`TIMEOUT_MS`] instead of leaving the outputs in their last state.
-//! Without `board` both functions do nothing: the QEMU machines do not model
-//! these watchdogs, and the QEMU runs are bounded by the runner's timeout.
+//! Catching a hung task (a deadlock, a runaway loop): [`start`] once, then
+//! [`feed`] from the work loop (each demo frame, golden line, profiled model).
+//!
+//! * Real board (`--features board`): the chip's independent watchdog resets
+//!   the MCU about [`TIMEOUT_MS`] after the last feed, instead of leaving the
+//!   outputs in their last state.
+//! * QEMU (default): the machines do not model these watchdogs, so a
+//!   timer-driven supervisor stands in: SysTick interrupts every 10 ms of
+//!   emulated time, and when [`QEMU_TIMEOUT_MS`] pass without a feed its
+//!   handler logs `watchdog: no feed ... a task hung` and ends the run in the
+//!   defined fatal state (exit 1). `cargo xtask fw-faults` proves it with
+//!   `--features force-hang`. The `profile` build leaves SysTick off, so no
+//!   interrupt lands in the measured instruction window.
 //!
 //! Untested on hardware (no board in CI). Per chip:
 //! * STM32F405 / STM32F767 (`chip-stm32f405`, `chip-stm32f767`): the IWDG at
@@ -29,8 +37,65 @@ const WDT: usize = 0x4001_0000;
 #[cfg(all(feature = "board", feature = "chip-nrf51"))]
 const WDT_RELOAD: u32 = 0x6E52_4635;
 
+/// Timeout of the QEMU supervisor: generous, because emulated time runs at
+/// the host's pace and a busy CI machine slows the guest down.
+#[cfg(not(feature = "board"))]
+pub const QEMU_TIMEOUT_MS: u32 = 10_000;
+
+/// Core clock the QEMU machine gives SysTick (its processor clock source).
+#[cfg(all(not(feature = "board"), feature = "chip-nrf51"))]
+const CPU_HZ: u32 = 16_000_000;
+#[cfg(all(not(feature = "board"), feature = "chip-mps2-an500"))]
+const CPU_HZ: u32 = 25_000_000;
+#[cfg(all(
+    not(feature = "board"),
+    not(any(feature = "chip-nrf51", feature = "chip-mps2-an500"))
+))]
+const CPU_HZ: u32 = 168_000_000;
+
+/// SysTick periods (10 ms) since [`start`], counted by the handler only.
+#[cfg(not(feature = "board"))]
+static TICKS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+/// [`TICKS`] at the last [`feed`].
+#[cfg(not(feature = "board"))]
+static FED_AT: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+/// The QEMU supervisor: counts 10 ms periods and ends the run when the work
+/// loop has not fed for [`QEMU_TIMEOUT_MS`]. Load/store only (no
+/// read-modify-write atomics, which the Cortex-M0 lacks): only this handler
+/// writes `TICKS`, only `feed` writes `FED_AT`.
+#[cfg(not(feature = "board"))]
+#[cortex_m_rt::exception]
+fn SysTick() {
+    use core::sync::atomic::Ordering::Relaxed;
+    let now = TICKS.load(Relaxed).wrapping_add(1);
+    TICKS.store(now, Relaxed);
+    let idle = now.wrapping_sub(FED_AT.load(Relaxed));
+    if idle.saturating_mul(10) >= QEMU_TIMEOUT_MS {
+        defmt::error!(
+            "watchdog: no feed for {=u32} ms: a task hung",
+            idle.saturating_mul(10)
+        );
+        crate::fatal::exit(1);
+    }
+}
+
 /// Starts the watchdog (cannot be stopped again until reset).
 pub fn start() {
+    // Not in the profile build: an interrupt inside the measured window would
+    // add its instructions to the count (the runner's timeout bounds that run).
+    #[cfg(not(any(feature = "board", feature = "profile")))]
+    {
+        // SAFETY: the SysTick registers are owned by this module alone (nothing
+        // else in the firmware uses SysTick, embassy-time is not linked); they are
+        // programmed once, here, before the executor starts.
+        let mut syst = unsafe { cortex_m::Peripherals::steal() }.SYST;
+        syst.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
+        syst.set_reload(CPU_HZ / 100 - 1);
+        syst.clear_current();
+        syst.enable_interrupt();
+        syst.enable_counter();
+    }
     #[cfg(all(
         feature = "board",
         any(feature = "chip-stm32f405", feature = "chip-stm32f767")
@@ -61,6 +126,11 @@ pub fn start() {
 /// Reloads the watchdog: call at least every [`TIMEOUT_MS`] from the main loop.
 #[inline]
 pub fn feed() {
+    #[cfg(not(feature = "board"))]
+    FED_AT.store(
+        TICKS.load(core::sync::atomic::Ordering::Relaxed),
+        core::sync::atomic::Ordering::Relaxed,
+    );
     #[cfg(all(
         feature = "board",
         any(feature = "chip-stm32f405", feature = "chip-stm32f767")

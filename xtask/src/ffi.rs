@@ -11,7 +11,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use super::{deb_cargo, require, root, status, TARGET};
+use crate::root;
+use crate::toolchain::{deb_cargo, require, status, TARGET};
 
 /// Fixed-point models (an f32 model through `libm::sinf` in f64 emulation takes minutes in QEMU).
 const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-tiny-qe"];

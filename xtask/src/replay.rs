@@ -11,11 +11,12 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
+use crate::elf::read_elf;
+use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::mcu::{self, Mcu};
-use crate::{
-    defmt_decode, die, field, fw_cargo, host_cargo, output, plugin, read_elf, require, root, show,
-    weights_dir, Opts,
-};
+use crate::profile::{blob_is_fixed, defmt_decode, field, plugin, FIXED_PATH};
+use crate::toolchain::{host_cargo, output, require, show};
+use crate::{die, root};
 
 /// What one class's golden replay found, per model.
 struct Replay {
@@ -92,7 +93,7 @@ fn high_water(text: &str) -> Option<u32> {
 pub fn qemu(o: &Opts) -> i32 {
     require(true);
     let dir = weights_dir(o);
-    let models = crate::require_models(&dir);
+    let models = require_models(&dir);
     let classes: Vec<&Mcu> = if o.all_targets {
         mcu::ALL.to_vec()
     } else {
@@ -323,8 +324,8 @@ fn profile_class(
     for m in all {
         match fit(dir, m, mcu) {
             Ok(_) => {
-                let path = if crate::blob_is_fixed(&dir.join(format!("{m}.gpec"))) {
-                    crate::FIXED_PATH
+                let path = if blob_is_fixed(&dir.join(format!("{m}.gpec"))) {
+                    FIXED_PATH
                 } else {
                     "fast-f32"
                 };

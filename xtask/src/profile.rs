@@ -1,0 +1,372 @@
+//! `cargo xtask profile`: one image per model and numeric path on the
+//! STM32F405 in QEMU, the instruction count of one K = 20 call from the TCG
+//! plugin (firmware/tools/insn_window.c), the per-function split, flash,
+//! RAM and stack; the table in target/fw-profile/profile.md.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use crate::elf::read_elf;
+use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
+use crate::toolchain::{output, require, show, status, which};
+use crate::{die, mcu, root};
+
+/// Numeric paths profiled for F32 blobs (gpecnet_core::sine::*::NAME).
+pub(crate) const SINES: &[&str] = &["libm", "fast-f32", "micromath"];
+/// The numeric path of Int16Q15 blobs (gpecnet_core::fixed::SINE_NAME).
+pub(crate) const FIXED_PATH: &str = "q15-table";
+/// Issue 6 targets for the small model in fixed point.
+pub(crate) const TARGET_INSNS: u64 = 300_000;
+/// Issue 10's budget for one call of a model with a point head: the point forecast plus the
+/// model's 20 endpoints (test-time sampling included), fixed point.
+pub(crate) const TARGET_INSNS_POINT: u64 = 1_500_000;
+pub(crate) const TARGET_CODE_WEIGHTS: u32 = 64 * 1024;
+
+pub(crate) fn plugin() -> PathBuf {
+    let src = root().join("firmware/tools/insn_window.c");
+    let so = root().join("firmware/tools/libinsn_window.so");
+    let stale = |p: &Path| p.metadata().and_then(|m| m.modified()).ok();
+    if stale(&so).is_none() || stale(&so) < stale(&src) {
+        if which("gcc").is_none() {
+            die("gcc is needed to build the QEMU plugin firmware/tools/insn_window.c: apt-get install gcc");
+        }
+        let mut c = Command::new("gcc");
+        c.args(["-O2", "-Wall", "-shared", "-fPIC", "-o"])
+            .arg(&so)
+            .arg(&src);
+        if status(c) != 0 {
+            die("building the QEMU plugin failed");
+        }
+    }
+    so
+}
+
+/// The firmware's defmt stream as text (see [`crate::defmt`]); a decode
+/// failure ends xtask with its message.
+pub(crate) fn defmt_decode(elf: &Path, raw: &[u8]) -> String {
+    crate::defmt::decode(elf, raw).unwrap_or_else(|e| die(&e))
+}
+
+pub(crate) fn field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
+    line.split_whitespace()
+        .find_map(|w| w.strip_prefix(key).and_then(|r| r.strip_prefix('=')))
+}
+
+pub(crate) struct ProfRow {
+    model: String,
+    sine: String,
+    blob: u32,
+    /// Bytes of the functions that executed inside the measured window.
+    exec_code: Option<u32>,
+    /// (function, instructions in the window), most first.
+    hot: Vec<(String, u64)>,
+    flash: u32,
+    text: u32,
+    rodata: u32,
+    ram: u32,
+    stack_total: Option<u32>,
+    stack_predict: Option<u32>,
+    predictor: Option<u32>,
+    insns: Option<u64>,
+    macs: Option<u64>,
+    hash: String,
+}
+
+/// Whether a blob is fixed point: the `numeric` byte after "GPEC" + version 1 (one varint byte).
+pub(crate) fn blob_is_fixed(path: &Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .is_some_and(|b| b.len() > 5 && &b[..4] == b"GPEC" && b[5] == 1)
+}
+
+/// Folds the plugin's per-PC counts ("0xPC n" lines) into functions:
+/// (instructions per function, most first; bytes of the functions that ran).
+pub(crate) fn fold_profile(prof: &Path, funcs: &[(u32, u32, String)]) -> (Vec<(String, u64)>, u32) {
+    let text = std::fs::read_to_string(prof).unwrap_or_default();
+    let mut per: BTreeMap<usize, u64> = BTreeMap::new();
+    let mut unknown = 0u64;
+    for l in text.lines() {
+        let mut it = l.split_whitespace();
+        let (Some(pc), Some(n)) = (it.next(), it.next()) else {
+            continue;
+        };
+        let (Some(pc), Ok(n)) = (
+            u32::from_str_radix(pc.trim_start_matches("0x"), 16).ok(),
+            n.parse::<u64>(),
+        ) else {
+            continue;
+        };
+        if n == 0 {
+            continue;
+        }
+        let i = funcs.partition_point(|f| f.0 <= pc);
+        match i.checked_sub(1).map(|i| (i, &funcs[i])) {
+            Some((i, f)) if pc < f.0 + f.1.max(2) => *per.entry(i).or_default() += n,
+            _ => unknown += n,
+        }
+    }
+    let code = per.keys().map(|&i| funcs[i].1).sum();
+    let mut hot: Vec<(String, u64)> = per
+        .into_iter()
+        .map(|(i, n)| (funcs[i].2.clone(), n))
+        .collect();
+    if unknown > 0 {
+        hot.push(("?".into(), unknown));
+    }
+    hot.sort_by_key(|b| std::cmp::Reverse(b.1));
+    (hot, code)
+}
+
+/// Whether the blob at `path` has a point-forecast head (format 2).
+pub(crate) fn blob_has_point_head(path: &std::path::Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .and_then(|b| {
+            gpecnet_core::Model::from_blob(&b)
+                .ok()
+                .map(|m| m.has_point_head())
+        })
+        .unwrap_or(false)
+}
+
+pub(crate) fn profile(o: &Opts) -> i32 {
+    require(true);
+    let dir = weights_dir(o);
+    let models = require_models(&dir);
+    let so = plugin();
+    let out_dir = root().join("target/fw-profile");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let mut rows = Vec::new();
+    let mut failed = false;
+    for m in &models {
+        let blob_path = dir.join(format!("{m}.gpec"));
+        let blob_len = std::fs::metadata(&blob_path).map_or(0, |md| md.len() as u32);
+        let paths: &[&str] = if blob_is_fixed(&blob_path) {
+            &[FIXED_PATH]
+        } else {
+            SINES
+        };
+        for &sine in paths {
+            let mut c = fw_cargo(o);
+            c.env("GPECNET_MODELS", m).env("GPECNET_SINE", sine);
+            c.arg("build");
+            mcu::M4F.firmware_args(&mut c, &root(), &["profile", "micromath"]);
+            let (rc, _, err) = output(c);
+            if rc != 0 {
+                eprintln!("{err}");
+                die(&format!("profile build {m}/{sine} failed"));
+            }
+            let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
+            std::fs::copy(mcu::M4F.elf(&root()), &elf_copy).unwrap();
+            let elf = read_elf(&elf_copy);
+            let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
+                (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
+                _ => die("bench_start/bench_end missing or merged in the profile ELF"),
+            };
+            let log = out_dir.join(format!("{m}-{sine}.plugin.log"));
+            let pcprof = out_dir.join(format!("{m}-{sine}.pcprof"));
+            let _ = std::fs::remove_file(&pcprof);
+            let mut q = Command::new("qemu-system-arm");
+            q.args([
+                "-machine",
+                "netduinoplus2",
+                "-nographic",
+                "-monitor",
+                "none",
+                "-serial",
+                "null",
+            ])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .arg("-plugin")
+            .arg(format!(
+                "{},start={s:#x},end={e:#x},profile={},base=0x08000000",
+                so.display(),
+                pcprof.display()
+            ))
+            .args(["-d", "plugin", "-D"])
+            .arg(&log)
+            .arg("-kernel")
+            .arg(&elf_copy);
+            eprintln!("xtask: $ {}", show(&q));
+            let qo = q
+                .stdin(Stdio::null())
+                .output()
+                .unwrap_or_else(|e| die(&format!("qemu-system-arm: {e}")));
+            let text = defmt_decode(&elf_copy, &qo.stdout);
+            let plog = std::fs::read_to_string(&log).unwrap_or_default();
+            let insns = plog.lines().find_map(|l| {
+                l.strip_prefix("window 0 insns ")
+                    .and_then(|n| n.trim().parse::<u64>().ok())
+            });
+            let pline = text
+                .lines()
+                .find(|l| l.contains("profile ") && l.contains("sine="));
+            let stack_total = text
+                .lines()
+                .find_map(|l| l.split("high-water ").nth(1))
+                .and_then(|r| r.split_whitespace().next())
+                .and_then(|n| n.parse().ok());
+            if qo.status.code() != Some(0) || pline.is_none() || insns.is_none() {
+                eprintln!("{text}{plog}");
+                eprintln!(
+                    "xtask: profile run {m}/{sine} failed (exit {:?})",
+                    qo.status.code()
+                );
+                failed = true;
+            }
+            let (hot, exec_code) = fold_profile(&pcprof, &elf.functions);
+            let mut hot_txt = String::new();
+            let total: u64 = hot.iter().map(|h| h.1).sum();
+            for (name, n) in &hot {
+                let _ = writeln!(
+                    hot_txt,
+                    "{n:>10} {:5.1}%  {name}",
+                    100.0 * *n as f64 / total.max(1) as f64
+                );
+            }
+            let _ = std::fs::write(out_dir.join(format!("{m}-{sine}.hot.txt")), hot_txt);
+            rows.push(ProfRow {
+                model: m.clone(),
+                sine: sine.to_string(),
+                blob: blob_len,
+                exec_code: (exec_code > 0).then_some(exec_code),
+                hot,
+                flash: elf.flash(),
+                text: elf.section(".text"),
+                rodata: elf.section(".rodata"),
+                ram: elf.ram(),
+                stack_total,
+                stack_predict: pline
+                    .and_then(|l| field(l, "predict_stack"))
+                    .and_then(|v| v.parse().ok()),
+                predictor: pline
+                    .and_then(|l| field(l, "predictor_size"))
+                    .and_then(|v| v.parse().ok()),
+                insns,
+                macs: pline
+                    .and_then(|l| field(l, "macs"))
+                    .and_then(|v| v.parse().ok()),
+                hash: pline
+                    .and_then(|l| field(l, "hash"))
+                    .unwrap_or("-")
+                    .to_string(),
+            });
+        }
+    }
+    let opt = |v: Option<u64>| v.map_or("-".to_string(), |v| v.to_string());
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "Profile: release (opt-level 3, fat LTO), thumbv7em-none-eabihf, QEMU netduinoplus2 (STM32F405), one prediction K = 20\n"
+    );
+    let _ = writeln!(
+        t,
+        "| model | path | flash B (.text / .rodata) | blob B | predict code B | code + weights B | static RAM B | stack peak B (run / predict) | Predictor B | instructions (K=20) | MACs (K=20) | insns/MAC | output fnv32 |"
+    );
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in &rows {
+        let per = match (r.insns, r.macs) {
+            (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
+            _ => "-".into(),
+        };
+        let _ = writeln!(
+            t,
+            "| {} | {} | {} ({} / {}) | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} |",
+            r.model,
+            r.sine,
+            r.flash,
+            r.text,
+            r.rodata,
+            r.blob,
+            opt(r.exec_code.map(u64::from)),
+            opt(r.exec_code.map(|c| u64::from(c + r.blob))),
+            r.ram,
+            opt(r.stack_total.map(|v: u32| v as u64)),
+            opt(r.stack_predict.map(|v: u32| v as u64)),
+            opt(r.predictor.map(|v: u32| v as u64)),
+            opt(r.insns),
+            opt(r.macs),
+            per,
+            r.hash
+        );
+    }
+    let _ = writeln!(t, "\nWhere the instructions go (top functions in the window; full lists in target/fw-profile/<model>-<path>.hot.txt):\n");
+    for r in &rows {
+        let total: u64 = r.hot.iter().map(|h| h.1).sum();
+        let top: Vec<String> = r
+            .hot
+            .iter()
+            .take(5)
+            .map(|(n, c)| {
+                format!(
+                    "{:.1}% `{}`",
+                    100.0 * *c as f64 / total.max(1) as f64,
+                    short_name(n)
+                )
+            })
+            .collect();
+        let _ = writeln!(t, "- {} / {}: {}", r.model, r.sine, top.join(", "));
+    }
+    for r in rows.iter().filter(|r| r.sine == FIXED_PATH) {
+        // A format-2 model with a point head is held to issue 10's budget for the whole call.
+        let with_point = blob_has_point_head(&dir.join(format!("{}.gpec", r.model)));
+        let (target, what) = if with_point {
+            (
+                TARGET_INSNS_POINT,
+                "issue 10, fixed point, point forecast + 20 endpoints",
+            )
+        } else {
+            (TARGET_INSNS, "issue 6, fixed point, K = 20")
+        };
+        let insns_ok = r.insns.is_some_and(|i| i < target);
+        let size_ok = r
+            .exec_code
+            .is_some_and(|c| c + r.blob < TARGET_CODE_WEIGHTS);
+        let _ = writeln!(
+            t,
+            "\nTarget of {} ({what}): < {target} instructions: {} ({}); \
+             code + weights < {TARGET_CODE_WEIGHTS} B: {} ({} B = {} B blob + {} B predict code; whole image {} B incl. runtime, defmt, vector table).",
+            r.model,
+            if insns_ok { "MET" } else { "NOT MET" },
+            opt(r.insns),
+            if size_ok { "MET" } else { "NOT MET" },
+            opt(r.exec_code.map(|c| u64::from(c + r.blob))),
+            r.blob,
+            opt(r.exec_code.map(u64::from)),
+            r.flash
+        );
+    }
+    let _ = writeln!(
+        t,
+        "\nInstructions are QEMU guest instructions between bench_start and bench_end (TCG plugin \
+         firmware/tools/insn_window.c), not Cortex-M4 cycles; see firmware/README.md to convert. \
+         Stack: whole-run peak (painted at boot) / extra depth of the measured call (point forecast + endpoint set) on top of the \
+         Predictor, whose scratch (Predictor B) lives in the caller's frame. MACs from the blob's layer dims \
+         (Model::endpoint_macs). Predict code: bytes of the functions that executed between the markers \
+         (per-PC plugin profile folded with llvm-nm; constant tables such as the 514 B sine table are in \
+         .rodata, not counted)."
+    );
+    print!("{t}");
+    let md = out_dir.join("profile.md");
+    std::fs::write(&md, &t).unwrap();
+    eprintln!("xtask: wrote {}", md.display());
+    failed as i32
+}
+
+/// `a::b::<T>::f` -> `b::f`-ish: the last two path segments, generics dropped.
+pub(crate) fn short_name(n: &str) -> String {
+    let mut depth = 0;
+    let mut plain = String::new();
+    for ch in n.chars() {
+        match ch {
+            '<' => depth += 1,
+            '>' => depth -= 1,
+            _ if depth == 0 => plain.push(ch),
+            _ => {}
+        }
+    }
+    let parts: Vec<&str> = plain.split("::").filter(|p| !p.is_empty()).collect();
+    parts[parts.len().saturating_sub(2)..].join("::")
+}

@@ -1,0 +1,75 @@
+//! `cargo xtask build-core-thumb`: gpecnet-core alone for the Cortex-M4F
+//! (no std, no alloc) in every feature combination, and the embassy example
+//! linked for the MCU.
+
+use crate::root;
+use crate::toolchain::{deb_cargo, require, status, TARGET};
+
+pub(crate) fn build_core_thumb() -> i32 {
+    require(false);
+    let combos: &[&[&str]] = &[
+        &["--no-default-features"],
+        &["--no-default-features", "--features", "defmt"],
+        &["--no-default-features", "--features", "micromath"],
+        &["--no-default-features", "--features", "defmt,micromath"],
+    ];
+    let target_dir = root().join("target/thumb-core");
+    let mut failed = 0;
+    for combo in combos {
+        // From the repo root: only the root workspace's config applies (no
+        // [unstable] there), so build-std is passed explicitly. Only `core`
+        // is built for the target: any use of std or alloc fails to compile.
+        let mut c = deb_cargo(&root());
+        // --locked: never rewrite the shared root Cargo.lock with Debian's cargo.
+        c.args([
+            "build",
+            "--locked",
+            "--release",
+            "-p",
+            "gpecnet-core",
+            "--lib",
+            "--target",
+            TARGET,
+        ])
+        .args(["-Zbuild-std=core", "--target-dir"])
+        .arg(&target_dir)
+        .args(*combo);
+        let rc = status(c);
+        println!(
+            "build-core-thumb {:<40} {}",
+            combo.join(" "),
+            if rc == 0 { "ok" } else { "FAILED" }
+        );
+        failed += (rc != 0) as i32;
+    }
+    // The embassy task skeleton (core/examples/embassy_task.rs), linked with the
+    // repository's memory.x through cortex-m-rt's link.x: the example an
+    // integrator starts from must build for the MCU, not only on the host.
+    let mut c = deb_cargo(&root());
+    c.env(
+        "RUSTFLAGS",
+        format!("-C link-arg=-Tlink.x -L {}", root().display()),
+    )
+    .args([
+        "build",
+        "--locked",
+        "--release",
+        "-p",
+        "gpecnet-core",
+        "--example",
+        "embassy_task",
+        "--target",
+        TARGET,
+        "-Zbuild-std=core",
+        "--target-dir",
+    ])
+    .arg(root().join("target/thumb-examples"));
+    let rc = status(c);
+    println!(
+        "build-core-thumb {:<40} {}",
+        "--example embassy_task",
+        if rc == 0 { "ok" } else { "FAILED" }
+    );
+    failed += (rc != 0) as i32;
+    (failed != 0) as i32
+}
