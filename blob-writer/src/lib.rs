@@ -7,6 +7,8 @@
 //! The crate is deliberately small (`gpecnet-core`, `postcard`, `serde`): the firmware host
 //! tools, a workspace of their own, depend on it by path.
 
+#![deny(missing_docs)]
+
 use std::fmt;
 
 pub use gpecnet_core::blob::{Activation, Extensions, ModelConfig, NumericKind};

@@ -17,7 +17,10 @@
 //! Determinism: all randomness comes from [`crate::rng`]; candle's CPU matmul thread count is
 //! pinned from `TrainConfig::threads` via `RAYON_NUM_THREADS` (read by candle for every
 //! matmul) before the first tensor operation. Two runs with the same config, data and thread
-//! count produce bit-identical weights, and `--resume` continues bit-exactly.
+//! count produce bit-identical weights, and `--resume` continues bit-exactly. The variable, not
+//! a local `rayon::ThreadPool`, is the knob on purpose: candle 0.11 sizes every CPU matmul from
+//! `candle_core::utils::get_num_threads()`, which reads `RAYON_NUM_THREADS` itself (falling back
+//! to the machine's core count), whatever pool the call runs in.
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
