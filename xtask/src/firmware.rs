@@ -110,9 +110,7 @@ pub(crate) fn fw_run(o: &Opts) -> i32 {
 pub(crate) fn fw_class_args(o: &Opts, c: &mut Command) {
     match o.mcu {
         Some(m) => {
-            let mut modes = vec!["golden"];
-            modes.extend_from_slice(m.golden_features);
-            m.firmware_args(c, &root(), &modes);
+            m.firmware_args(c, &root(), "golden", &m.golden_features());
         }
         None => {
             c.arg("--release");
@@ -137,12 +135,7 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
         // The corrupted-blob proof runs the golden mode on one model (the first).
         c.env("GPECNET_MODELS", &first);
         c.arg("run");
-        let modes: &[&str] = if f == "force-corrupt-blob" {
-            &[f, "golden"]
-        } else {
-            &[f]
-        };
-        mcu::M4F.firmware_args(&mut c, &root(), modes);
+        mcu::M4F.firmware_args(&mut c, &root(), "golden", &[f]);
         let (rc, out, _) = output(c);
         let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
         let ok = rc == 1 && !last.is_empty();

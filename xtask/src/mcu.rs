@@ -22,9 +22,11 @@ pub struct Mcu {
     pub image_data_budget: u64,
     /// The firmware's `golden::SCRATCH` on this chip: wider models are not embedded.
     pub max_width: usize,
-    /// Extra firmware features of the golden image besides `golden` (the host run
-    /// enables `micromath` to match).
-    pub golden_features: &'static [&'static str],
+    /// Whether the golden image compiles in the micromath sine (xcheck lines;
+    /// the host run enables it to match).
+    pub micromath: bool,
+    /// Whether `qemu` also runs the tracker demo binary (RAM permitting).
+    pub demo: bool,
     /// Extra rustc flags (the core's own tuning, e.g. `-C target-cpu=cortex-m7`).
     pub rustflags: Option<&'static str>,
 }
@@ -39,7 +41,8 @@ pub const M4F: Mcu = Mcu {
     machine: "netduinoplus2",
     image_data_budget: (1024 - 128) * 1024,
     max_width: 128,
-    golden_features: &["demo", "micromath"],
+    micromath: true,
+    demo: true,
     rustflags: None,
 };
 
@@ -53,7 +56,8 @@ pub const M0: Mcu = Mcu {
     machine: "microbit",
     image_data_budget: (256 - 80) * 1024,
     max_width: 64,
-    golden_features: &[],
+    micromath: false,
+    demo: false,
     rustflags: None,
 };
 
@@ -66,7 +70,8 @@ pub const M7: Mcu = Mcu {
     machine: "mps2-an500",
     image_data_budget: (4096 - 128) * 1024,
     max_width: 128,
-    golden_features: &["demo", "micromath"],
+    micromath: true,
+    demo: true,
     rustflags: Some("-C target-cpu=cortex-m7"),
 };
 
@@ -91,24 +96,41 @@ impl Mcu {
         }
     }
 
-    /// The firmware ELF a release build leaves.
-    pub fn elf(&self, root: &Path) -> PathBuf {
+    /// The ELF a release build of the firmware binary `bin` leaves.
+    pub fn elf(&self, root: &Path, bin: &str) -> PathBuf {
         self.target_dir(root)
             .join(self.target)
-            .join("release/gpecnet-firmware")
+            .join("release")
+            .join(bin)
+    }
+
+    /// Features of this class's golden image: its chip, and micromath where compiled in.
+    pub fn golden_features(&self) -> Vec<&'static str> {
+        if self.micromath {
+            vec!["micromath"]
+        } else {
+            vec![]
+        }
     }
 
     /// Adds to a firmware cargo command (`build`/`run`, after the verb): release,
-    /// this chip's feature plus `modes`, target and target dir; and the runner's
-    /// QEMU machine and the rustc flags in the environment.
-    pub fn firmware_args(&self, c: &mut Command, root: &Path, modes: &[&str]) {
-        let mut features = vec![self.feature];
-        features.extend_from_slice(modes);
-        c.args(["--release", "--no-default-features", "--features"])
-            .arg(features.join(","))
-            .args(["--target", self.target, "--target-dir"])
-            .arg(self.target_dir(root))
-            .env("QEMU_MACHINE", self.machine);
+    /// the binary `bin` (`golden`, `demo`, `profile`), this chip's feature plus
+    /// `features`, target and target dir; and the runner's QEMU machine and the
+    /// rustc flags in the environment.
+    pub fn firmware_args(&self, c: &mut Command, root: &Path, bin: &str, features: &[&str]) {
+        let mut all = vec![self.feature];
+        all.extend_from_slice(features);
+        c.args([
+            "--release",
+            "--bin",
+            bin,
+            "--no-default-features",
+            "--features",
+        ])
+        .arg(all.join(","))
+        .args(["--target", self.target, "--target-dir"])
+        .arg(self.target_dir(root))
+        .env("QEMU_MACHINE", self.machine);
         if let Some(f) = self.rustflags {
             c.env("RUSTFLAGS", f);
         }

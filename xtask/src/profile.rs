@@ -152,14 +152,14 @@ pub(crate) fn profile(o: &Opts) -> i32 {
             let mut c = fw_cargo(o);
             c.env("GPECNET_MODELS", m).env("GPECNET_SINE", sine);
             c.arg("build");
-            mcu::M4F.firmware_args(&mut c, &root(), &["profile", "micromath"]);
+            mcu::M4F.firmware_args(&mut c, &root(), "profile", &["micromath"]);
             let (rc, _, err) = output(c);
             if rc != 0 {
                 eprintln!("{err}");
                 die(&format!("profile build {m}/{sine} failed"));
             }
             let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
-            std::fs::copy(mcu::M4F.elf(&root()), &elf_copy).unwrap();
+            std::fs::copy(mcu::M4F.elf(&root(), "profile"), &elf_copy).unwrap();
             let elf = read_elf(&elf_copy);
             let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
                 (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),

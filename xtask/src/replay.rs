@@ -158,14 +158,12 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     // consecutive models, so the firmware's lines, concatenated, come in the host's order.
     let batches = image_batches(dir, &models, &["gpec", "golden"], mcu.image_data_budget);
     let (mut fw_rc, mut fw_out) = (0, String::new());
-    let mut modes = vec!["golden"];
-    modes.extend_from_slice(mcu.golden_features);
     for batch in &batches {
         eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
         let mut c = fw_cargo(o);
         c.env("GPECNET_MODELS", batch.join(","));
         c.arg("run");
-        mcu.firmware_args(&mut c, &root(), &modes);
+        mcu.firmware_args(&mut c, &root(), "golden", &mcu.golden_features());
         c.args(&o.rest);
         let (rc, out, err) = output(c);
         let stack = high_water(&out);
@@ -186,6 +184,19 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
             eprintln!();
         }
     }
+    // The tracker demo, its own binary (the shipped MCU model when it is embedded).
+    if mcu.demo {
+        eprintln!("xtask: {} demo", mcu.name);
+        let mut c = fw_cargo(o);
+        c.env("GPECNET_MODELS", models.join(",")).arg("run");
+        mcu.firmware_args(&mut c, &root(), "demo", &[]);
+        let (rc, out, err) = output(c);
+        fw_out.push_str(&out);
+        if rc != 0 {
+            fw_rc = rc;
+            eprintln!("{err}");
+        }
+    }
     let _ = std::fs::write(log_dir.join("firmware.log"), &fw_out);
     // The host runs the same code (firmware/src/golden.rs) with the same
     // compiled-in sines, on the same models.
@@ -197,7 +208,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
         "--manifest-path",
         "firmware/host/Cargo.toml",
     ]);
-    if mcu.golden_features.contains(&"micromath") {
+    if mcu.micromath {
         h.args(["--features", "micromath"]);
     }
     h.env("GPECNET_MODELS", models.join(","))
@@ -356,14 +367,14 @@ fn profile_class(
             c.env("GPECNET_MODELS", batch.join(","))
                 .env("GPECNET_SINE", path)
                 .arg("build");
-            mcu.firmware_args(&mut c, &root(), &["profile"]);
+            mcu.firmware_args(&mut c, &root(), "profile", &[]);
             let (rc, _, err) = output(c);
             if rc != 0 {
                 eprintln!("{err}");
                 die(&format!("{} profile build ({path}) failed", mcu.name));
             }
             let elf_copy = out_dir.join(format!("profile-{path}-{i}.elf"));
-            std::fs::copy(mcu.elf(&root()), &elf_copy)
+            std::fs::copy(mcu.elf(&root(), "profile"), &elf_copy)
                 .unwrap_or_else(|e| die(&format!("{}: {e}", elf_copy.display())));
             let elf = read_elf(&elf_copy);
             let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {

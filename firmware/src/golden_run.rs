@@ -1,0 +1,72 @@
+//! The golden mode: [`crate::golden::verify_all`] over every embedded model,
+//! each result printed as one defmt line (the lines `cargo xtask qemu`
+//! compares with the host's `golden-host` run), then the totals.
+
+/// Golden verification of every embedded model, one defmt line per model
+/// and case (the lines `cargo xtask qemu` compares with the host's); `true`
+/// when every case matched.
+pub fn run() -> bool {
+    use crate::golden::Line;
+    if crate::models::MODELS.is_empty() {
+        defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
+        return false;
+    }
+    let s = crate::golden::verify_all(crate::models::MODELS, true, &mut |l| {
+        crate::watchdog::feed();
+        match l {
+        Line::Model {
+            model,
+            numeric,
+            sine,
+            cases,
+        } => defmt::println!(
+            "model {=str} {=str} {=str} {=u32}",
+            model,
+            numeric,
+            sine,
+            cases
+        ),
+        Line::Golden {
+            model,
+            case,
+            hash,
+            ok,
+        } => {
+            defmt::println!("golden {=str} {=u32} {=u32:08x}", model, case, hash);
+            if !ok {
+                defmt::error!("MISMATCH {=str} case {=u32}", model, case);
+            }
+        }
+        Line::Xcheck {
+            model,
+            sine,
+            case,
+            hash,
+        } => {
+            defmt::println!(
+                "xcheck {=str} {=str} {=u32} {=u32:08x}",
+                model,
+                sine,
+                case,
+                hash
+            )
+        }
+        Line::Error { model, what } => defmt::error!("golden {=str}: {=str}", model, what),
+        Line::TooWide { model, needed } => defmt::error!(
+            "golden {=str}: model needs scratch width {=u32} > SCRATCH {=usize} (firmware/src/golden.rs)",
+            model,
+            needed,
+            crate::golden::SCRATCH
+        ),
+    }
+    });
+    defmt::println!(
+        "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",
+        s.models,
+        s.cases,
+        s.mismatches,
+        s.errors,
+        s.xchecks
+    );
+    s.ok()
+}
