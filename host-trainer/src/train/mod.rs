@@ -1,0 +1,56 @@
+//! The training loop (`gpecnet train`).
+//!
+//! * Data: SDD `train` minus the validation scenes (or ETH/UCY `<scene>/train`), plus, with
+//!   `augment_pct > 0`, the first `augment_pct` % (of the real count) of the synthetic pool;
+//!   every window plus its time-reversed copy (PECNet), normalised with [`data::normalize`].
+//! * Each epoch: seeded shuffle, minibatches of `batch_size`, Adam on PECNet's loss, then
+//!   (every `eval_every` epochs and at the last) best-of-K validation in raw units with latents
+//!   `z ~ N(0, sigma^2)` drawn from a validation RNG re-seeded identically every time, so
+//!   epochs are compared on the same draws. The best epoch is chosen by validation min FDE;
+//!   the test set is never read.
+//! * After every epoch: `checkpoint.bin` (atomic; the one before kept as
+//!   `checkpoint.prev.bin`), `metrics.csv`, `metrics.jsonl`, `curves.svg` in the run
+//!   directory; `config.toml` and `data-fingerprint.json` once at the start.
+//! * Run-folder safety ([`crate::rundir`]): one run per folder (lock file), no silent
+//!   overwrite of a non-empty folder, `--resume` checks config and data.
+//!
+//! Determinism: all randomness comes from [`crate::rng`]; candle's CPU matmul thread count is
+//! pinned from `TrainConfig::threads` via `RAYON_NUM_THREADS` (read by candle for every
+//! matmul) before the first tensor operation. Two runs with the same config, data and thread
+//! count produce bit-identical weights, and `--resume` continues bit-exactly. The variable, not
+//! a local `rayon::ThreadPool`, is the knob on purpose: candle 0.11 sizes every CPU matmul from
+//! `candle_core::utils::get_num_threads()`, which reads `RAYON_NUM_THREADS` itself (falling back
+//! to the machine's core count), whatever pool the call runs in.
+//!
+//! Files: `prepare.rs` (the data a run trains and validates on), `trainer.rs` (the model,
+//! optimizer and RNG of a run and its epochs), `validate.rs` (validation metrics),
+//! `run.rs` (new and resumed runs, the epoch loop), `fingerprint.rs` (the data fingerprint
+//! `--resume` checks), `report.rs` (`metrics.csv`, `metrics.jsonl`, `curves.svg`).
+
+mod fingerprint;
+mod prepare;
+mod report;
+mod run;
+mod trainer;
+mod validate;
+
+pub use fingerprint::DataFingerprint;
+pub use prepare::{prepare_data, social_train_groups, synthetic_windows, PreparedData};
+pub use report::{plot_curves, write_metrics};
+pub use run::{
+    config_diff, train_new, train_resume, train_resume_checked, TrainOptions, TrainSummary,
+};
+pub use trainer::{TrainLoss, Trainer};
+pub use validate::{validate_model, validate_point};
+
+/// Windows evaluated per validation forward pass (times K rows).
+pub const VAL_CHUNK: usize = 512;
+
+/// Pin candle's CPU matmul parallelism to `n` threads (see the module docs). Must be called
+/// before the first tensor operation of the process to also size rayon's global pool.
+pub fn set_num_threads(n: usize) {
+    let n = n.max(1).to_string();
+    if std::env::var("RAYON_NUM_THREADS").ok().as_deref() != Some(n.as_str()) {
+        std::env::set_var("RAYON_NUM_THREADS", n);
+    }
+}

@@ -1,0 +1,162 @@
+//! The data a run trains and validates on.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+
+use crate::config::{DatasetSpec, TrainConfig};
+use crate::data::{self, Sample, Unit, Window};
+
+use super::*;
+
+/// Training and validation data, ready for the loop.
+#[derive(Clone, Debug)]
+pub struct PreparedData {
+    /// Normalised training samples: the real windows, then the synthetic ones, then (when
+    /// enabled) the time-reversed copies of both in the same order.
+    pub train: Vec<Sample>,
+    /// Real training windows (before time reversal).
+    pub n_real: usize,
+    /// Synthetic windows added by `augment_pct` (before time reversal).
+    pub n_synthetic: usize,
+    /// Validation windows (raw, or in the heading-canonical frame when the config asks).
+    pub val: Vec<Window>,
+    /// Unit of the raw coordinates.
+    pub unit: Unit,
+    /// Social groups of `train` (indices; [`social_train_groups`]); empty without
+    /// `social_pooling`.
+    pub groups: Vec<Vec<u32>>,
+    /// Fingerprint of the raw windows (checked by `--resume`).
+    pub fingerprint: DataFingerprint,
+}
+
+/// Social groups of the training windows (`social_pooling`): PECNet's star grouping
+/// ([`crate::social::group_windows`]) of the real windows, file by file; synthetic windows
+/// are singletons; the time-reversed copies (the second half of `train` when `reversed`) form
+/// the same groups as their originals (PECNet reuses each batch's mask).
+pub fn social_train_groups(
+    cfg: &TrainConfig,
+    train: &[Window],
+    n_real: usize,
+    reversed: bool,
+) -> Vec<Vec<u32>> {
+    let n_fwd = if reversed {
+        train.len() / 2
+    } else {
+        train.len()
+    };
+    let mut groups: Vec<Vec<u32>> =
+        crate::social::group_windows(&train[..n_real], cfg.time_thresh, cfg.dist_thresh)
+            .into_iter()
+            .map(|g| g.into_iter().map(|i| i as u32).collect())
+            .collect();
+    groups.extend((n_real..n_fwd).map(|i| vec![i as u32]));
+    if reversed {
+        let rev: Vec<Vec<u32>> = groups
+            .iter()
+            .map(|g| g.iter().map(|&i| i + n_fwd as u32).collect())
+            .collect();
+        groups.extend(rev);
+    }
+    groups
+}
+
+/// The synthetic windows `cfg` adds to `n_real` real training windows: the first
+/// `round(augment_pct / 100 × n_real)` trajectories of `cfg.synthetic_pool`
+/// ([`crate::synth::sample::take_first_pct`]); none when `augment_pct` is 0.
+pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>> {
+    if cfg.augment_pct <= 0.0 {
+        return Ok(Vec::new());
+    }
+    let Some(path) = cfg.synthetic_pool.as_deref() else {
+        bail!("augment_pct = {} needs synthetic_pool", cfg.augment_pct);
+    };
+    let pool = crate::synth::sample::read_pool(Path::new(path))?;
+    crate::synth::sample::take_first_pct(&pool, f64::from(cfg.augment_pct), n_real)
+        .with_context(|| format!("augmenting from {path}"))
+}
+
+/// Load and prepare the data a config asks for. Never touches the test split.
+pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData> {
+    let (train, val) = match cfg.dataset_spec()? {
+        DatasetSpec::Sdd => {
+            let all = data::load_sdd(data_root, data::SddSplit::Train)?;
+            for s in &cfg.val_scenes {
+                if !all.windows.iter().any(|w| &w.scene == s) {
+                    bail!("validation scene {s:?} is not in {}", all.name);
+                }
+            }
+            let (mut train, val) = data::split_by_scene(all, &cfg.val_scenes);
+            if cfg.include_train_extra {
+                let extra = data::load_sdd(data_root, data::SddSplit::TrainExtra)?;
+                train.windows.extend(extra.windows);
+            }
+            (train, val)
+        }
+        DatasetSpec::EthUcy(scene) => (
+            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Train)?,
+            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Val)?,
+        ),
+    };
+    if train.is_empty() || val.is_empty() {
+        bail!(
+            "empty split: {} training and {} validation windows",
+            train.len(),
+            val.len()
+        );
+    }
+    let unit = train.unit;
+    let mut train = train;
+    let n_real = train.len();
+    let synthetic = synthetic_windows(cfg, n_real)?;
+    let n_synthetic = synthetic.len();
+    train.windows.extend(synthetic);
+    let fingerprint = DataFingerprint::of(&train.windows, n_real, &val.windows);
+    let train = if cfg.time_reversal {
+        train.with_time_reversed()
+    } else {
+        train
+    };
+    let groups = if cfg.social_pooling {
+        social_train_groups(cfg, &train.windows, n_real, cfg.time_reversal)
+    } else {
+        Vec::new()
+    };
+    // Heading-canonical frame: every window (each time-reversed copy by its own heading).
+    // ADE/FDE are rotation-invariant, so validation runs in the canonical frame too.
+    let canon = |ws: Vec<Window>| -> Vec<Window> {
+        if cfg.heading_steps == 0 {
+            ws
+        } else {
+            ws.iter()
+                .map(|w| crate::frame::canonical_window(w, cfg.heading_steps).0)
+                .collect()
+        }
+    };
+    let mut train_windows = canon(train.windows);
+    if cfg.mirror {
+        let mirrored: Vec<Window> = train_windows
+            .iter()
+            .map(|w| {
+                let mut m = w.clone();
+                for p in m.pos.iter_mut() {
+                    p[1] = -p[1];
+                }
+                m
+            })
+            .collect();
+        train_windows.extend(mirrored);
+    }
+    Ok(PreparedData {
+        fingerprint,
+        groups,
+        train: train_windows
+            .iter()
+            .map(|w| data::normalize(w, cfg.data_scale))
+            .collect(),
+        val: canon(val.windows),
+        unit,
+        n_real,
+        n_synthetic,
+    })
+}
