@@ -21,7 +21,8 @@ use embassy_sync::signal::Signal;
 use gpecnet_core::{LibmSine, Model, NumericKind, PredictError, Predictor};
 use heapless::Vec;
 
-use crate::golden::{MAX_K, MAX_SAMPLES, SCRATCH};
+use crate::golden::{MAX_K, MAX_SAMPLES};
+use crate::SCRATCH;
 use gpecnet_core::tracks::{Observation, TrackTable, HISTORY};
 
 /// Table capacity (tracks).

@@ -11,9 +11,12 @@ pub fn run() -> bool {
         defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
         return false;
     }
-    let s = crate::golden::verify_all(crate::models::MODELS, true, &mut |l| {
-        crate::watchdog::feed();
-        match l {
+    let s = crate::golden::verify_all::<{ crate::SCRATCH }>(
+        crate::models::MODELS,
+        true,
+        &mut |l| {
+            crate::watchdog::feed();
+            match l {
         Line::Model {
             model,
             numeric,
@@ -52,14 +55,19 @@ pub fn run() -> bool {
             )
         }
         Line::Error { model, what } => defmt::error!("golden {=str}: {=str}", model, what),
-        Line::TooWide { model, needed } => defmt::error!(
-            "golden {=str}: model needs scratch width {=u32} > SCRATCH {=usize} (firmware/src/golden.rs)",
+        Line::TooWide {
             model,
             needed,
-            crate::golden::SCRATCH
+            capacity,
+        } => defmt::error!(
+            "golden {=str}: model needs scratch width {=u32} > SCRATCH {=u32} (firmware/src/lib.rs)",
+            model,
+            needed,
+            capacity
         ),
     }
-    });
+        },
+    );
     defmt::println!(
         "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",
         s.models,

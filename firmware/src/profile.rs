@@ -11,7 +11,8 @@ use core::ptr::{addr_of_mut, write_volatile};
 use gpecnet_core::{Model, PredictError, Trajectory};
 use heapless::Vec;
 
-use crate::golden::{MAX_SAMPLES, SCRATCH};
+use crate::golden::MAX_SAMPLES;
+use crate::SCRATCH;
 
 #[cfg(prof_sine = "libm")]
 type ProfSine = gpecnet_core::sine::LibmSine;

@@ -1,41 +1,42 @@
-//! Golden verification, shared verbatim by the firmware (defmt output) and
-//! the host (`golden-host`, println output): the same code, the same lines,
-//! so `cargo xtask qemu` can compare the two runs line by line.
+//! Golden replay, one crate for the firmware (defmt output) and the host
+//! (`golden-host`, println output): the same code, the same lines, so `cargo
+//! xtask qemu` can compare the two runs line by line. `no_std`, no heap.
 //!
-//! Lines (the firmware prints them with defmt, decoded by defmt-print):
+//! Lines (the caller prints each [`Line`]):
 //!   model <model> <numeric> <sine> <n>  before a model's cases: f32|int16q15, the sidecar's sine
 //!   golden <model> <case> <fnv32>      one per golden case, sidecar's sine, bit-compared
 //!   xcheck <model> <sine> <case> <fnv32> the same inputs through the other sine
 //!                                      paths (no expected values; host vs target only)
 //! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
 //!
-//! `Predictor<S, SCRATCH>` picks its engine from the blob's numeric kind;
+//! `Predictor<S, W>` picks its engine from the blob's numeric kind (`W`:
+//! the caller's scratch width, see [`verify_all`]);
 //! `S` is the sine the sidecar names for an f32 blob (plus `xcheck` lines for
 //! the other compiled-in sines). A fixed-point blob's sidecar must name
 //! `q15-table` (`Predictor::sine_name`); it has one numeric path, so no
 //! `xcheck` lines.
+
+#![no_std]
+#![deny(missing_docs)]
 
 use gpecnet_core::golden::{fnv1a, GoldenCase, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
 use gpecnet_core::{fixed, Model, NumericKind, PredictError, Predictor, Trajectory};
 use heapless::Vec;
 
-/// Scratch width of the predictor: the widest layer the firmware supports
-/// (`Predictor` holds 5 × SCRATCH f32). 128 fits the `sdd-small`/`quick`
-/// configurations; raise it for wider models (RAM: 20 B per unit). The
-/// Cortex-M0 build (16 KiB of RAM) takes 64: the `sdd-tiny*` models; `cargo
-/// xtask qemu --mcu m0` embeds only models that fit.
-pub const SCRATCH: usize = if cfg!(armv6m) { 64 } else { 128 };
 /// Maximum endpoints per golden case / prediction.
 pub const MAX_K: usize = 20;
 /// Most latent samples one prediction draws (test-time sampling reduces them to K):
 /// 8 bytes of stack each.
 pub const MAX_SAMPLES: usize = 128;
 
-/// One model compiled into the image.
+/// One model compiled into the image (or read from disk on the host).
 pub struct EmbeddedModel {
+    /// The model's name (its file stem), as the lines print it.
     pub name: &'static str,
+    /// The weight blob (`weights/<name>.gpec`).
     pub blob: &'static [u8],
+    /// Its golden file (`weights/<name>.golden`).
     pub golden: &'static [u8],
 }
 
@@ -43,42 +44,72 @@ pub struct EmbeddedModel {
 pub enum Line<'a> {
     /// `model <model> <numeric> <sine> <cases>`: before a model's cases.
     Model {
+        /// The model's name.
         model: &'a str,
+        /// `f32` or `int16q15`.
         numeric: &'static str,
+        /// The golden file's sine (the numeric path the cases were made with).
         sine: &'a str,
+        /// Number of golden cases.
         cases: u32,
     },
     /// `golden <model> <case> <hash>` (+ whether it matched the sidecar).
     Golden {
+        /// The model's name.
         model: &'a str,
+        /// Case index in the golden file.
         case: u32,
+        /// FNV-1a over the output bit patterns.
         hash: u32,
+        /// Every output bit equals the golden file's.
         ok: bool,
     },
     /// `xcheck <model> <sine> <case> <hash>`.
     Xcheck {
+        /// The model's name.
         model: &'a str,
+        /// The other sine the case ran through.
         sine: &'static str,
+        /// Case index in the golden file.
         case: u32,
+        /// FNV-1a over the output bit patterns.
         hash: u32,
     },
     /// Something that prevents verification (counts as a failure).
-    Error { model: &'a str, what: &'static str },
-    /// The model is wider than [`SCRATCH`] (counts as a failure).
-    TooWide { model: &'a str, needed: u32 },
+    Error {
+        /// The model's name.
+        model: &'a str,
+        /// What went wrong.
+        what: &'static str,
+    },
+    /// The model is wider than the caller's scratch width `W` (counts as a failure).
+    TooWide {
+        /// The model's name.
+        model: &'a str,
+        /// Its [`Model::scratch_width`].
+        needed: u32,
+        /// The caller's `W`.
+        capacity: u32,
+    },
 }
 
 /// Totals over all models.
 #[derive(Default, Clone, Copy)]
 pub struct Summary {
+    /// Models seen.
     pub models: u32,
+    /// Golden cases run.
     pub cases: u32,
+    /// Cases whose outputs differ from the golden file.
     pub mismatches: u32,
+    /// Models or cases that could not be verified.
     pub errors: u32,
+    /// Cross-check lines (other sines).
     pub xchecks: u32,
 }
 
 impl Summary {
+    /// At least one case ran, and every case of every model matched.
     pub fn ok(&self) -> bool {
         self.models > 0 && self.cases > 0 && self.mismatches == 0 && self.errors == 0
     }
@@ -129,8 +160,8 @@ fn check_cases(
 /// One prediction as the golden files record it: the model's endpoint set of `k` endpoints
 /// (plain or test-time sampling, as the blob says) and, when the model has a point head,
 /// its point forecast.
-fn predict_case<S: Sine>(
-    p: &mut Predictor<'_, S, SCRATCH>,
+fn predict_case<S: Sine, const W: usize>(
+    p: &mut Predictor<'_, S, W>,
     c: &GoldenCase<'_>,
 ) -> Result<Output, PredictError> {
     let mut ends: Vec<[f32; 2], MAX_K> = Vec::new();
@@ -150,16 +181,16 @@ fn predict_case<S: Sine>(
 /// the sine of f32 blobs). `Err` if the predictor's sine is not `sine`.
 ///
 /// Out of line, and the predictor used where `new` put it (not moved out of
-/// the `Result`): one predictor (4 KiB at `SCRATCH` = 128) on the stack at a
+/// the `Result`): one predictor (4 KiB at `W` = 128) on the stack at a
 /// time, which the Cortex-M0's 16 KiB of RAM needs.
 #[inline(never)]
-fn cases_with<S: Sine>(
+fn cases_with<S: Sine, const W: usize>(
     model: &Model<'_>,
     set: &GoldenSet<'_>,
     sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
 ) -> Result<(), &'static str> {
-    let mut made = Predictor::<S, SCRATCH>::new(*model);
+    let mut made = Predictor::<S, W>::new(*model);
     let Ok(p) = made.as_mut() else {
         return Err("no predictor for this blob");
     };
@@ -171,27 +202,30 @@ fn cases_with<S: Sine>(
 }
 
 /// [`cases_with`] for the sine named `sine` (fixed-point blobs: `q15-table`).
-fn cases_named(
+fn cases_named<const W: usize>(
     model: &Model<'_>,
     set: &GoldenSet<'_>,
     sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
 ) -> Result<(), &'static str> {
     match sine {
-        n if n == LibmSine::NAME => cases_with::<LibmSine>(model, set, sine, emit),
-        n if n == FastSine::NAME => cases_with::<FastSine>(model, set, sine, emit),
+        n if n == LibmSine::NAME => cases_with::<LibmSine, W>(model, set, sine, emit),
+        n if n == FastSine::NAME => cases_with::<FastSine, W>(model, set, sine, emit),
         #[cfg(feature = "micromath")]
         n if n == gpecnet_core::sine::MicromathSine::NAME => {
-            cases_with::<gpecnet_core::sine::MicromathSine>(model, set, sine, emit)
+            cases_with::<gpecnet_core::sine::MicromathSine, W>(model, set, sine, emit)
         }
         // A fixed-point blob runs its integer sine whatever `S` is.
-        n if n == fixed::SINE_NAME => cases_with::<LibmSine>(model, set, sine, emit),
+        n if n == fixed::SINE_NAME => cases_with::<LibmSine, W>(model, set, sine, emit),
         _ => Err("golden sine not compiled in (feature micromath?)"),
     }
 }
 
-/// Verifies every model; `xcheck`: also run the other compiled-in sines.
-pub fn verify_all(
+/// Verifies every model with predictors of scratch width `W` (a model
+/// wider than `W` is reported as [`Line::TooWide`]); `xcheck`: also run the
+/// other compiled-in sines. The firmware takes `W` = 128 (64 on the
+/// Cortex-M0), the host 128.
+pub fn verify_all<const W: usize>(
     models: &[EmbeddedModel],
     xcheck: bool,
     out: &mut dyn FnMut(Line<'_>),
@@ -229,11 +263,12 @@ pub fn verify_all(
             });
             continue;
         }
-        if model.scratch_width() > SCRATCH {
+        if model.scratch_width() > W {
             s.errors += 1;
             out(Line::TooWide {
                 model: m.name,
                 needed: model.scratch_width() as u32,
+                capacity: W as u32,
             });
             continue;
         }
@@ -266,7 +301,7 @@ pub fn verify_all(
                 });
             }
         };
-        if let Err(what) = cases_named(&model, &set, sine, &mut emit) {
+        if let Err(what) = cases_named::<W>(&model, &set, sine, &mut emit) {
             s.errors += 1;
             out(Line::Error {
                 model: m.name,
@@ -295,7 +330,7 @@ pub fn verify_all(
                         });
                     }
                 };
-                let _ = cases_named(&model, &set, other, &mut emit);
+                let _ = cases_named::<W>(&model, &set, other, &mut emit);
             }
         }
     }

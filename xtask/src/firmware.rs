@@ -1,6 +1,6 @@
 //! The firmware's cargo: which weights it embeds, building and running it
 //! (`fw-build`, `fw-run`), the injected-failure proofs (`fw-faults`) and the
-//! host tests of its target-independent modules (`fw-test`).
+//! host side: the golden replay's tests and the host tools (`fw-test`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -150,7 +150,15 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
 }
 
 pub(crate) fn fw_test() -> i32 {
+    // The golden replay the firmware runs (crate gpecnet-replay), tested on the
+    // host, and the firmware's host tools (golden-host, make-test-blob) built.
     let mut c = host_cargo();
-    c.args(["test", "--manifest-path", "firmware/host/Cargo.toml"]);
+    c.args(["test", "-p", "gpecnet-replay"]);
+    let rc = status(c);
+    if rc != 0 {
+        return rc;
+    }
+    let mut c = host_cargo();
+    c.args(["build", "--release", "--manifest-path", "firmware/host/Cargo.toml"]);
     status(c)
 }

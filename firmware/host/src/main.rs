@@ -2,7 +2,10 @@
 //! host (stable toolchain), same code (`firmware/src/golden.rs`), same lines.
 //! `cargo xtask qemu` compares its `golden`/`xcheck` lines with the firmware's.
 //! `golden-host --macs FILE.gpec K`: the blob's MAC count for K endpoints.
-use gpecnet_fw_host::golden::{verify_all, EmbeddedModel, Line};
+use gpecnet_replay::{verify_all, EmbeddedModel, Line};
+
+/// The firmware's scratch width on the M4F/M7 (`gpecnet_firmware::SCRATCH`).
+const SCRATCH: usize = 128;
 use std::path::PathBuf;
 use std::process::exit;
 
@@ -82,7 +85,7 @@ fn main() {
             ),
         })
         .collect();
-    let s = verify_all(&models, true, &mut |l| {
+    let s = verify_all::<SCRATCH>(&models, true, &mut |l| {
         match l {
         Line::Model {
             model,
@@ -108,9 +111,12 @@ fn main() {
             hash,
         } => println!("xcheck {model} {sine} {case} {hash:08x}"),
         Line::Error { model, what } => eprintln!("golden {model}: {what}"),
-        Line::TooWide { model, needed } => eprintln!(
-            "golden {model}: model needs scratch width {needed} > SCRATCH {} (firmware/src/golden.rs)",
-            gpecnet_fw_host::golden::SCRATCH
+        Line::TooWide {
+            model,
+            needed,
+            capacity,
+        } => eprintln!(
+            "golden {model}: model needs scratch width {needed} > SCRATCH {capacity} (firmware/src/lib.rs)"
         ),
     }
     });
