@@ -159,6 +159,11 @@ pub(crate) fn fw_test() -> i32 {
         return rc;
     }
     let mut c = host_cargo();
-    c.args(["build", "--release", "--manifest-path", "firmware/host/Cargo.toml"]);
+    c.args([
+        "build",
+        "--release",
+        "--manifest-path",
+        "firmware/host/Cargo.toml",
+    ]);
     status(c)
 }
