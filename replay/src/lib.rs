@@ -3,10 +3,14 @@
 //! xtask qemu` can compare the two runs line by line. `no_std`, no heap.
 //!
 //! Lines (the caller prints each [`Line`]):
-//!   model <model> <numeric> <sine> <n>  before a model's cases: f32|int16q15, the sidecar's sine
-//!   golden <model> <case> <fnv32>      one per golden case, sidecar's sine, bit-compared
-//!   xcheck <model> <sine> <case> <fnv32> the same inputs through the other sine
-//!                                      paths (no expected values; host vs target only)
+//!
+//! ```text
+//! model <model> <numeric> <sine> <n>     before a model's cases: f32|int16q15, the sidecar's sine
+//! golden <model> <case> <fnv32>          one per golden case, sidecar's sine, bit-compared
+//! xcheck <model> <sine> <case> <fnv32>   the same inputs through the other sine paths
+//!                                        (no expected values; host vs target only)
+//! ```
+//!
 //! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
 //!
 //! `Predictor<S, W>` picks its engine from the blob's numeric kind (`W`:

@@ -76,7 +76,7 @@ enum Cmd {
 /// Options of the firmware commands.
 #[derive(Args)]
 struct FwArgs {
-    /// Use DIR instead of weights/ (needs <name>.gpec + <name>.golden pairs).
+    /// Use DIR instead of weights/ (needs `<name>.gpec` + `<name>.golden` pairs).
     #[arg(long, value_name = "DIR")]
     weights: Option<PathBuf>,
     /// Generate a synthetic blob + golden file (firmware/host make-test-blob) and use it.

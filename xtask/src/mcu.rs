@@ -85,7 +85,7 @@ pub fn by_name(name: &str) -> Option<&'static Mcu> {
 
 impl Mcu {
     /// The firmware's cargo target directory for this class: firmware/target
-    /// for the M4F (the firmware's default), firmware/target/mcu-<name> for
+    /// for the M4F (the firmware's default), `firmware/target/mcu-<name>` for
     /// the others, so switching classes never rebuilds another's artefacts.
     pub fn target_dir(&self, root: &Path) -> PathBuf {
         if self.name == M4F.name {

@@ -134,7 +134,7 @@ pub fn qemu(o: &Opts) -> i32 {
 }
 
 /// Golden verification of every model that fits `mcu`, in QEMU and on the
-/// host, compared line by line. Logs: target/fw-qemu/<mcu>/{firmware,host}.log.
+/// host, compared line by line. Logs: `target/fw-qemu/<mcu>/{firmware,host}.log`.
 fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     let mut models = Vec::new();
     for m in all {

@@ -146,7 +146,7 @@ impl QModel {
             .collect()
     }
 
-    /// The endpoint set by the blob's protocol (see [`RefModel::predict_set`]).
+    /// The endpoint set by the blob's protocol (see [`crate::reference::RefModel::predict_set`]).
     pub fn predict_set(&self, past: &[[f32; 2]], seed: u64, k: usize) -> Result<Vec<[f32; 2]>> {
         let c = &self.config;
         if c.tts_samples == 0 {

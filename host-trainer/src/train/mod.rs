@@ -2,7 +2,7 @@
 //!
 //! * Data: SDD `train` minus the validation scenes (or ETH/UCY `<scene>/train`), plus, with
 //!   `augment_pct > 0`, the first `augment_pct` % (of the real count) of the synthetic pool;
-//!   every window plus its time-reversed copy (PECNet), normalised with [`data::normalize`].
+//!   every window plus its time-reversed copy (PECNet), normalised with [`crate::data::normalize`].
 //! * Each epoch: seeded shuffle, minibatches of `batch_size`, Adam on PECNet's loss, then
 //!   (every `eval_every` epochs and at the last) best-of-K validation in raw units with latents
 //!   `z ~ N(0, sigma^2)` drawn from a validation RNG re-seeded identically every time, so
