@@ -2,21 +2,17 @@
 //! stack, the watchdog, the embassy executor, the boot line, the fault
 //! self-tests, and the final stack report + exit.
 //!
-//! A binary (src/bin/*.rs) is an entry point, one supervisor task that runs
-//! its mode, and [`finish`]:
+//! A binary (src/bin/*.rs) is [`firmware_main!`] (the entry point and the
+//! executor) plus one supervisor task that runs its mode and ends in
+//! [`finish`]:
 //!
 //! ```ignore
-//! #[cortex_m_rt::entry]
-//! fn main() -> ! {
-//!     boot::start(tasks)
-//! }
-//! extern "C" fn tasks() -> ! {
-//!     boot::executor(Supervision::On, |s| s.spawn(supervisor(s).unwrap()))
-//! }
+//! gpecnet_firmware::firmware_main!(Supervision::On, supervisor);
+//!
 //! #[embassy_executor::task]
-//! async fn supervisor(_s: Spawner) {
+//! async fn supervisor(_spawner: Spawner) {
 //!     boot::banner();
-//!     boot::finish(golden_mode::run())
+//!     boot::finish(golden_run::run())
 //! }
 //! ```
 
@@ -80,4 +76,20 @@ pub fn finish(ok: bool) -> ! {
         defmt::error!("result: FAIL");
         fatal::exit(1)
     }
+}
+
+/// The entry point of a firmware binary: [`start`] on the guarded stack,
+/// then [`executor`] with `$supervision`, spawning the task `$task(spawner)`.
+#[macro_export]
+macro_rules! firmware_main {
+    ($supervision:expr, $task:ident) => {
+        #[::cortex_m_rt::entry]
+        fn main() -> ! {
+            $crate::boot::start(tasks)
+        }
+
+        extern "C" fn tasks() -> ! {
+            $crate::boot::executor($supervision, |s| s.spawn($task(s).unwrap()))
+        }
+    };
 }

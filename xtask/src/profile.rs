@@ -255,7 +255,6 @@ pub(crate) fn profile(o: &Opts) -> i32 {
             });
         }
     }
-    let opt = |v: Option<u64>| v.map_or("-".to_string(), |v| v.to_string());
     let mut t = String::new();
     let _ = writeln!(
         t,
@@ -267,10 +266,7 @@ pub(crate) fn profile(o: &Opts) -> i32 {
     );
     let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &rows {
-        let per = match (r.insns, r.macs) {
-            (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
-            _ => "-".into(),
-        };
+        let per = per_mac(r.insns, r.macs);
         let _ = writeln!(
             t,
             "| {} | {} | {} ({} / {}) | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} |",
@@ -369,4 +365,17 @@ pub(crate) fn short_name(n: &str) -> String {
     }
     let parts: Vec<&str> = plain.split("::").filter(|p| !p.is_empty()).collect();
     parts[parts.len().saturating_sub(2)..].join("::")
+}
+
+/// A table cell: the number, or `-` when it was not measured.
+pub(crate) fn opt(v: Option<u64>) -> String {
+    v.map_or("-".to_string(), |v| v.to_string())
+}
+
+/// Instructions per MAC with two decimals, or `-`.
+pub(crate) fn per_mac(insns: Option<u64>, macs: Option<u64>) -> String {
+    match (insns, macs) {
+        (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
+        _ => "-".into(),
+    }
 }

@@ -14,7 +14,7 @@ use std::process::{Command, Stdio};
 use crate::elf::read_elf;
 use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::mcu::{self, Mcu};
-use crate::profile::{blob_is_fixed, defmt_decode, field, plugin, FIXED_PATH};
+use crate::profile::{blob_is_fixed, defmt_decode, field, opt, per_mac, plugin, FIXED_PATH};
 use crate::toolchain::{host_cargo, output, require, show};
 use crate::{die, root};
 
@@ -461,7 +461,6 @@ fn profile_class(
 
 /// The MCU × model table (markdown).
 fn matrix_table(rows: &[Row]) -> String {
-    let opt = |v: Option<u64>| v.map_or("-".to_string(), |v| v.to_string());
     let mut t = String::new();
     let _ = writeln!(
         t,
@@ -473,10 +472,7 @@ fn matrix_table(rows: &[Row]) -> String {
     );
     let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|");
     for r in rows {
-        let per = match (r.insns, r.macs) {
-            (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
-            _ => "-".into(),
-        };
+        let per = per_mac(r.insns, r.macs);
         let _ = writeln!(
             t,
             "| {} | {} | {} | {} | {} | {} / {} | {} | {} | {} |",

@@ -5,16 +5,9 @@
 
 use embassy_executor::Spawner;
 use gpecnet_firmware::boot::{self, Supervision};
-use gpecnet_firmware::demo;
+use gpecnet_firmware::{demo, firmware_main};
 
-#[cortex_m_rt::entry]
-fn main() -> ! {
-    boot::start(tasks)
-}
-
-extern "C" fn tasks() -> ! {
-    boot::executor(Supervision::On, |s| s.spawn(supervisor(s).unwrap()))
-}
+firmware_main!(Supervision::On, supervisor);
 
 #[embassy_executor::task]
 async fn supervisor(spawner: Spawner) {

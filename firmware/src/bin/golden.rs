@@ -4,20 +4,14 @@
 #![no_std]
 #![no_main]
 
+use embassy_executor::Spawner;
 use gpecnet_firmware::boot::{self, Supervision};
-use gpecnet_firmware::golden_run;
+use gpecnet_firmware::{firmware_main, golden_run};
 
-#[cortex_m_rt::entry]
-fn main() -> ! {
-    boot::start(tasks)
-}
-
-extern "C" fn tasks() -> ! {
-    boot::executor(Supervision::On, |s| s.spawn(supervisor().unwrap()))
-}
+firmware_main!(Supervision::On, supervisor);
 
 #[embassy_executor::task]
-async fn supervisor() {
+async fn supervisor(_spawner: Spawner) {
     boot::banner();
     boot::finish(golden_run::run())
 }

@@ -5,20 +5,14 @@
 #![no_std]
 #![no_main]
 
+use embassy_executor::Spawner;
 use gpecnet_firmware::boot::{self, Supervision};
-use gpecnet_firmware::profile;
+use gpecnet_firmware::{firmware_main, profile};
 
-#[cortex_m_rt::entry]
-fn main() -> ! {
-    boot::start(tasks)
-}
-
-extern "C" fn tasks() -> ! {
-    boot::executor(Supervision::BoardOnly, |s| s.spawn(supervisor().unwrap()))
-}
+firmware_main!(Supervision::BoardOnly, supervisor);
 
 #[embassy_executor::task]
-async fn supervisor() {
+async fn supervisor(_spawner: Spawner) {
     boot::banner();
     boot::finish(profile::run())
 }
