@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use crate::root;
-use crate::toolchain::{deb_cargo, require, status, TARGET};
+use crate::toolchain::{require, status, thumb_build, TARGET};
 
 /// Fixed-point models (an f32 model through `libm::sinf` in f64 emulation takes minutes in QEMU).
 const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-tiny-qe"];
@@ -154,23 +154,8 @@ pub fn arm_example() -> i32 {
         return 2;
     }
     let target_dir = root().join("target/thumb-ffi");
-    let mut c = deb_cargo(&root());
-    c.args([
-        "build",
-        "--locked",
-        "--release",
-        "-p",
-        "gpecnet-ffi",
-        "--lib",
-    ])
-    .args([
-        "--target",
-        TARGET,
-        "-Zbuild-std=core",
-        "--no-default-features",
-    ])
-    .arg("--target-dir")
-    .arg(&target_dir);
+    let mut c = thumb_build("gpecnet-ffi", &["--lib"], &target_dir);
+    c.arg("--no-default-features");
     if status(c) != 0 {
         return 1;
     }

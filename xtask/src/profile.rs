@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use crate::elf::read_elf;
+use crate::elf::{read_elf, Elf};
 use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::toolchain::{output, require, show, status, which};
 use crate::{die, mcu, root};
@@ -131,6 +131,107 @@ pub(crate) fn blob_has_point_head(path: &std::path::Path) -> bool {
         .unwrap_or(false)
 }
 
+/// Builds the `profile` firmware for `mcu` with `models` (comma-separated) on the numeric path
+/// `sine` (plus the firmware `features`), copies its ELF to `elf_copy` and reads it.
+pub(crate) fn build_profile_image(
+    o: &Opts,
+    mcu: &mcu::Mcu,
+    models: &str,
+    sine: &str,
+    features: &[&str],
+    elf_copy: &Path,
+) -> Elf {
+    let mut c = fw_cargo(o);
+    c.env("GPECNET_MODELS", models)
+        .env("GPECNET_SINE", sine)
+        .arg("build");
+    mcu.firmware_args(&mut c, &root(), "profile", features);
+    let (rc, _, err) = output(c);
+    if rc != 0 {
+        eprintln!("{err}");
+        die(&format!(
+            "{} profile build {models} ({sine}) failed",
+            mcu.name
+        ));
+    }
+    std::fs::copy(mcu.elf(&root(), "profile"), elf_copy)
+        .unwrap_or_else(|e| die(&format!("{}: {e}", elf_copy.display())));
+    read_elf(elf_copy)
+}
+
+/// What one run of a profiling image under the instruction-window plugin left behind.
+pub(crate) struct PluginRun {
+    /// The firmware's defmt output, decoded.
+    pub(crate) text: String,
+    /// The plugin's log: one `window N insns M` line per measured window.
+    pub(crate) plugin_log: String,
+    /// QEMU's exit status.
+    pub(crate) exit: Option<i32>,
+}
+
+impl PluginRun {
+    /// The instruction count of every measured window, in order.
+    pub(crate) fn windows(&self) -> Vec<u64> {
+        self.plugin_log
+            .lines()
+            .filter_map(|l| {
+                l.strip_prefix("window ")
+                    .and_then(|r| r.split(" insns ").nth(1))
+                    .and_then(|n| n.trim().parse().ok())
+            })
+            .collect()
+    }
+
+    /// The firmware's `profile ... sine=...` result lines.
+    pub(crate) fn profile_lines(&self) -> Vec<&str> {
+        self.text
+            .lines()
+            .filter(|l| l.contains("profile ") && l.contains("sine="))
+            .collect()
+    }
+}
+
+/// Runs the image `elf_path` (read as `elf`) on the QEMU `machine` with the TCG plugin `so`
+/// (firmware/tools/insn_window.c) counting the instructions between the `bench_start` and
+/// `bench_end` markers; `plugin_opts` are appended to the plugin's arguments (e.g.
+/// `,profile=FILE,base=0x08000000` for the per-PC profile), the plugin logs to `log`.
+pub(crate) fn run_with_plugin(
+    machine: &str,
+    so: &Path,
+    elf_path: &Path,
+    elf: &Elf,
+    log: &Path,
+    plugin_opts: &str,
+) -> PluginRun {
+    let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
+        (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
+        _ => die("bench_start/bench_end missing or merged in the profile ELF"),
+    };
+    let mut q = Command::new("qemu-system-arm");
+    q.args(["-machine", machine, "-nographic", "-monitor", "none"])
+        .args(["-serial", "null"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .arg("-plugin")
+        .arg(format!(
+            "{},start={s:#x},end={e:#x}{plugin_opts}",
+            so.display()
+        ))
+        .args(["-d", "plugin", "-D"])
+        .arg(log)
+        .arg("-kernel")
+        .arg(elf_path);
+    eprintln!("xtask: $ {}", show(&q));
+    let qo = q
+        .stdin(Stdio::null())
+        .output()
+        .unwrap_or_else(|e| die(&format!("qemu-system-arm: {e}")));
+    PluginRun {
+        text: defmt_decode(elf_path, &qo.stdout),
+        plugin_log: std::fs::read_to_string(log).unwrap_or_default(),
+        exit: qo.status.code(),
+    }
+}
+
 pub(crate) fn profile(o: &Opts) -> i32 {
     require(true);
     let dir = weights_dir(o);
@@ -149,71 +250,35 @@ pub(crate) fn profile(o: &Opts) -> i32 {
             SINES
         };
         for &sine in paths {
-            let mut c = fw_cargo(o);
-            c.env("GPECNET_MODELS", m).env("GPECNET_SINE", sine);
-            c.arg("build");
-            mcu::M4F.firmware_args(&mut c, &root(), "profile", &["micromath"]);
-            let (rc, _, err) = output(c);
-            if rc != 0 {
-                eprintln!("{err}");
-                die(&format!("profile build {m}/{sine} failed"));
-            }
             let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
-            std::fs::copy(mcu::M4F.elf(&root(), "profile"), &elf_copy).unwrap();
-            let elf = read_elf(&elf_copy);
-            let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
-                (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
-                _ => die("bench_start/bench_end missing or merged in the profile ELF"),
-            };
+            let elf = build_profile_image(o, &mcu::M4F, m, sine, &["micromath"], &elf_copy);
             let log = out_dir.join(format!("{m}-{sine}.plugin.log"));
             let pcprof = out_dir.join(format!("{m}-{sine}.pcprof"));
             let _ = std::fs::remove_file(&pcprof);
-            let mut q = Command::new("qemu-system-arm");
-            q.args([
-                "-machine",
-                "netduinoplus2",
-                "-nographic",
-                "-monitor",
-                "none",
-                "-serial",
-                "null",
-            ])
-            .args(["-semihosting-config", "enable=on,target=native"])
-            .arg("-plugin")
-            .arg(format!(
-                "{},start={s:#x},end={e:#x},profile={},base=0x08000000",
-                so.display(),
-                pcprof.display()
-            ))
-            .args(["-d", "plugin", "-D"])
-            .arg(&log)
-            .arg("-kernel")
-            .arg(&elf_copy);
-            eprintln!("xtask: $ {}", show(&q));
-            let qo = q
-                .stdin(Stdio::null())
-                .output()
-                .unwrap_or_else(|e| die(&format!("qemu-system-arm: {e}")));
-            let text = defmt_decode(&elf_copy, &qo.stdout);
-            let plog = std::fs::read_to_string(&log).unwrap_or_default();
-            let insns = plog.lines().find_map(|l| {
-                l.strip_prefix("window 0 insns ")
-                    .and_then(|n| n.trim().parse::<u64>().ok())
-            });
-            let pline = text
-                .lines()
-                .find(|l| l.contains("profile ") && l.contains("sine="));
-            let stack_total = text
+            let run = run_with_plugin(
+                mcu::M4F.machine,
+                &so,
+                &elf_copy,
+                &elf,
+                &log,
+                &format!(",profile={},base=0x08000000", pcprof.display()),
+            );
+            let insns = run.windows().first().copied();
+            let pline = run.profile_lines().first().copied();
+            let num = |key: &str| {
+                pline
+                    .and_then(|l| field(l, key))
+                    .and_then(|v| v.parse::<u64>().ok())
+            };
+            let stack_total = run
+                .text
                 .lines()
                 .find_map(|l| l.split("high-water ").nth(1))
                 .and_then(|r| r.split_whitespace().next())
                 .and_then(|n| n.parse().ok());
-            if qo.status.code() != Some(0) || pline.is_none() || insns.is_none() {
-                eprintln!("{text}{plog}");
-                eprintln!(
-                    "xtask: profile run {m}/{sine} failed (exit {:?})",
-                    qo.status.code()
-                );
+            if run.exit != Some(0) || pline.is_none() || insns.is_none() {
+                eprintln!("{}{}", run.text, run.plugin_log);
+                eprintln!("xtask: profile run {m}/{sine} failed (exit {:?})", run.exit);
                 failed = true;
             }
             let (hot, exec_code) = fold_profile(&pcprof, &elf.functions);
@@ -238,16 +303,10 @@ pub(crate) fn profile(o: &Opts) -> i32 {
                 rodata: elf.section(".rodata"),
                 ram: elf.ram(),
                 stack_total,
-                stack_predict: pline
-                    .and_then(|l| field(l, "predict_stack"))
-                    .and_then(|v| v.parse().ok()),
-                predictor: pline
-                    .and_then(|l| field(l, "predictor_size"))
-                    .and_then(|v| v.parse().ok()),
+                stack_predict: num("predict_stack").and_then(|v| u32::try_from(v).ok()),
+                predictor: num("predictor_size").and_then(|v| u32::try_from(v).ok()),
                 insns,
-                macs: pline
-                    .and_then(|l| field(l, "macs"))
-                    .and_then(|v| v.parse().ok()),
+                macs: num("macs"),
                 hash: pline
                     .and_then(|l| field(l, "hash"))
                     .unwrap_or("-")

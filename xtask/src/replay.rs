@@ -9,13 +9,13 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
-use std::process::{Command, Stdio};
 
-use crate::elf::read_elf;
 use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::mcu::{self, Mcu};
-use crate::profile::{blob_is_fixed, defmt_decode, field, opt, per_mac, plugin, FIXED_PATH};
-use crate::toolchain::{host_cargo, output, require, show};
+use crate::profile::{
+    blob_is_fixed, build_profile_image, field, opt, per_mac, plugin, run_with_plugin, FIXED_PATH,
+};
+use crate::toolchain::{host_cargo, output, require};
 use crate::{die, root};
 
 /// What one class's golden replay found, per model.
@@ -363,68 +363,18 @@ fn profile_class(
             .iter()
             .enumerate()
         {
-            let mut c = fw_cargo(o);
-            c.env("GPECNET_MODELS", batch.join(","))
-                .env("GPECNET_SINE", path)
-                .arg("build");
-            mcu.firmware_args(&mut c, &root(), "profile", &[]);
-            let (rc, _, err) = output(c);
-            if rc != 0 {
-                eprintln!("{err}");
-                die(&format!("{} profile build ({path}) failed", mcu.name));
-            }
             let elf_copy = out_dir.join(format!("profile-{path}-{i}.elf"));
-            std::fs::copy(mcu.elf(&root(), "profile"), &elf_copy)
-                .unwrap_or_else(|e| die(&format!("{}: {e}", elf_copy.display())));
-            let elf = read_elf(&elf_copy);
-            let (s, e) = match (elf.symbols.get("bench_start"), elf.symbols.get("bench_end")) {
-                (Some(s), Some(e)) if s != e => (*s & !1, *e & !1),
-                _ => die("bench_start/bench_end missing or merged in the profile ELF"),
-            };
+            let elf = build_profile_image(o, mcu, &batch.join(","), path, &[], &elf_copy);
             let log = out_dir.join(format!("profile-{path}-{i}.plugin.log"));
-            let mut q = Command::new("qemu-system-arm");
-            q.args(["-machine", mcu.machine, "-nographic", "-monitor", "none"])
-                .args([
-                    "-serial",
-                    "null",
-                    "-semihosting-config",
-                    "enable=on,target=native",
-                ])
-                .arg("-plugin")
-                .arg(format!("{},start={s:#x},end={e:#x}", so.display()))
-                .args(["-d", "plugin", "-D"])
-                .arg(&log)
-                .arg("-kernel")
-                .arg(&elf_copy);
-            eprintln!("xtask: $ {}", show(&q));
-            let qo = q
-                .stdin(Stdio::null())
-                .output()
-                .unwrap_or_else(|e| die(&format!("qemu-system-arm: {e}")));
-            let text = defmt_decode(&elf_copy, &qo.stdout);
-            let _ = std::fs::write(out_dir.join(format!("profile-{path}-{i}.log")), &text);
-            let plog = std::fs::read_to_string(&log).unwrap_or_default();
-            let windows: Vec<u64> = plog
-                .lines()
-                .filter_map(|l| {
-                    l.strip_prefix("window ")
-                        .and_then(|r| r.split(" insns ").nth(1))
-                        .and_then(|n| n.trim().parse().ok())
-                })
-                .collect();
-            let lines: Vec<&str> = text
-                .lines()
-                .filter(|l| l.contains("profile ") && l.contains("sine="))
-                .collect();
-            if qo.status.code() != Some(0)
-                || lines.len() != batch.len()
-                || windows.len() != batch.len()
-            {
-                eprintln!("{text}{plog}");
+            let run = run_with_plugin(mcu.machine, &so, &elf_copy, &elf, &log, "");
+            let _ = std::fs::write(out_dir.join(format!("profile-{path}-{i}.log")), &run.text);
+            let windows = run.windows();
+            let lines = run.profile_lines();
+            if run.exit != Some(0) || lines.len() != batch.len() || windows.len() != batch.len() {
+                eprintln!("{}{}", run.text, run.plugin_log);
                 eprintln!(
                     "xtask: {} profile run ({path}) failed (exit {:?})",
-                    mcu.name,
-                    qo.status.code()
+                    mcu.name, run.exit
                 );
                 ok = false;
             }

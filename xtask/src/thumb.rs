@@ -3,7 +3,7 @@
 //! linked for the MCU.
 
 use crate::root;
-use crate::toolchain::{deb_cargo, require, status, TARGET};
+use crate::toolchain::{require, status, thumb_build};
 
 pub(crate) fn build_core_thumb() -> i32 {
     require(false);
@@ -16,24 +16,8 @@ pub(crate) fn build_core_thumb() -> i32 {
     let target_dir = root().join("target/thumb-core");
     let mut failed = 0;
     for combo in combos {
-        // From the repo root: only the root workspace's config applies (no
-        // [unstable] there), so build-std is passed explicitly. Only `core`
-        // is built for the target: any use of std or alloc fails to compile.
-        let mut c = deb_cargo(&root());
-        // --locked: never rewrite the shared root Cargo.lock with Debian's cargo.
-        c.args([
-            "build",
-            "--locked",
-            "--release",
-            "-p",
-            "gpecnet-core",
-            "--lib",
-            "--target",
-            TARGET,
-        ])
-        .args(["-Zbuild-std=core", "--target-dir"])
-        .arg(&target_dir)
-        .args(*combo);
+        let mut c = thumb_build("gpecnet-core", &["--lib"], &target_dir);
+        c.args(*combo);
         let rc = status(c);
         println!(
             "build-core-thumb {:<40} {}",
@@ -45,25 +29,15 @@ pub(crate) fn build_core_thumb() -> i32 {
     // The embassy task skeleton (core/examples/embassy_task.rs), linked with the
     // repository's memory.x through cortex-m-rt's link.x: the example an
     // integrator starts from must build for the MCU, not only on the host.
-    let mut c = deb_cargo(&root());
+    let mut c = thumb_build(
+        "gpecnet-core",
+        &["--example", "embassy_task"],
+        &root().join("target/thumb-examples"),
+    );
     c.env(
         "RUSTFLAGS",
         format!("-C link-arg=-Tlink.x -L {}", root().display()),
-    )
-    .args([
-        "build",
-        "--locked",
-        "--release",
-        "-p",
-        "gpecnet-core",
-        "--example",
-        "embassy_task",
-        "--target",
-        TARGET,
-        "-Zbuild-std=core",
-        "--target-dir",
-    ])
-    .arg(root().join("target/thumb-examples"));
+    );
     let rc = status(c);
     println!(
         "build-core-thumb {:<40} {}",

@@ -57,6 +57,22 @@ pub(crate) fn deb_cargo(dir: &Path) -> Command {
     c
 }
 
+/// `cargo build --locked --release -p <package> <what> --target thumbv7em-none-eabihf
+/// -Zbuild-std=core --target-dir <target_dir>` with Debian's cargo, from the repository root:
+/// only the root workspace's config applies there (no `[unstable]`), so build-std is passed
+/// explicitly, and `--locked` never lets Debian's cargo rewrite the shared root `Cargo.lock`.
+/// Only `core` is built for the target: any use of std or alloc fails to compile. `what`
+/// selects the artefact (`["--lib"]`, `["--example", NAME]`); append more arguments to the
+/// returned command.
+pub(crate) fn thumb_build(package: &str, what: &[&str], target_dir: &Path) -> Command {
+    let mut c = deb_cargo(&root());
+    c.args(["build", "--locked", "--release", "-p", package])
+        .args(what)
+        .args(["--target", TARGET, "-Zbuild-std=core", "--target-dir"])
+        .arg(target_dir);
+    c
+}
+
 /// The stable cargo that runs us (for firmware/host), from the repo root so
 /// no firmware/.cargo/config.toml applies.
 pub(crate) fn host_cargo() -> Command {
