@@ -71,6 +71,20 @@ fn walk(src: &Path, module: &str, items: &[Item], out: &mut Vec<String>) {
                     walk(src, &child, &file.items, out);
                 }
             }
+            // A private file module of a public module (e.g. `blob/header.rs`)
+            // is a split of its parent: its public items are the parent's,
+            // re-exported with `pub use`, so they are listed under the parent.
+            Item::Mod(m)
+                if module != "crate"
+                    && matches!(m.vis, Visibility::Inherited)
+                    && m.content.is_none() =>
+            {
+                let dir = module.trim_start_matches("crate::").replace("::", "/");
+                let path = format!("{dir}/{}", m.ident);
+                let text = std::fs::read_to_string(module_file(src, &path)).unwrap();
+                let file = syn::parse_file(&text).unwrap();
+                walk(src, module, &file.items, out);
+            }
             Item::Use(u) if public(&u.vis) && !hidden(&u.attrs) => push(tokens(u)),
             Item::Fn(f) if public(&f.vis) && !hidden(&f.attrs) => {
                 push(format!("{}{}", gate(&f.attrs), tokens(&f.sig)))

@@ -1,0 +1,129 @@
+//! The values before the networks (magic, format version, numeric kind,
+//! name, hyper-parameters, version-2 extensions), the trailing CRC-32 and
+//! the postcard helper every part of the reader uses.
+
+use serde::{Deserialize, Serialize};
+
+use super::BlobError;
+
+/// The four bytes every blob starts with.
+pub const MAGIC: [u8; 4] = *b"GPEC";
+/// The newest format version this reader understands (it also reads version 1).
+///
+/// Version 2 adds [`Extensions`] after [`ModelInfo`] and a fifth network, the
+/// point-forecast head, after the predictor. Writers emit version 1 whenever a
+/// model uses none of that, so such blobs keep their bytes.
+pub const FORMAT_VERSION: u16 = 2;
+/// The oldest format version this reader understands.
+pub const MIN_FORMAT_VERSION: u16 = 1;
+/// Most layers one network may have.
+pub const MAX_LAYERS: usize = 8;
+/// Longest observed history a model may take (steps).
+pub const MAX_PAST: usize = 16;
+/// Longest predicted future a model may produce (steps).
+pub const MAX_FUTURE: usize = 32;
+/// Most test-time samples ([`Extensions::tts_samples`]) a blob may ask for.
+pub const MAX_TTS_SAMPLES: usize = 1024;
+#[doc(hidden)]
+/// The checksum: CRC-32/ISO-HDLC (the zlib/PNG/Ethernet CRC).
+pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// How weights are stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NumericKind {
+    /// IEEE-754 binary32, little endian, 4 bytes per value.
+    F32,
+    /// Fixed point (`crate::fixed`): int16 weights with a power-of-two scale
+    /// per output channel, int32 biases, Q-format 16-bit activations, pure
+    /// integer inference. Layers are [`LayerWireQ`] instead of [`LayerWire`].
+    Int16Q15,
+}
+
+/// A layer's activation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Activation {
+    /// `y = W x + b`.
+    Linear,
+    /// `y = max(W x + b, 0)` (NaN passes through).
+    Relu,
+    /// `y = sin(W x + b)`: SIREN's `sin(w0 (W x + b))` with `w0` folded into `W` and `b`.
+    Sine,
+}
+
+#[doc(hidden)]
+/// First value of a blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Preamble {
+    /// [`MAGIC`].
+    pub magic: [u8; 4],
+    /// [`FORMAT_VERSION`].
+    pub version: u16,
+}
+
+/// Model hyper-parameters that inference needs, as stored in the blob.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModelConfig {
+    /// Observed steps (8 for the benchmarks).
+    pub past_len: u8,
+    /// Predicted steps (12 for the benchmarks); the endpoint is the last.
+    pub future_len: u8,
+    /// Width of the past-trajectory features.
+    pub fdim: u16,
+    /// Width of the latent.
+    pub zdim: u16,
+    /// Multiplier applied to origin-shifted coordinates (PECNet: 1.86).
+    pub data_scale: f32,
+    /// Standard deviation of the latent at inference (PECNet: 1.3).
+    pub sigma: f32,
+    /// `initial_pos = last observed position / initial_pos_divisor` (PECNet: 1000).
+    pub initial_pos_divisor: f32,
+    /// SIREN frequency used in training, already folded into the weights (informational).
+    pub w0: f32,
+    /// The model's hidden activation (informational; each layer carries its own).
+    pub hidden_activation: Activation,
+}
+
+#[doc(hidden)]
+/// Everything after the preamble and before the networks.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelInfo<'a> {
+    /// How the weights are stored.
+    pub numeric: NumericKind,
+    /// Human-readable model name (e.g. `sdd-small`).
+    pub name: &'a str,
+    /// Hyper-parameters.
+    pub config: ModelConfig,
+}
+
+/// Version-2 settings, between [`ModelInfo`] and the networks (absent in version 1,
+/// where every field reads as 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Extensions {
+    /// Heading-canonical frame ([`crate::frame`]): 0 = raw orientation; `m` in
+    /// `1..past_len` = rotate by the displacement over the last `m` observed steps.
+    pub heading_steps: u8,
+    /// Test-time sampling ([`crate::cluster`]): 0 = the `K` endpoints are `K`
+    /// latent samples; `N > 0` = draw `N` samples and reduce them to `K` by k-means.
+    pub tts_samples: u16,
+    /// Lloyd iterations of that k-means.
+    pub tts_iters: u8,
+    /// Its initialisation: 0 = the first `K` samples, 1 = farthest-point.
+    pub tts_init: u8,
+}
+
+fn map_postcard(e: postcard::Error) -> BlobError {
+    match e {
+        postcard::Error::DeserializeUnexpectedEnd => BlobError::Truncated,
+        _ => BlobError::Malformed,
+    }
+}
+
+pub(super) fn take<'a, T: Deserialize<'a>>(bytes: &mut &'a [u8]) -> Result<T, BlobError> {
+    let (v, rest) = postcard::take_from_bytes::<T>(bytes).map_err(map_postcard)?;
+    *bytes = rest;
+    Ok(v)
+}

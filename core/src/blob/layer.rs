@@ -1,0 +1,155 @@
+//! One layer: its wire encodings ([`LayerWire`], [`LayerWireQ`]) and the
+//! validated [`Layer`] view of its tensors, still in the blob.
+
+use serde::{Deserialize, Serialize};
+
+use super::Activation;
+
+#[doc(hidden)]
+/// One layer on the wire: dims, activation, and raw little-endian tensors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LayerWire<'a> {
+    /// Input width.
+    pub in_dim: u16,
+    /// Output width.
+    pub out_dim: u16,
+    /// Activation after the affine map.
+    pub activation: Activation,
+    /// `out_dim × in_dim` values, row-major (`W[j][i]` at `j·in_dim + i`).
+    pub weights: &'a [u8],
+    /// `out_dim` values.
+    pub bias: &'a [u8],
+}
+
+#[doc(hidden)]
+/// One fixed-point layer on the wire ([`NumericKind::Int16Q15`]); see
+/// `weights/FORMAT.md` and [`crate::fixed`] for the arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LayerWireQ<'a> {
+    /// Input width.
+    pub in_dim: u16,
+    /// Output width.
+    pub out_dim: u16,
+    /// Activation after the affine map.
+    pub activation: Activation,
+    /// The input vector holds `x_i · 2^in_exp` (i16 range).
+    pub in_exp: i8,
+    /// The output vector holds `y_j · 2^out_exp`; 15 for `Sine` layers.
+    pub out_exp: i8,
+    /// `out_dim × in_dim` i16 LE, row-major.
+    pub weights: &'a [u8],
+    /// `out_dim` i32 LE, in accumulator units.
+    pub bias: &'a [u8],
+    /// `out_dim` i8: the per-channel requantisation shift.
+    pub shifts: &'a [u8],
+}
+
+#[doc(hidden)]
+/// Smallest exponent a fixed-point activation vector may use.
+pub const MIN_EXP: i8 = -8;
+#[doc(hidden)]
+/// Largest exponent a fixed-point activation vector may use.
+pub const MAX_EXP: i8 = 30;
+
+/// A validated layer: dims, activation, and its tensors still in the blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layer<'a> {
+    pub(super) in_dim: usize,
+    pub(super) out_dim: usize,
+    pub(super) activation: Activation,
+    pub(super) weights: &'a [u8],
+    pub(super) bias: &'a [u8],
+    pub(super) shifts: &'a [u8],
+    pub(super) in_exp: i8,
+    pub(super) out_exp: i8,
+}
+
+impl<'a> Layer<'a> {
+    /// Input width.
+    pub fn in_dim(&self) -> usize {
+        self.in_dim
+    }
+    /// Output width.
+    pub fn out_dim(&self) -> usize {
+        self.out_dim
+    }
+    /// Activation.
+    pub fn activation(&self) -> Activation {
+        self.activation
+    }
+    /// `W[j][i]`, or 0 when out of range (never panics).
+    #[inline]
+    pub fn weight(&self, j: usize, i: usize) -> f32 {
+        read_f32(self.weights, j * self.in_dim + i)
+    }
+    /// `b[j]`, or 0 when out of range (never panics).
+    #[inline]
+    pub fn bias(&self, j: usize) -> f32 {
+        read_f32(self.bias, j)
+    }
+    #[doc(hidden)]
+    /// Row `j` of `W` as raw little-endian bytes (empty when out of range).
+    #[inline]
+    pub fn row_bytes(&self, j: usize) -> &'a [u8] {
+        let n = self.in_dim * 4;
+        self.weights.get(j * n..j * n + n).unwrap_or(&[])
+    }
+    /// Fixed point: input exponent (0 for f32 layers).
+    pub fn in_exp(&self) -> i8 {
+        self.in_exp
+    }
+    /// Fixed point: output exponent (0 for f32 layers).
+    pub fn out_exp(&self) -> i8 {
+        self.out_exp
+    }
+    /// Fixed point: `W[j][i]` as i16, or 0 when out of range (never panics).
+    #[inline]
+    pub fn weight_q(&self, j: usize, i: usize) -> i16 {
+        let k = (j * self.in_dim + i) * 2;
+        match self.weights.get(k..k + 2) {
+            Some(&[a, b]) => i16::from_le_bytes([a, b]),
+            _ => 0,
+        }
+    }
+    #[doc(hidden)]
+    /// Fixed point: row `j` of `W` as raw i16 LE bytes (empty when out of range).
+    #[inline]
+    pub fn row_bytes_q(&self, j: usize) -> &'a [u8] {
+        let n = self.in_dim * 2;
+        self.weights.get(j * n..j * n + n).unwrap_or(&[])
+    }
+    /// Fixed point: `b[j]` as i32 accumulator units, or 0 when out of range.
+    #[inline]
+    pub fn bias_q(&self, j: usize) -> i32 {
+        match self.bias.get(j * 4..j * 4 + 4) {
+            Some(&[a, b, c, d]) => i32::from_le_bytes([a, b, c, d]),
+            _ => 0,
+        }
+    }
+    #[doc(hidden)]
+    /// Fixed point: the whole layer's raw tensors `(weights, bias, shifts)`:
+    /// `out_dim × in_dim` i16 LE (row-major), `out_dim` i32 LE and
+    /// `out_dim` i8, for walking all rows in one pass without per-row
+    /// bounds checks (empty for f32 layers' shifts).
+    #[inline]
+    pub fn tensors_q(&self) -> (&'a [u8], &'a [u8], &'a [u8]) {
+        (self.weights, self.bias, self.shifts)
+    }
+    /// Fixed point: requantisation shift of channel `j`, or 0 when out of range.
+    #[inline]
+    pub fn shift(&self, j: usize) -> i8 {
+        self.shifts.get(j).map_or(0, |&s| s as i8)
+    }
+    /// Multiply-accumulates of this layer.
+    pub fn macs(&self) -> usize {
+        self.in_dim * self.out_dim
+    }
+}
+
+#[inline]
+pub(crate) fn read_f32(bytes: &[u8], idx: usize) -> f32 {
+    match bytes.get(idx * 4..idx * 4 + 4) {
+        Some(&[a, b, c, d]) => f32::from_le_bytes([a, b, c, d]),
+        _ => 0.0,
+    }
+}

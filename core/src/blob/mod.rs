@@ -1,0 +1,53 @@
+//! The weight blob: a versioned, checksummed postcard byte string, read in
+//! place (zero-copy) from flash. The byte-level layout is specified in
+//! `weights/FORMAT.md`; this module is its reference reader.
+//!
+//! A blob is a sequence of postcard values followed by a CRC-32:
+//!
+//! ```text
+//! Preamble { magic: [u8; 4] = "GPEC", version: u16 }
+//! ModelInfo { numeric: NumericKind, name: &str, config: ModelConfig }
+//! Network × 4  (encoder_past, decoder, encoder_dest, predictor), each:
+//!     n_layers: u8, then n_layers × LayerWire { in_dim: u16, out_dim: u16,
+//!         activation: Activation, weights: &[u8], bias: &[u8] }
+//!     (or, for NumericKind::Int16Q15, LayerWireQ { in_dim, out_dim, activation,
+//!         in_exp: i8, out_exp: i8, weights: &[u8], bias: &[u8], shifts: &[u8] })
+//! crc32: 4 bytes, little endian, CRC-32/ISO-HDLC of every preceding byte
+//! ```
+//!
+//! [`Model::from_blob`] accepts any byte string and returns either a
+//! validated [`Model`] or a [`BlobError`]: it never panics and never reads
+//! out of bounds (see `core/tests/blob_corruption.rs`, which flips every bit
+//! and tries every truncation of a real blob, and `fuzz/`).
+//!
+//! ```
+//! use gpecnet_core::{BlobError, Model};
+//! assert_eq!(Model::from_blob(b"not a blob").unwrap_err(), BlobError::BadMagic);
+//! assert_eq!(Model::from_blob(b"GP").unwrap_err(), BlobError::Truncated);
+//! ```
+
+//!
+//! The reader is split by job: [`header`] (magic, version, CRC, the values
+//! before the networks), [`layer`] (the wire layers and the validated
+//! [`Layer`] view of one layer's tensors), [`model`] ([`Network`], [`Model`]
+//! and the body parser), [`validate`] (shape, finiteness and fixed-point
+//! scale rules) and [`error`] ([`BlobError`], [`NetworkId`]).
+
+mod error;
+mod header;
+mod layer;
+mod model;
+mod validate;
+
+pub use error::{BlobError, NetworkId};
+pub use header::{
+    Activation, Extensions, ModelConfig, NumericKind, FORMAT_VERSION, MAGIC, MAX_FUTURE,
+    MAX_LAYERS, MAX_PAST, MAX_TTS_SAMPLES, MIN_FORMAT_VERSION,
+};
+#[doc(hidden)]
+pub use header::{ModelInfo, Preamble, CRC32};
+pub(crate) use layer::read_f32;
+pub use layer::Layer;
+#[doc(hidden)]
+pub use layer::{LayerWire, LayerWireQ, MAX_EXP, MIN_EXP};
+pub use model::{Model, Network};

@@ -1,0 +1,294 @@
+//! A validated model ([`Model`]) of up to five networks ([`Network`]), and
+//! the parser of a blob's body.
+
+use super::header::take;
+use super::validate::validate;
+use super::{
+    BlobError, Extensions, Layer, LayerWire, LayerWireQ, ModelConfig, ModelInfo, NumericKind,
+    Preamble, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS, MIN_FORMAT_VERSION,
+};
+
+/// A validated network: up to [`MAX_LAYERS`] layers whose widths chain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Network<'a> {
+    pub(super) layers: [Option<Layer<'a>>; MAX_LAYERS],
+    pub(super) len: usize,
+}
+
+impl<'a> Network<'a> {
+    pub(super) const EMPTY: Self = Self {
+        layers: [None; MAX_LAYERS],
+        len: 0,
+    };
+
+    /// The layers, first to last.
+    pub fn layers(&self) -> impl Iterator<Item = &Layer<'a>> {
+        self.layers.iter().take(self.len).flatten()
+    }
+    /// Number of layers (0 for an absent optional network).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+    /// Whether the network is absent.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+    /// Input width (0 when absent).
+    pub fn in_dim(&self) -> usize {
+        self.layers().next().map_or(0, |l| l.in_dim)
+    }
+    /// Output width (0 when absent).
+    pub fn out_dim(&self) -> usize {
+        self.layers().last().map_or(0, |l| l.out_dim)
+    }
+    /// Widest layer output (the scratch buffer this network needs).
+    pub fn max_width(&self) -> usize {
+        self.layers()
+            .map(|l| l.out_dim.max(l.in_dim))
+            .max()
+            .unwrap_or(0)
+    }
+    /// Multiply-accumulates of one pass.
+    pub fn macs(&self) -> usize {
+        self.layers().map(Layer::macs).sum()
+    }
+    /// Layer `i`, if present.
+    pub fn layer(&self, i: usize) -> Option<&Layer<'a>> {
+        self.layers
+            .get(i)
+            .and_then(Option::as_ref)
+            .filter(|_| i < self.len)
+    }
+}
+
+/// A validated model: a zero-copy view over a blob's bytes.
+///
+/// Construction checks the magic, version, CRC, every dimension, every
+/// hyper-parameter and every weight (finite); afterwards inference cannot
+/// fail on the model's account. The view holds only slices into the blob
+/// (about 1.5 KiB on a 32-bit target: five networks of up to eight layer
+/// descriptors), so a blob in flash stays in flash.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Model<'a> {
+    pub(super) name: &'a str,
+    pub(super) numeric: NumericKind,
+    pub(super) config: ModelConfig,
+    pub(super) encoder_past: Network<'a>,
+    pub(super) decoder: Network<'a>,
+    pub(super) encoder_dest: Network<'a>,
+    pub(super) predictor: Network<'a>,
+    pub(super) point_head: Network<'a>,
+    pub(super) ext: Extensions,
+    pub(super) crc: u32,
+}
+
+impl<'a> Model<'a> {
+    /// Validates `bytes` as a blob and returns a view over it.
+    pub fn from_blob(bytes: &'a [u8]) -> Result<Self, BlobError> {
+        // Magic and version first, so a wrong file or a newer format is named
+        // as such rather than as a checksum failure.
+        match bytes.get(..4) {
+            None => {
+                return Err(if MAGIC.starts_with(bytes) {
+                    BlobError::Truncated
+                } else {
+                    BlobError::BadMagic
+                })
+            }
+            Some(m) if m != MAGIC => return Err(BlobError::BadMagic),
+            Some(_) => {}
+        }
+        let mut cur = bytes;
+        let pre: Preamble = take(&mut cur)?;
+        if !(MIN_FORMAT_VERSION..=FORMAT_VERSION).contains(&pre.version) {
+            return Err(BlobError::UnsupportedVersion(pre.version));
+        }
+        let body_len = bytes.len().checked_sub(4).ok_or(BlobError::Truncated)?;
+        let (body, tail) = bytes.split_at(body_len);
+        let stored = match tail {
+            &[a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+            _ => return Err(BlobError::Truncated),
+        };
+        let computed = CRC32.checksum(body);
+        if stored != computed {
+            // A blob cut short usually fails here: say so when the structure
+            // itself runs out before the end.
+            return Err(if parse_body(body).err() == Some(BlobError::Truncated) {
+                BlobError::Truncated
+            } else {
+                BlobError::ChecksumMismatch { stored, computed }
+            });
+        }
+        let mut model = parse_body(body)?;
+        model.crc = computed;
+        Ok(model)
+    }
+
+    /// Model name from the blob.
+    pub fn name(&self) -> &'a str {
+        self.name
+    }
+    /// Numeric kind of the weights.
+    pub fn numeric(&self) -> NumericKind {
+        self.numeric
+    }
+    /// Hyper-parameters.
+    pub fn config(&self) -> &ModelConfig {
+        &self.config
+    }
+    /// The blob's CRC-32 (identifies the exact weights; golden files refer to it).
+    pub fn crc(&self) -> u32 {
+        self.crc
+    }
+    /// The past-trajectory encoder.
+    pub fn encoder_past(&self) -> &Network<'a> {
+        &self.encoder_past
+    }
+    /// The endpoint decoder.
+    pub fn decoder(&self) -> &Network<'a> {
+        &self.decoder
+    }
+    /// The endpoint encoder (empty when the model predicts endpoints only).
+    pub fn encoder_dest(&self) -> &Network<'a> {
+        &self.encoder_dest
+    }
+    /// The trajectory predictor (empty when the model predicts endpoints only).
+    pub fn predictor(&self) -> &Network<'a> {
+        &self.predictor
+    }
+    /// Whether the model can predict the intermediate points.
+    pub fn has_predictor(&self) -> bool {
+        !self.predictor.is_empty()
+    }
+    /// The point-forecast head (empty when the model has none).
+    pub fn point_head(&self) -> &Network<'a> {
+        &self.point_head
+    }
+    /// Whether the model has a deterministic point forecast.
+    pub fn has_point_head(&self) -> bool {
+        !self.point_head.is_empty()
+    }
+    /// The version-2 settings (all 0 for a version-1 blob).
+    pub fn extensions(&self) -> &Extensions {
+        &self.ext
+    }
+    /// The widest layer of any network: the scratch width a predictor needs.
+    pub fn max_width(&self) -> usize {
+        let m = self.encoder_past.max_width().max(self.decoder.max_width());
+        m.max(self.encoder_dest.max_width())
+            .max(self.predictor.max_width())
+            .max(self.point_head.max_width())
+    }
+    /// The scratch width a predictor for this model needs: its widest layer,
+    /// and at least `fdim + zdim` (the decoder's input). Choose `W` of
+    /// [`crate::Predictor`] at least this large.
+    pub fn scratch_width(&self) -> usize {
+        let c = &self.config;
+        self.max_width().max(c.fdim as usize + c.zdim as usize)
+    }
+    /// The largest accepted magnitude of a normalised network input
+    /// ([`crate::frame::Frame::inputs`]): [`crate::frame::MAX_INPUT`], or less
+    /// for a fixed-point model whose input exponent `e` cannot represent it:
+    /// `2^(15−e)`, beyond which quantisation would saturate by more than one
+    /// step (up to it, the error is at most one step, `2^−e`).
+    pub fn input_limit(&self) -> f32 {
+        let limit = crate::frame::MAX_INPUT;
+        match self.numeric {
+            NumericKind::F32 => limit,
+            NumericKind::Int16Q15 => {
+                let e = crate::engine::in_exp(&self.encoder_past);
+                limit.min(crate::fixed::pow2(15 - e as i32))
+            }
+        }
+    }
+    /// Number of weights and biases.
+    pub fn parameter_count(&self) -> usize {
+        [
+            &self.encoder_past,
+            &self.decoder,
+            &self.encoder_dest,
+            &self.predictor,
+            &self.point_head,
+        ]
+        .iter()
+        .flat_map(|n| n.layers())
+        .map(|l| l.macs() + l.out_dim)
+        .sum()
+    }
+    /// Multiply-accumulates to predict `k` endpoints (encoder once, the
+    /// decoder's feature columns once, its latent columns and the rest `k` times).
+    pub fn endpoint_macs(&self, k: usize) -> usize {
+        let fdim = self.config.fdim as usize;
+        let first = self.decoder.layer(0).map_or(0, |l| l.out_dim);
+        self.encoder_past.macs() + first * fdim + k * (self.decoder.macs() - first * fdim)
+    }
+}
+
+fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
+    let mut cur = body;
+    let pre: Preamble = take(&mut cur)?;
+    let info: ModelInfo = take(&mut cur)?;
+    let v2 = pre.version >= 2;
+    let ext: Extensions = if v2 {
+        take(&mut cur)?
+    } else {
+        Extensions::default()
+    };
+    let mut nets = [Network::EMPTY; 5];
+    let n_nets = if v2 { 5 } else { 4 };
+    for net in nets.iter_mut().take(n_nets) {
+        let n: u8 = take(&mut cur)?;
+        if n as usize > MAX_LAYERS {
+            return Err(BlobError::ExceedsCapacity);
+        }
+        for slot in net.layers.iter_mut().take(n as usize) {
+            *slot = Some(match info.numeric {
+                NumericKind::F32 => {
+                    let w: LayerWire = take(&mut cur)?;
+                    Layer {
+                        in_dim: w.in_dim as usize,
+                        out_dim: w.out_dim as usize,
+                        activation: w.activation,
+                        weights: w.weights,
+                        bias: w.bias,
+                        shifts: &[],
+                        in_exp: 0,
+                        out_exp: 0,
+                    }
+                }
+                NumericKind::Int16Q15 => {
+                    let w: LayerWireQ = take(&mut cur)?;
+                    Layer {
+                        in_dim: w.in_dim as usize,
+                        out_dim: w.out_dim as usize,
+                        activation: w.activation,
+                        weights: w.weights,
+                        bias: w.bias,
+                        shifts: w.shifts,
+                        in_exp: w.in_exp,
+                        out_exp: w.out_exp,
+                    }
+                }
+            });
+        }
+        net.len = n as usize;
+    }
+    if !cur.is_empty() {
+        return Err(BlobError::TrailingBytes);
+    }
+    let [encoder_past, decoder, encoder_dest, predictor, point_head] = nets;
+    let model = Model {
+        name: info.name,
+        numeric: info.numeric,
+        config: info.config,
+        encoder_past,
+        decoder,
+        encoder_dest,
+        predictor,
+        point_head,
+        ext,
+        crc: 0,
+    };
+    validate(&model)?;
+    Ok(model)
+}
