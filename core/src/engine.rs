@@ -93,6 +93,18 @@ pub trait Backend: Sealed {
         part: &[Self::Acc],
         out: &mut [Self::Act],
     );
+    /// [`Backend::dense`] on `L` lanes side by side ([`crate::batch`]):
+    /// `out[j][l] = act(b_j + Σ_i W_ji x[i][l])` for `j < out.len()` and
+    /// every lane `l`, where row `i` of `x` holds input `i` of every lane.
+    /// Each lane gets exactly the operations of [`Backend::dense`] on its
+    /// own column, in the same order (f32: bias, then the products added
+    /// left to right, separate multiply and add), so the same bits; each
+    /// weight is read once for all `L` lanes.
+    fn dense_lanes<const L: usize>(
+        layer: &Layer<'_>,
+        x: &[[Self::Act; L]],
+        out: &mut [[Self::Act; L]],
+    );
 }
 
 /// Input exponent of `net` (0 for f32 or an empty network).

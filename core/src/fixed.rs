@@ -533,6 +533,74 @@ fn latent_with(
     }
 }
 
+/// Rows of a layer that [`dense_lanes`] sums together (each load of
+/// `x[i]` shared by 4 rows).
+const ROWS: usize = 4;
+
+/// `acc[r][l] += q_r,i · x[i][l]` (exact: `i32` product, `i64` sum) for
+/// the rows `r` of `g` (stride `n` bytes, at most `R`), every input `i`
+/// and every lane `l` (innermost, so that LLVM vectorises across lanes).
+#[inline(always)]
+fn rows_lanes<const R: usize, const L: usize>(
+    g: &[u8],
+    n: usize,
+    x: &[[i16; L]],
+    acc: &mut [[i64; L]; R],
+) {
+    let rows: [&[u8]; R] = core::array::from_fn(|r| {
+        let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
+        row.get(..2 * x.len()).unwrap_or(row)
+    });
+    for (i, xi) in x.iter().enumerate() {
+        let q: [i32; R] =
+            core::array::from_fn(|r| w16(rows[r].get(2 * i..2 * i + 2).unwrap_or(&[])));
+        for (a, &qr) in acc.iter_mut().zip(&q) {
+            for (al, &xl) in a.iter_mut().zip(xi) {
+                *al += i64::from(qr * i32::from(xl));
+            }
+        }
+    }
+}
+
+/// [`Backend::dense_lanes`] for Q15: the exact `i64` sums of
+/// [`dense_q`] ([`ROWS`] rows at a time, then one at a time), then
+/// [`activate_q`] with the channel's shift, lane by lane.
+#[inline]
+fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[i16; L]], out: &mut [[i16; L]]) {
+    let n = 2 * layer.in_dim();
+    let (w, _, _) = layer.tensors_q();
+    let act = layer.activation();
+    let out_len = out.len().min(layer.out_dim());
+    let out = &mut out[..out_len];
+    let mut j = 0;
+    let mut blocks = out.chunks_exact_mut(ROWS);
+    for o in &mut blocks {
+        let g = w.get(j * n..).unwrap_or(&[]);
+        let mut acc: [[i64; L]; ROWS] =
+            core::array::from_fn(|r| [i64::from(layer.bias_q(j + r)); L]);
+        rows_lanes::<ROWS, L>(g, n, x, &mut acc);
+        for (r, (o, a)) in o.iter_mut().zip(&acc).enumerate() {
+            finish::<L>(act, a, layer.shift(j + r), o);
+        }
+        j += ROWS;
+    }
+    for o in blocks.into_remainder() {
+        let g = w.get(j * n..).unwrap_or(&[]);
+        let mut acc = [[i64::from(layer.bias_q(j)); L]];
+        rows_lanes::<1, L>(g, n, x, &mut acc);
+        finish::<L>(act, &acc[0], layer.shift(j), o);
+        j += 1;
+    }
+}
+
+/// `o[l] = activate_q(act, acc[l], shift)` for every lane.
+#[inline(always)]
+fn finish<const L: usize>(act: Activation, acc: &[i64; L], shift: i8, o: &mut [i16; L]) {
+    for (o, &a) in o.iter_mut().zip(acc) {
+        *o = activate_q(act, a, shift);
+    }
+}
+
 impl Sealed for Q15 {}
 
 impl Backend for Q15 {
@@ -558,6 +626,10 @@ impl Backend for Q15 {
 
     fn partial(layer: &Layer<'_>, x: &[i16], part: &mut [i64]) {
         accumulate(layer, 0, x, part, |p, acc, _| *p = acc, dot1);
+    }
+
+    fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[i16; L]], out: &mut [[i16; L]]) {
+        dense_lanes::<L>(layer, x, out);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[i16], part: &[i64], out: &mut [i16]) {

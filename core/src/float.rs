@@ -109,6 +109,97 @@ fn biases(layer: &Layer<'_>, acc: &mut [f32]) {
     }
 }
 
+/// One f32 LE weight from `c[0..4]` (0 if short).
+#[inline(always)]
+fn w32(c: &[u8]) -> f32 {
+    match *c {
+        [b0, b1, b2, b3] => f32::from_le_bytes([b0, b1, b2, b3]),
+        _ => 0.0,
+    }
+}
+
+/// Rows of a layer that [`dense_lanes`] sums together: 4 rows share each
+/// load of `x[i]` and give `4·L` independent sums, enough to hide the f32
+/// add latency (on x86-64's 16 SSE registers with `L = 8`).
+const ROWS: usize = 4;
+
+/// `acc[r][l] += W[r][i] · x[i][l]` for `i` in order, the rows `r` of `g`
+/// (stride `n` bytes, at most `R`) and every lane `l`: each lane's sum is
+/// [`row_sum`]'s, left to right with separate multiply and add; the loop
+/// over lanes is innermost so that LLVM vectorises across lanes.
+#[inline(always)]
+fn rows_lanes<const R: usize, const L: usize>(
+    g: &[u8],
+    n: usize,
+    x: &[[f32; L]],
+    acc: &mut [[f32; L]; R],
+) {
+    let rows: [&[u8]; R] = core::array::from_fn(|r| {
+        let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
+        row.get(..4 * x.len()).unwrap_or(row)
+    });
+    // The columns every row has (all of them for a validated layer; a short
+    // row stops where `row_sum` would).
+    let m = rows.iter().map(|r| r.len() / 4).min().unwrap_or(0);
+    for (i, xi) in x.iter().take(m).enumerate() {
+        let q: [f32; R] =
+            core::array::from_fn(|r| w32(rows[r].get(4 * i..4 * i + 4).unwrap_or(&[])));
+        for (a, &qr) in acc.iter_mut().zip(&q) {
+            for (al, &xl) in a.iter_mut().zip(xi) {
+                *al += qr * xl;
+            }
+        }
+    }
+    // Rows longer than the shortest one (never for a validated layer).
+    for (r, a) in acc.iter_mut().enumerate() {
+        for (i, xi) in x.iter().enumerate().take(rows[r].len() / 4).skip(m) {
+            let q = w32(rows[r].get(4 * i..4 * i + 4).unwrap_or(&[]));
+            for (al, &xl) in a.iter_mut().zip(xi) {
+                *al += q * xl;
+            }
+        }
+    }
+}
+
+/// [`Backend::dense_lanes`] for f32: [`ROWS`] rows at a time
+/// ([`rows_lanes`]), the last `out_dim mod 4` rows one at a time, then the
+/// activation of each lane ([`activate`], the sine lane by lane).
+#[inline]
+fn dense_lanes<S: Sine, const L: usize>(layer: &Layer<'_>, x: &[[f32; L]], out: &mut [[f32; L]]) {
+    let n = 4 * layer.in_dim();
+    let w = layer.tensors_q().0;
+    let act = layer.activation();
+    let out_len = out.len().min(layer.out_dim());
+    let out = &mut out[..out_len];
+    let mut j = 0;
+    let mut blocks = out.chunks_exact_mut(ROWS);
+    for o in &mut blocks {
+        let g = w.get(j * n..).unwrap_or(&[]);
+        let mut acc: [[f32; L]; ROWS] = core::array::from_fn(|r| [layer.bias(j + r); L]);
+        rows_lanes::<ROWS, L>(g, n, x, &mut acc);
+        for (o, a) in o.iter_mut().zip(&acc) {
+            finish::<S, L>(act, a, o);
+        }
+        j += ROWS;
+    }
+    for o in blocks.into_remainder() {
+        let g = w.get(j * n..).unwrap_or(&[]);
+        let mut acc = [[layer.bias(j); L]];
+        rows_lanes::<1, L>(g, n, x, &mut acc);
+        finish::<S, L>(act, &acc[0], o);
+        j += 1;
+    }
+}
+
+/// `o[l] = activate(acc[l])` for every lane (the sine lane by lane; LLVM
+/// takes the `match` out of the loop, so `Relu` vectorises).
+#[inline(always)]
+fn finish<S: Sine, const L: usize>(act: Activation, acc: &[f32; L], o: &mut [f32; L]) {
+    for (o, &v) in o.iter_mut().zip(acc) {
+        *o = activate::<S>(act, v);
+    }
+}
+
 impl<S: Sine> Sealed for Float<S> {}
 
 impl<S: Sine> Backend for Float<S> {
@@ -140,6 +231,10 @@ impl<S: Sine> Backend for Float<S> {
         let out = layer.out_dim().min(part.len());
         biases(layer, &mut part[..out]);
         accumulate(layer, 0, x, &mut part[..out]);
+    }
+
+    fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[f32; L]], out: &mut [[f32; L]]) {
+        dense_lanes::<S, L>(layer, x, out);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[f32], part: &[f32], out: &mut [f32]) {

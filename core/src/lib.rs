@@ -100,6 +100,7 @@
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
+pub mod batch;
 pub mod blob;
 #[doc(hidden)]
 pub mod cluster;

@@ -1,0 +1,742 @@
+//! The batched path: `L` latent samples — of one track or of several —
+//! computed side by side ("lanes"), each keeping exactly its own order of
+//! operations, so the results are the same bits as [`crate::Predictor`]'s
+//! and each weight is read once per `L` samples instead of once per sample.
+//!
+//! The scalar path ([`crate::engine`]) adds products one after the other in
+//! one f32 register, so it waits for every add (about 1 GMAC/s on a
+//! 2020s x86 core). Here the innermost loop runs over lanes
+//! ([`crate::engine::Backend::dense_lanes`]): for each output row `j`, for
+//! each input `i`, for each lane `l`, `acc[l] = acc[l] + W[j][i] · x[l][i]`
+//! (separate multiply and add), so LLVM turns the lanes into SIMD vectors,
+//! four rows at a time give independent sums, and no lane's summation
+//! order changes. It is meant for hosts (evaluation, tests, companion
+//! computers); the firmware keeps the scalar engine (whether an MCU should
+//! use lanes is for the kernel work to measure), and the scalar engine stays
+//! the reference: `tests/tests/batch_vs_scalar.rs` checks every shipped blob
+//! on the SDD test set, bit for bit.
+//!
+//! # What is computed, in order
+//!
+//! A call takes one track (`past`, `seed`) or a slice of [`Query`]s and
+//! `k` samples per track; it works through its tracks `L` at a time (a
+//! *group*; lane `l` of the group = track `l`):
+//!
+//! 1. Guards and frame of each track of the group, exactly as
+//!    [`crate::Engine::start`] ([`crate::frame::Frame::inputs`]); then
+//!    `f = encoder_past(x)` for the `L` tracks side by side (unused lanes
+//!    compute on zeros and are ignored).
+//! 2. The group's `n·k` samples (track-major: track 0's samples `0..k`, then
+//!    track 1's, …) go through the decoder `L` at a time (a *chunk*). Lane
+//!    `l` of chunk `c` is sample `s` of track `t` with `c·L + l = t·k + s`;
+//!    its latent is the next `zdim` normals of track `t`'s own sampler
+//!    ([`crate::prng::Gaussian`] seeded with its seed, times `sigma`), so
+//!    sample `s` sees the same normals as in the scalar stream. The
+//!    decoder's first layer runs over `[f, z]` in one left-to-right pass,
+//!    which is what the scalar engine's split sum
+//!    ([`crate::engine::Backend::partial`] then
+//!    [`crate::engine::Backend::latent`]) equals by construction.
+//! 3. Endpoints and, when asked, trajectories (`encoder_dest`, then the
+//!    predictor on `[f, g, last / initial_pos_divisor]`) per lane, mapped
+//!    to caller coordinates with that track's frame, exactly as
+//!    [`crate::Engine::next_endpoint`] and
+//!    [`crate::Engine::last_trajectory`].
+//!
+//! Results come out in track-major order, so a test-time-sampling model
+//! collects one track's `N` samples at a time and reduces them
+//! ([`crate::sampling`]) as the scalar path does.
+//!
+//! # Memory
+//!
+//! [`Batch`]`<B, W, L>` holds three `W × L` activation matrices (f32:
+//! `12·W·L` bytes, 96 KiB for `W = 1024, L = 8`; Q15: `6·W·L` bytes), `L`
+//! frames, last points and samplers (about 40 bytes each) and the model
+//! view. Too big for a small MCU's stack: on a host, box it
+//! (`Box::new(BatchPredictor::new(model)?)`). It never allocates; the
+//! per-window samples of a test-time-sampling model go to an `N`-sample
+//! buffer on the stack (`8·N` bytes), as in the scalar path.
+
+use crate::blob::{Layer, Model, NumericKind, MAX_PAST};
+use crate::engine::{in_exp, out_exp, Backend};
+use crate::fixed::Q15;
+use crate::float::Float;
+use crate::frame::Frame;
+use crate::predictor::{PredictError, Trajectory};
+use crate::prng::Gaussian;
+use crate::sine::Sine;
+use crate::Error;
+
+/// Lanes the host uses ([`HostBatchPredictor`]): 8 f32 lanes are two SSE
+/// vectors, and 4 rows × 8 lanes of sums fill x86-64's 16 vector registers.
+pub const HOST_LANES: usize = 8;
+
+/// One track of a batched call: its observed past (`past_len` points, the
+/// caller's units) and its sampler seed (as `seed` of
+/// [`crate::Predictor::predict_samples`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Query<'p> {
+    /// The observed positions, oldest first.
+    pub past: &'p [[f32; 2]],
+    /// Latent sampler seed of this track.
+    pub seed: u64,
+}
+
+/// Which track of a batched call failed, and why (the error the scalar
+/// path gives for that track).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct QueryError {
+    /// Index of the track in the call's slice (0 for a one-track call).
+    pub index: usize,
+    /// The error.
+    pub error: PredictError,
+}
+
+impl core::fmt::Display for QueryError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "track {}: {}", self.index, self.error)
+    }
+}
+
+impl core::error::Error for QueryError {}
+
+/// `W` rows of `L` lanes: row `i` holds activation `i` of every lane.
+type Lanes<T, const L: usize, const W: usize> = [[T; L]; W];
+
+/// Runs `layers` on the first `width` rows of `src` (ping-pong with `dst`);
+/// returns the output width and whether the output is in `src`.
+fn run_lanes<'l, 'a: 'l, B: Backend, const L: usize, const W: usize>(
+    layers: impl Iterator<Item = &'l Layer<'a>>,
+    src: &mut Lanes<B::Act, L, W>,
+    dst: &mut Lanes<B::Act, L, W>,
+    width: usize,
+) -> (usize, bool) {
+    let (mut s, mut d) = (src, dst);
+    let mut width = width.min(W);
+    let mut in_src = true;
+    for layer in layers {
+        let out = layer.out_dim().min(W);
+        B::dense_lanes(layer, &s[..width], &mut d[..out]);
+        core::mem::swap(&mut s, &mut d);
+        in_src = !in_src;
+        width = out;
+    }
+    (width, in_src)
+}
+
+/// What one lane of a chunk produced: the endpoint, and the trajectory
+/// when one was asked for.
+struct LaneOut<'t> {
+    endpoint: [f32; 2],
+    trajectory: Option<&'t Trajectory>,
+}
+
+/// The batched engine over backend `B`, scratch width `W` and `L` lanes
+/// (see the module docs). Bit-identical to [`crate::Engine`]`<B, W>`.
+pub struct Batch<'a, B: Backend, const W: usize, const L: usize> {
+    model: Model<'a>,
+    a: Lanes<B::Act, L, W>,
+    b: Lanes<B::Act, L, W>,
+    /// Rows `0..fdim`: the features of the group's tracks (lane = track).
+    feat: Lanes<B::Act, L, W>,
+    frames: [Frame; L],
+    lasts: [[f32; 2]; L],
+    gauss: [Gaussian; L],
+}
+
+impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
+    /// A batched engine for `model`; fails as [`crate::Engine::new`] does
+    /// (wrong numeric kind, [`Model::scratch_width`] over `W`). `L = 0` is
+    /// refused with [`PredictError::CapacityExceeded`].
+    pub fn new(model: Model<'a>) -> Result<Self, Error> {
+        if model.numeric() != B::KIND {
+            return Err(Error::Blob(crate::BlobError::UnsupportedNumeric));
+        }
+        let needed = model.scratch_width();
+        if needed > W {
+            return Err(Error::Predict(PredictError::ScratchTooSmall {
+                needed,
+                capacity: W,
+            }));
+        }
+        if L == 0 {
+            return Err(Error::Predict(PredictError::CapacityExceeded));
+        }
+        Ok(Self {
+            model,
+            a: [[B::Act::default(); L]; W],
+            b: [[B::Act::default(); L]; W],
+            feat: [[B::Act::default(); L]; W],
+            frames: [Frame::raw(); L],
+            lasts: [[0.0; 2]; L],
+            gauss: core::array::from_fn(|_| Gaussian::new(0)),
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model<'a> {
+        &self.model
+    }
+
+    /// Step 1 for `group` (at most `L` tracks, `base` = index of the first):
+    /// frames, samplers, and `encoder_past` (or, for `point`, the point head)
+    /// side by side. Returns the network's output width and whether its
+    /// output is in `a`; fails with the first failing track's guard error.
+    fn encode(
+        &mut self,
+        group: &[Query<'_>],
+        base: usize,
+        point: bool,
+    ) -> Result<(usize, bool), QueryError> {
+        let m = &self.model;
+        let net = if point {
+            m.point_head()
+        } else {
+            m.encoder_past()
+        };
+        let e = in_exp(m.encoder_past());
+        for row in self.a.iter_mut().take(2 * MAX_PAST) {
+            *row = [B::Act::default(); L];
+        }
+        let mut n = 0;
+        for (l, q) in group.iter().enumerate().take(L) {
+            let (frame, pts) = Frame::inputs(q.past, m).map_err(|error| QueryError {
+                index: base + l,
+                error,
+            })?;
+            n = 2 * q.past.len();
+            for (t, p) in pts.iter().take(q.past.len()).enumerate() {
+                if let Some(r) = self.a.get_mut(2 * t..2 * t + 2) {
+                    r[0][l] = B::from_f32(p[0], e);
+                    r[1][l] = B::from_f32(p[1], e);
+                }
+            }
+            self.frames[l] = frame;
+            self.lasts[l] = q.past.last().copied().unwrap_or([0.0; 2]);
+            self.gauss[l] = Gaussian::new(q.seed);
+        }
+        Ok(run_lanes::<B, L, W>(
+            net.layers(),
+            &mut self.a,
+            &mut self.b,
+            n,
+        ))
+    }
+
+    /// Steps 1–3 for `queries`, `k` samples each: calls `emit(track,
+    /// sample, lane)` in track-major order. Stops at the first error (of
+    /// `emit`, or a track's, reported with the lowest failing index).
+    fn run(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        trajectories: bool,
+        mut emit: impl FnMut(usize, usize, LaneOut<'_>) -> Result<(), PredictError>,
+    ) -> Result<(), QueryError> {
+        let fail = |index, error| QueryError { index, error };
+        if k == 0 {
+            return Err(fail(0, PredictError::BadSampleCount));
+        }
+        if trajectories && !self.model.has_predictor() {
+            return Err(fail(0, PredictError::NoPredictor));
+        }
+        for (gi, group) in queries.chunks(L).enumerate() {
+            let base = gi * L;
+            // A guard error of track `base + bad` ends the call after the
+            // tracks before it (so the lowest failing index is reported).
+            let (n, enc, guard) = match self.encode(group, base, false) {
+                Ok(enc) => (group.len(), enc, None),
+                Err(e) => {
+                    let ok = e.index - base;
+                    match group.get(..ok) {
+                        Some(g) if ok > 0 => (ok, self.encode(g, base, false)?, Some(e)),
+                        _ => return Err(e),
+                    }
+                }
+            };
+            self.group_samples(n, enc, base, k, trajectories, &mut emit)?;
+            if let Some(e) = guard {
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+
+    /// Steps 2–3 for the `n` encoded tracks of a group (`encoder_past`'s
+    /// output: width and whether in `a`): their `n·k` samples, `L` at a
+    /// time.
+    fn group_samples(
+        &mut self,
+        n: usize,
+        (f_width, f_in_a): (usize, bool),
+        base: usize,
+        k: usize,
+        trajectories: bool,
+        emit: &mut impl FnMut(usize, usize, LaneOut<'_>) -> Result<(), PredictError>,
+    ) -> Result<(), QueryError> {
+        let fdim = (self.model.config().fdim as usize).min(f_width);
+        let src = if f_in_a { &self.a } else { &self.b };
+        self.feat[..fdim].copy_from_slice(&src[..fdim]);
+        let total = n * k;
+        let mut idx = 0;
+        while idx < total {
+            let lanes = (total - idx).min(L);
+            let mut slots = [0usize; L];
+            for (l, s) in slots.iter_mut().enumerate().take(lanes) {
+                *s = (idx + l) / k;
+            }
+            self.chunk(fdim, &slots, lanes, idx, k, base, trajectories, emit)?;
+            idx += lanes;
+        }
+        Ok(())
+    }
+
+    /// One chunk: `lanes` samples starting at group sample `idx` (lane `l` =
+    /// track `slots[l]`), through the decoder and, when asked, the
+    /// trajectory networks; then `emit` per lane in order.
+    #[allow(clippy::too_many_arguments)]
+    fn chunk(
+        &mut self,
+        fdim: usize,
+        slots: &[usize; L],
+        lanes: usize,
+        idx: usize,
+        k: usize,
+        base: usize,
+        trajectories: bool,
+        emit: &mut impl FnMut(usize, usize, LaneOut<'_>) -> Result<(), PredictError>,
+    ) -> Result<(), QueryError> {
+        let fail = |l: usize, error| QueryError {
+            index: base + (idx + l) / k,
+            error,
+        };
+        let c = *self.model.config();
+        let zdim = (c.zdim as usize).min(W.saturating_sub(fdim));
+        let dec = self.model.decoder();
+        let ez = in_exp(dec);
+        // Decoder input [f, z], lane by lane.
+        for (l, &t) in slots.iter().enumerate() {
+            let used = l < lanes;
+            for (ar, fr) in self.a.iter_mut().zip(&self.feat).take(fdim) {
+                ar[l] = if used { fr[t] } else { B::Act::default() };
+            }
+            if used {
+                let g = &mut self.gauss[t];
+                for row in self.a[fdim..fdim + zdim].iter_mut() {
+                    row[l] = B::from_f32(c.sigma * g.next(), ez);
+                }
+            } else {
+                for row in self.a[fdim..fdim + zdim].iter_mut() {
+                    row[l] = B::Act::default();
+                }
+            }
+        }
+        if dec.is_empty() {
+            return Err(fail(0, PredictError::NonFiniteOutput));
+        }
+        let (dw, d_in_a) =
+            run_lanes::<B, L, W>(dec.layers(), &mut self.a, &mut self.b, fdim + zdim);
+        if dw < 2 {
+            return Err(fail(0, PredictError::NonFiniteOutput));
+        }
+        let d: [[B::Act; L]; 2] = if d_in_a {
+            [self.a[0], self.a[1]]
+        } else {
+            [self.b[0], self.b[1]]
+        };
+        let eo = out_exp(dec);
+        // Trajectories: g = encoder_dest(d), then the predictor on [f, g, pos].
+        let mut q_rows = (0, true);
+        if trajectories {
+            let (dest, pred) = (self.model.encoder_dest(), self.model.predictor());
+            self.a[0] = d[0];
+            self.a[1] = d[1];
+            let (ddim, g_in_a) = run_lanes::<B, L, W>(dest.layers(), &mut self.a, &mut self.b, 2);
+            let n_in = fdim + ddim + 2;
+            if n_in > W {
+                return Err(fail(0, PredictError::CapacityExceeded));
+            }
+            let (x, y) = if g_in_a {
+                (&mut self.a, &mut self.b)
+            } else {
+                (&mut self.b, &mut self.a)
+            };
+            x.copy_within(0..ddim, fdim);
+            let ef = out_exp(self.model.encoder_past());
+            for (l, &t) in slots.iter().enumerate() {
+                for (xr, fr) in x.iter_mut().zip(&self.feat).take(fdim) {
+                    xr[l] = fr[t];
+                }
+                let pos = self.frames[t].predictor_position(self.lasts[t]);
+                x[fdim + ddim][l] = B::from_f32(pos[0] / c.initial_pos_divisor, ef);
+                x[fdim + ddim + 1][l] = B::from_f32(pos[1] / c.initial_pos_divisor, ef);
+            }
+            let (qw, q_in_x) = run_lanes::<B, L, W>(pred.layers(), x, y, n_in);
+            q_rows = (qw, q_in_x == g_in_a);
+        }
+        let po = out_exp(self.model.predictor());
+        for (l, &t) in slots.iter().enumerate().take(lanes) {
+            let frame = &self.frames[t];
+            let e = frame.output(
+                [B::to_f32(d[0][l], eo), B::to_f32(d[1][l], eo)],
+                c.data_scale,
+            );
+            if !(e[0].is_finite() && e[1].is_finite()) {
+                return Err(fail(l, PredictError::NonFiniteOutput));
+            }
+            let traj = if trajectories {
+                let q = if q_rows.1 { &self.a } else { &self.b };
+                let pairs = q[..q_rows.0]
+                    .chunks_exact(2)
+                    .map(|p| [B::to_f32(p[0][l], po), B::to_f32(p[1][l], po)]);
+                let mut tr = frame.points(pairs, c.data_scale).map_err(|e| fail(l, e))?;
+                tr.push(e)
+                    .map_err(|_| fail(l, PredictError::CapacityExceeded))?;
+                Some(tr)
+            } else {
+                None
+            };
+            let (track, sample) = ((idx + l) / k, (idx + l) % k);
+            emit(
+                base + track,
+                sample,
+                LaneOut {
+                    endpoint: e,
+                    trajectory: traj.as_ref(),
+                },
+            )
+            .map_err(|e| fail(l, e))?;
+        }
+        Ok(())
+    }
+
+    /// `out.len()` plain latent samples of one track: exactly
+    /// [`crate::Engine::predict_samples`]' bits.
+    pub fn predict_samples(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.predict_samples_many(&[Query { past, seed }], out.len(), out)
+            .map_err(|e| e.error)
+    }
+
+    /// `k` plain latent samples of each of `queries`: `out[t·k + s]` is
+    /// sample `s` of track `t` (`out.len() = queries.len()·k`), equal to
+    /// [`crate::Engine::predict_samples`] on that track alone.
+    pub fn predict_samples_many(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), QueryError> {
+        check_len(queries.len(), k, out.len())?;
+        self.run(queries, k, false, |t, s, o| {
+            let slot = out
+                .get_mut(t * k + s)
+                .ok_or(PredictError::CapacityExceeded)?;
+            *slot = o.endpoint;
+            Ok(())
+        })
+    }
+
+    /// `out.len()` full trajectories of plain latent samples of one track:
+    /// exactly [`crate::Engine::predict_trajectories`]' bits.
+    pub fn predict_trajectories(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        self.predict_trajectories_many(&[Query { past, seed }], out.len(), out)
+            .map_err(|e| e.error)
+    }
+
+    /// `k` trajectories of each of `queries`: `out[t·k + s]` is sample `s`
+    /// of track `t`, equal to [`crate::Engine::predict_trajectories`] on
+    /// that track alone. Needs [`Model::has_predictor`].
+    pub fn predict_trajectories_many(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        out: &mut [Trajectory],
+    ) -> Result<(), QueryError> {
+        if !self.model.has_predictor() {
+            return Err(QueryError {
+                index: 0,
+                error: PredictError::NoPredictor,
+            });
+        }
+        check_len(queries.len(), k, out.len())?;
+        self.run(queries, k, true, |t, s, o| {
+            let slot = out
+                .get_mut(t * k + s)
+                .ok_or(PredictError::CapacityExceeded)?;
+            *slot = o.trajectory.cloned().unwrap_or_default();
+            Ok(())
+        })
+    }
+
+    /// The model's endpoint set of one track: exactly
+    /// [`crate::Engine::predict_endpoint_set`]' bits (`N` as there).
+    pub fn predict_endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        let k = out.len();
+        self.predict_endpoint_sets::<N>(&[Query { past, seed }], k, out)
+            .map_err(|e| e.error)
+    }
+
+    /// The model's endpoint set, `k` endpoints, of each of `queries`:
+    /// `out[t·k..(t + 1)·k]` for track `t`, equal to
+    /// [`crate::Engine::predict_endpoint_set`] on that track alone (plain
+    /// samples, or the k-means reduction of its `tts_samples` samples, one
+    /// track at a time in an `N`-sample buffer).
+    pub fn predict_endpoint_sets<const N: usize>(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), QueryError> {
+        let ext = *self.model.extensions();
+        let n = crate::sampling::samples_needed(&ext, k);
+        check_len(queries.len(), k, out.len())?;
+        if k == 0 || k > n {
+            return Err(QueryError {
+                index: 0,
+                error: PredictError::BadSampleCount,
+            });
+        }
+        if n > N {
+            return Err(QueryError {
+                index: 0,
+                error: PredictError::CapacityExceeded,
+            });
+        }
+        let mut buf = heapless::Vec::<[f32; 2], N>::new();
+        self.run(queries, n, false, |t, s, o| {
+            buf.push(o.endpoint)
+                .map_err(|_| PredictError::CapacityExceeded)?;
+            if s + 1 == n {
+                let dst = out
+                    .get_mut(t * k..(t + 1) * k)
+                    .ok_or(PredictError::CapacityExceeded)?;
+                crate::sampling::reduce(&ext, &buf, dst)?;
+                buf.clear();
+            }
+            Ok(())
+        })
+    }
+
+    /// The point forecast of each of `queries` (seeds unused): `out[t]`
+    /// equals [`crate::Engine::predict_point`] on track `t`. Needs
+    /// [`Model::has_point_head`].
+    pub fn predict_points(
+        &mut self,
+        queries: &[Query<'_>],
+        out: &mut [Trajectory],
+    ) -> Result<(), QueryError> {
+        if !self.model.has_point_head() {
+            return Err(QueryError {
+                index: 0,
+                error: PredictError::NoPointHead,
+            });
+        }
+        check_len(queries.len(), 1, out.len())?;
+        let scale = self.model.config().data_scale;
+        let eo = out_exp(self.model.point_head());
+        for (gi, (group, outs)) in queries.chunks(L).zip(out.chunks_mut(L)).enumerate() {
+            let base = gi * L;
+            // Guard errors first in track order: tracks before a failing
+            // one are still forecast.
+            let (w, in_a) = match self.encode(group, base, true) {
+                Ok(r) => r,
+                Err(e) => {
+                    let ok = e.index - base;
+                    if let (Some(g), true) = (group.get(..ok), ok > 0) {
+                        let (w, in_a) = self.encode(g, base, true)?;
+                        self.points_out(
+                            w,
+                            in_a,
+                            eo,
+                            scale,
+                            base,
+                            outs.get_mut(..ok).unwrap_or(&mut []),
+                        )?;
+                    }
+                    return Err(e);
+                }
+            };
+            self.points_out(w, in_a, eo, scale, base, outs)?;
+        }
+        Ok(())
+    }
+
+    /// The point head's output (width `w`, in `a` or `b`) as trajectories.
+    fn points_out(
+        &self,
+        w: usize,
+        in_a: bool,
+        eo: i8,
+        scale: f32,
+        base: usize,
+        outs: &mut [Trajectory],
+    ) -> Result<(), QueryError> {
+        let q = if in_a { &self.a } else { &self.b };
+        for (l, o) in outs.iter_mut().enumerate() {
+            let pairs = q[..w]
+                .chunks_exact(2)
+                .map(|p| [B::to_f32(p[0][l], eo), B::to_f32(p[1][l], eo)]);
+            *o = self.frames[l]
+                .points(pairs, scale)
+                .map_err(|error| QueryError {
+                    index: base + l,
+                    error,
+                })?;
+        }
+        Ok(())
+    }
+}
+
+/// `out_len == n·k` with `k > 0`, else [`PredictError::BadSampleCount`].
+fn check_len(n: usize, k: usize, out_len: usize) -> Result<(), QueryError> {
+    if k == 0 || n.checked_mul(k) != Some(out_len) {
+        return Err(QueryError {
+            index: 0,
+            error: PredictError::BadSampleCount,
+        });
+    }
+    Ok(())
+}
+
+/// The batched engine matching the blob's kind.
+enum Kind<'a, S: Sine, const W: usize, const L: usize> {
+    F32(Batch<'a, Float<S>, W, L>),
+    Q15(Batch<'a, Q15, W, L>),
+}
+
+/// Like [`crate::Predictor`] (any valid blob, kind chosen at run time, the
+/// same bits) but on the batched path: one track's samples, or many
+/// tracks', `L` side by side. `W` is the scratch width, at least
+/// [`Model::scratch_width`]; `S` the sine of f32 blobs.
+///
+/// ```
+/// # fn demo(blob: &'static [u8], past: &[[f32; 2]]) -> Result<(), gpecnet_core::Error> {
+/// use gpecnet_core::batch::{BatchPredictor, Query};
+/// use gpecnet_core::{LibmSine, Model};
+/// let model = Model::from_blob(blob)?;
+/// // 1024 = scratch width, 8 = lanes; ~100 KiB, so box it on a host.
+/// let mut p = BatchPredictor::<LibmSine, 1024, 8>::new(model)?;
+/// let mut ends = [[0.0f32; 2]; 20];
+/// p.predict_samples(past, 7, &mut ends)?; // == Predictor::predict_samples
+/// let tracks = [Query { past, seed: 0 }, Query { past, seed: 1 }];
+/// let mut many = [[0.0f32; 2]; 40]; // track-major: 20 of track 0, then 20 of track 1
+/// p.predict_samples_many(&tracks, 20, &mut many).map_err(|e| e.error)?;
+/// # Ok(()) }
+/// ```
+pub struct BatchPredictor<'a, S: Sine, const W: usize, const L: usize>(Kind<'a, S, W, L>);
+
+/// [`BatchPredictor`] with the host's lane count [`HOST_LANES`].
+pub type HostBatchPredictor<'a, S, const W: usize> = BatchPredictor<'a, S, W, HOST_LANES>;
+
+/// Calls `$body` on whichever batched engine `$p` holds.
+macro_rules! on_batch {
+    ($p:expr, $e:ident => $body:expr) => {
+        match $p {
+            Kind::F32($e) => $body,
+            Kind::Q15($e) => $body,
+        }
+    };
+}
+
+impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
+    /// A batched predictor for `model`, whatever its numeric kind; fails
+    /// as [`crate::Predictor::new`] does.
+    pub fn new(model: Model<'a>) -> Result<Self, Error> {
+        Ok(Self(match model.numeric() {
+            NumericKind::F32 => Kind::F32(Batch::new(model)?),
+            NumericKind::Int16Q15 => Kind::Q15(Batch::new(model)?),
+        }))
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model<'a> {
+        on_batch!(&self.0, e => e.model())
+    }
+
+    /// [`crate::Predictor::predict_samples`], batched (same bits).
+    pub fn predict_samples(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        on_batch!(&mut self.0, e => e.predict_samples(past, seed, out))
+    }
+
+    /// [`crate::Predictor::predict_trajectories`], batched (same bits).
+    pub fn predict_trajectories(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        on_batch!(&mut self.0, e => e.predict_trajectories(past, seed, out))
+    }
+
+    /// [`crate::Predictor::predict_endpoint_set`], batched (same bits).
+    pub fn predict_endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        on_batch!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
+    }
+
+    /// [`Batch::predict_samples_many`]: `k` samples of each track,
+    /// track-major in `out`.
+    pub fn predict_samples_many(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), QueryError> {
+        on_batch!(&mut self.0, e => e.predict_samples_many(queries, k, out))
+    }
+
+    /// [`Batch::predict_trajectories_many`]: `k` trajectories of each
+    /// track, track-major in `out`.
+    pub fn predict_trajectories_many(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        out: &mut [Trajectory],
+    ) -> Result<(), QueryError> {
+        on_batch!(&mut self.0, e => e.predict_trajectories_many(queries, k, out))
+    }
+
+    /// [`Batch::predict_endpoint_sets`]: the endpoint set (`k` endpoints)
+    /// of each track, track-major in `out`.
+    pub fn predict_endpoint_sets<const N: usize>(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), QueryError> {
+        on_batch!(&mut self.0, e => e.predict_endpoint_sets::<N>(queries, k, out))
+    }
+
+    /// [`Batch::predict_points`]: the point forecast of each track.
+    pub fn predict_points(
+        &mut self,
+        queries: &[Query<'_>],
+        out: &mut [Trajectory],
+    ) -> Result<(), QueryError> {
+        on_batch!(&mut self.0, e => e.predict_points(queries, out))
+    }
+}
