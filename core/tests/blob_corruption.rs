@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use gpecnet_core::blob::{Activation, NetworkId, MAX_LAYERS, MIN_FORMAT_VERSION};
+use gpecnet_core::blob::{Activation, NetworkId, FORMAT_VERSION, MAX_LAYERS, MIN_FORMAT_VERSION};
 use gpecnet_core::{BlobError, Model};
 
 #[test]
@@ -19,7 +19,7 @@ fn valid_blob_parses() {
     let params: usize = small_nets(Activation::Sine)
         .iter()
         .flatten()
-        .map(|l| l.w.len() + l.b.len())
+        .map(|l| (l.weights.len() + l.bias.len()) / 4)
         .sum();
     assert_eq!(m.parameter_count(), params);
     assert_eq!(
@@ -29,53 +29,9 @@ fn valid_blob_parses() {
 }
 
 #[test]
-fn every_truncation_is_rejected() {
-    let blob = small_blob();
-    for n in 0..blob.len() {
-        let err = Model::from_blob(&blob[..n]).unwrap_err();
-        match n {
-            0..=3 => assert_eq!(err, BlobError::Truncated, "len {n}"),
-            _ => assert!(
-                matches!(
-                    err,
-                    BlobError::Truncated | BlobError::ChecksumMismatch { .. }
-                ),
-                "len {n}: {err:?}"
-            ),
-        }
-    }
-    // Structure cut short but with a valid checksum over what is left.
-    for n in 6..blob.len() - 4 {
-        let err = Model::from_blob(&seal(blob[..n].to_vec())).unwrap_err();
-        assert!(
-            err == BlobError::Truncated || matches!(err, BlobError::ShapeMismatch(_)),
-            "len {n}: {err:?}"
-        );
-    }
-}
-
-#[test]
-fn every_single_bit_flip_is_rejected() {
-    let blob = small_blob();
-    let mut counts = [0usize; 4];
-    for byte in 0..blob.len() {
-        for bit in 0..8 {
-            let mut b = blob.clone();
-            b[byte] ^= 1 << bit;
-            let err = Model::from_blob(&b).unwrap_err();
-            match err {
-                BlobError::BadMagic => counts[0] += 1,
-                BlobError::UnsupportedVersion(_) => counts[1] += 1,
-                BlobError::ChecksumMismatch { .. } => counts[2] += 1,
-                _ => counts[3] += 1,
-            }
-            if byte < 4 {
-                assert_eq!(err, BlobError::BadMagic);
-            }
-        }
-    }
-    assert_eq!(counts[0], 32);
-    assert!(counts[2] > blob.len() * 7, "{counts:?}");
+fn every_truncation_and_bit_flip_is_rejected() {
+    let counts = assert_damage_rejected(&small_blob());
+    assert_eq!(counts[0], 32, "{counts:?}");
 }
 
 #[test]
@@ -99,13 +55,7 @@ fn every_bit_flip_with_valid_checksum_never_panics() {
 
 #[test]
 fn random_bytes_never_panic() {
-    let mut s = 0x1234_5678u32;
-    let mut next = move || {
-        s ^= s << 13;
-        s ^= s >> 17;
-        s ^= s << 5;
-        s
-    };
+    let mut next = xorshift32(0x1234_5678);
     for len in 0..2_000usize {
         let mut b: Vec<u8> = (0..len % 300).map(|_| next() as u8).collect();
         if len % 2 == 0 && b.len() >= 6 {
@@ -119,14 +69,13 @@ fn random_bytes_never_panic() {
 
 fn with(
     config_edit: impl Fn(&mut gpecnet_core::ModelConfig),
-    nets_edit: impl Fn(&mut [Vec<TestLayer>; 4]),
-) -> Result<(), BlobError> {
+    nets_edit: impl Fn(&mut [Vec<WireLayer>; 4]),
+) -> Result<(), Refused> {
     let mut c = config();
     config_edit(&mut c);
     let mut nets = small_nets(Activation::Sine);
     nets_edit(&mut nets);
-    let blob = encode("edited", c, &nets, MIN_FORMAT_VERSION);
-    Model::from_blob(&blob).map(|_| ())
+    try_encode("edited", c, &nets).map(|_| ())
 }
 
 #[test]
@@ -138,17 +87,20 @@ fn error_paths() {
     assert_eq!(Model::from_blob(b"GPE").unwrap_err(), BlobError::Truncated);
     assert_eq!(Model::from_blob(b"GPX").unwrap_err(), BlobError::BadMagic);
     assert_eq!(Model::from_blob(b"GPEC").unwrap_err(), BlobError::Truncated);
-    // Version 1 is the layout `encode` writes (4 networks); 2 adds extensions and a fifth
-    // network, so the same bytes labelled 2 fail to decode; 0 and 3 are not versions.
-    for v in [0u16, 3, 0xffff] {
-        let b = encode("vx", config(), &small_nets(Activation::Sine), v);
+    // Versions outside MIN_FORMAT_VERSION..=FORMAT_VERSION are refused as such.
+    for v in [0u16, FORMAT_VERSION + 1, 0xffff] {
+        let b = with_version(&small_blob(), v);
         assert_eq!(
             Model::from_blob(&b).unwrap_err(),
             BlobError::UnsupportedVersion(v)
         );
     }
-    let v2 = encode("v2", config(), &small_nets(Activation::Sine), 2);
-    assert!(Model::from_blob(&v2).is_err());
+    // Each version has its own layout (2 adds extensions and a fifth network, 3 aligns the
+    // tensors): the writer's bytes labelled as any other version fail to decode.
+    let blob = small_blob();
+    for v in (MIN_FORMAT_VERSION..=FORMAT_VERSION).filter(|&v| v != version_of(&blob)) {
+        assert!(Model::from_blob(&with_version(&blob, v)).is_err(), "as {v}");
+    }
 
     let mut bad_crc = small_blob();
     let n = bad_crc.len();
@@ -169,74 +121,74 @@ fn error_paths() {
     // Config out of range.
     assert_eq!(
         with(|c| c.data_scale = 0.0, |_| ()),
-        Err(BlobError::BadConfig)
+        refused(BlobError::BadConfig)
     );
     assert_eq!(
         with(|c| c.sigma = f32::NAN, |_| ()),
-        Err(BlobError::BadConfig)
+        refused(BlobError::BadConfig)
     );
     assert_eq!(
         with(|c| c.initial_pos_divisor = -1.0, |_| ()),
-        Err(BlobError::BadConfig)
+        refused(BlobError::BadConfig)
     );
-    assert_eq!(with(|c| c.zdim = 0, |_| ()), Err(BlobError::BadConfig));
+    assert_eq!(with(|c| c.zdim = 0, |_| ()), refused(BlobError::BadConfig));
     assert_eq!(
         with(|c| c.past_len = 40, |_| ()),
-        Err(BlobError::ExceedsCapacity)
+        refused(BlobError::ExceedsCapacity)
     );
     // Shapes.
     assert_eq!(
         with(|c| c.fdim = 5, |_| ()),
-        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
+        refused(BlobError::ShapeMismatch(NetworkId::EncoderPast))
     );
     assert_eq!(
         with(|c| c.zdim = 4, |_| ()),
-        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+        refused(BlobError::ShapeMismatch(NetworkId::Decoder))
     );
     assert_eq!(
         with(|c| c.future_len = 10, |_| ()),
-        Err(BlobError::ShapeMismatch(NetworkId::Predictor))
+        refused(BlobError::ShapeMismatch(NetworkId::Predictor))
     );
     assert_eq!(
         with(
             |_| (),
             |n| n[1][1] = layer(4, 2, Activation::Linear, 9, 1.0)
         ),
-        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+        refused(BlobError::ShapeMismatch(NetworkId::Decoder))
     );
     assert_eq!(
         with(
             |_| (),
             |n| {
-                n[1][0].w.pop();
+                n[1][0].weights.drain(..4);
             }
         ),
-        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+        refused(BlobError::ShapeMismatch(NetworkId::Decoder))
     );
     assert_eq!(
         with(
             |_| (),
             |n| {
-                n[0][0].b.push(0.0);
+                n[0][0].bias.extend(0f32.to_le_bytes());
             }
         ),
-        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
+        refused(BlobError::ShapeMismatch(NetworkId::EncoderPast))
     );
     assert_eq!(
         with(|_| (), |n| n[2].clear()),
-        Err(BlobError::ShapeMismatch(NetworkId::EncoderDest))
+        refused(BlobError::ShapeMismatch(NetworkId::EncoderDest))
     );
     assert_eq!(
         with(|_| (), |n| n[3].clear()),
-        Err(BlobError::ShapeMismatch(NetworkId::Predictor))
+        refused(BlobError::ShapeMismatch(NetworkId::Predictor))
     );
     assert_eq!(
         with(|_| (), |n| n[0].clear()),
-        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
+        refused(BlobError::ShapeMismatch(NetworkId::EncoderPast))
     );
     assert_eq!(
         with(|_| (), |n| n[1][0].out_dim = 0),
-        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
+        refused(BlobError::ShapeMismatch(NetworkId::Decoder))
     );
     // Endpoint-only models are valid.
     assert_eq!(
@@ -251,46 +203,43 @@ fn error_paths() {
     );
     // Non-finite weights.
     assert_eq!(
-        with(|_| (), |n| n[3][1].w[7] = f32::INFINITY),
-        Err(BlobError::NonFinite(NetworkId::Predictor))
+        with(
+            |_| (),
+            |n| set(&mut n[3][1].weights, 7, f32::INFINITY.to_le_bytes())
+        ),
+        refused(BlobError::NonFinite(NetworkId::Predictor))
     );
     assert_eq!(
-        with(|_| (), |n| n[0][0].b[0] = f32::NAN),
-        Err(BlobError::NonFinite(NetworkId::EncoderPast))
+        with(
+            |_| (),
+            |n| set(&mut n[0][0].bias, 0, f32::NAN.to_le_bytes())
+        ),
+        refused(BlobError::NonFinite(NetworkId::EncoderPast))
     );
     // Capacity.
-    let too_many = |n: &mut [Vec<TestLayer>; 4]| {
+    let too_many = |n: &mut [Vec<WireLayer>; 4]| {
         n[0] = (0..=MAX_LAYERS)
             .map(|i| layer(16, 16, Activation::Sine, i as u32, 0.1))
             .collect();
         n[0].push(layer(16, 4, Activation::Linear, 99, 0.1));
     };
-    assert_eq!(with(|_| (), too_many), Err(BlobError::ExceedsCapacity));
+    assert_eq!(with(|_| (), too_many), refused(BlobError::ExceedsCapacity));
 }
 
 #[test]
 fn malformed_values_are_typed() {
+    // `small_blob` with byte `at` replaced by `v`, the CRC recomputed.
+    let patched = |at: usize, v: u8| {
+        let mut b = small_blob();
+        b[at] = v;
+        Model::from_blob(&reseal(&b)).map(|_| ())
+    };
     // Bad enum tag for the numeric kind (the byte right after the preamble).
-    let mut b = small_blob();
-    b.truncate(b.len() - 4);
-    b[5] = 7;
-    assert_eq!(
-        Model::from_blob(&seal(b)).unwrap_err(),
-        BlobError::Malformed
-    );
+    assert_eq!(patched(5, 7).unwrap_err(), BlobError::Malformed);
     // Invalid UTF-8 in the name (name length at [6], bytes from [7]).
-    let mut b = small_blob();
-    b.truncate(b.len() - 4);
-    b[7] = 0xff;
-    assert_eq!(
-        Model::from_blob(&seal(b)).unwrap_err(),
-        BlobError::Malformed
-    );
+    assert_eq!(patched(7, 0xff).unwrap_err(), BlobError::Malformed);
     // A name length running past the end.
-    let mut b = small_blob();
-    b.truncate(b.len() - 4);
-    b[6] = 0x7f;
-    assert!(Model::from_blob(&seal(b)).is_err());
+    assert!(patched(6, 0x7f).is_err());
 }
 
 #[test]
@@ -298,7 +247,8 @@ fn byte_level_prefix_matches_format_md() {
     // The example in weights/FORMAT.md: preamble, numeric kind, name.
     let b = small_blob();
     assert_eq!(&b[..4], b"GPEC");
-    assert_eq!(b[4], 0x01); // version 1 as a varint
+    // The writer's format version, one varint byte.
+    assert!((MIN_FORMAT_VERSION..=FORMAT_VERSION).contains(&u16::from(b[4])));
     assert_eq!(b[5], 0x00); // NumericKind::F32
     assert_eq!(b[6], 10); // name length
     assert_eq!(&b[7..17], b"test-small");

@@ -2,73 +2,15 @@
 //! every truncation, every bit flip (with and without a valid CRC), random
 //! bytes and each error path give a typed error, never a panic; and the
 //! fixed predictor runs on what the reader accepts.
-use gpecnet_core::blob::{
-    Activation, LayerWireQ, ModelConfig, ModelInfo, NetworkId, NumericKind, Preamble, CRC32, MAGIC,
-    MIN_FORMAT_VERSION,
-};
+use gpecnet_core::blob::{Activation, NetworkId, NumericKind};
 mod common;
 
-use common::{samples, trajectories};
+use common::*;
 use gpecnet_core::fixed::Q15;
 use gpecnet_core::{BlobError, Engine, Error, LibmSine, Model, PredictError, Predictor};
 
-#[derive(Clone)]
-struct QLayer {
-    in_dim: usize,
-    out_dim: usize,
-    act: Activation,
-    in_exp: i8,
-    out_exp: i8,
-    w: Vec<i16>,
-    b: Vec<i32>,
-    s: Vec<i8>,
-}
-
-fn qlayer(in_dim: usize, out_dim: usize, act: Activation, e: (i8, i8), seed: u32) -> QLayer {
-    let mut st = seed.wrapping_mul(2654435761).wrapping_add(1);
-    let mut next = move || {
-        st ^= st << 13;
-        st ^= st >> 17;
-        st ^= st << 5;
-        st
-    };
-    let w = (0..in_dim * out_dim).map(|_| next() as i16 >> 2).collect();
-    let b = (0..out_dim).map(|_| (next() as i32) >> 8).collect();
-    // Sine: ew + in_exp - 32 with ew = 15; affine: ew + in_exp - out_exp.
-    let s = (0..out_dim)
-        .map(|_| match act {
-            Activation::Sine => 15 + e.0 - 32,
-            _ => 15 + e.0 - e.1,
-        })
-        .collect();
-    QLayer {
-        in_dim,
-        out_dim,
-        act,
-        in_exp: e.0,
-        out_exp: e.1,
-        w,
-        b,
-        s,
-    }
-}
-
-fn config() -> ModelConfig {
-    ModelConfig {
-        past_len: 8,
-        future_len: 12,
-        fdim: 4,
-        zdim: 3,
-        data_scale: 1.86,
-        sigma: 1.3,
-        initial_pos_divisor: 1000.0,
-        w0: 30.0,
-        hidden_activation: Activation::Sine,
-    }
-}
-
 /// Exponents: input 6, features 10, decoder output 5.
-fn nets() -> [Vec<QLayer>; 4] {
+fn nets() -> [Vec<WireLayer>; 4] {
     use Activation::*;
     [
         vec![
@@ -90,50 +32,13 @@ fn nets() -> [Vec<QLayer>; 4] {
     ]
 }
 
-fn seal(mut body: Vec<u8>) -> Vec<u8> {
-    let crc = CRC32.checksum(&body);
-    body.extend(crc.to_le_bytes());
-    body
-}
-
-fn encode(nets: &[Vec<QLayer>; 4], config: ModelConfig) -> Vec<u8> {
-    let mut out = postcard::to_stdvec(&Preamble {
-        magic: MAGIC,
-        version: MIN_FORMAT_VERSION,
-    })
-    .unwrap();
-    out.extend(
-        postcard::to_stdvec(&ModelInfo {
-            numeric: NumericKind::Int16Q15,
-            name: "test-q",
-            config,
-        })
-        .unwrap(),
-    );
-    for net in nets {
-        out.extend(postcard::to_stdvec(&(net.len() as u8)).unwrap());
-        for l in net {
-            let w: Vec<u8> = l.w.iter().flat_map(|v| v.to_le_bytes()).collect();
-            let b: Vec<u8> = l.b.iter().flat_map(|v| v.to_le_bytes()).collect();
-            let s: Vec<u8> = l.s.iter().map(|&v| v as u8).collect();
-            let wire = LayerWireQ {
-                in_dim: l.in_dim as u16,
-                out_dim: l.out_dim as u16,
-                activation: l.act,
-                in_exp: l.in_exp,
-                out_exp: l.out_exp,
-                weights: &w,
-                bias: &b,
-                shifts: &s,
-            };
-            out.extend(postcard::to_stdvec(&wire).unwrap());
-        }
-    }
-    seal(out)
+/// A fixed-point format-1 blob of `nets` (`Err`: the reader's refusal).
+fn encode(nets: &[Vec<WireLayer>; 4]) -> Result<Vec<u8>, Refused> {
+    write(NumericKind::Int16Q15, "test-q", config(), nets, None, &[])
 }
 
 fn blob() -> Vec<u8> {
-    encode(&nets(), config())
+    encode(&nets()).unwrap()
 }
 
 const PAST: [[f32; 2]; 8] = [
@@ -156,8 +61,8 @@ fn valid_fixed_blob_parses_and_predicts() {
     assert_eq!(m.max_width(), 22);
     let l = m.decoder().layer(0).unwrap();
     assert_eq!((l.in_exp(), l.out_exp()), (10, 15));
-    assert_eq!(l.weight_q(0, 0), nets()[1][0].w[0]);
-    assert_eq!(l.bias_q(4), nets()[1][0].b[4]);
+    assert_eq!(l.weight_q(0, 0), i16s(&nets()[1][0].weights)[0]);
+    assert_eq!(l.bias_q(4), i32s(&nets()[1][0].bias)[4]);
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     let e1 = samples(&mut p, &PAST, 3, 8).unwrap();
     let e2 = samples(&mut p, &PAST, 3, 8).unwrap();
@@ -193,43 +98,8 @@ fn valid_fixed_blob_parses_and_predicts() {
 }
 
 #[test]
-fn every_truncation_is_rejected() {
-    let b = blob();
-    for n in 0..b.len() {
-        let err = Model::from_blob(&b[..n]).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                BlobError::Truncated | BlobError::ChecksumMismatch { .. }
-            ),
-            "len {n}: {err:?}"
-        );
-    }
-    for n in 6..b.len() - 4 {
-        let err = Model::from_blob(&seal(b[..n].to_vec())).unwrap_err();
-        assert!(
-            err == BlobError::Truncated || matches!(err, BlobError::ShapeMismatch(_)),
-            "len {n}: {err:?}"
-        );
-    }
-}
-
-#[test]
-fn every_single_bit_flip_is_rejected() {
-    let b = blob();
-    let mut crc_fails = 0;
-    for byte in 0..b.len() {
-        for bit in 0..8 {
-            let mut c = b.clone();
-            c[byte] ^= 1 << bit;
-            let err = Model::from_blob(&c).unwrap_err();
-            if byte < 4 {
-                assert_eq!(err, BlobError::BadMagic);
-            }
-            crc_fails += usize::from(matches!(err, BlobError::ChecksumMismatch { .. }));
-        }
-    }
-    assert!(crc_fails > b.len() * 7, "{crc_fails}");
+fn every_truncation_and_bit_flip_is_rejected() {
+    assert_damage_rejected(&blob());
 }
 
 #[test]
@@ -256,13 +126,7 @@ fn every_bit_flip_with_valid_checksum_never_panics() {
 
 #[test]
 fn random_bytes_never_panic() {
-    let mut s = 0x8765_4321u32;
-    let mut next = move || {
-        s ^= s << 13;
-        s ^= s >> 17;
-        s ^= s << 5;
-        s
-    };
+    let mut next = xorshift32(0x8765_4321);
     for len in 0..2_000usize {
         let mut b: Vec<u8> = (0..len % 300).map(|_| next() as u8).collect();
         if b.len() >= 6 {
@@ -275,116 +139,119 @@ fn random_bytes_never_panic() {
     }
 }
 
-fn with(edit: impl Fn(&mut [Vec<QLayer>; 4])) -> Result<(), BlobError> {
+fn with(edit: impl Fn(&mut [Vec<WireLayer>; 4])) -> Result<(), Refused> {
     let mut n = nets();
     edit(&mut n);
-    Model::from_blob(&encode(&n, config())).map(|_| ())
+    encode(&n).map(|_| ())
 }
 
 #[test]
 fn error_paths() {
-    // Shapes: i16 weights (2 bytes), i32 biases, one shift per channel.
-    assert_eq!(
-        with(|n| {
-            n[1][0].w.pop();
-        }),
-        Err(BlobError::ShapeMismatch(NetworkId::Decoder))
-    );
-    assert_eq!(
-        with(|n| n[0][0].b.push(0)),
-        Err(BlobError::ShapeMismatch(NetworkId::EncoderPast))
-    );
-    assert_eq!(
-        with(|n| {
-            n[3][1].s.pop();
-        }),
-        Err(BlobError::ShapeMismatch(NetworkId::Predictor))
-    );
-    // Scales.
-    assert_eq!(
-        with(|n| n[0][1].in_exp = 14),
-        Err(BlobError::BadScale(NetworkId::EncoderPast))
-    );
-    assert_eq!(
-        with(|n| n[0][0].out_exp = 14),
-        Err(BlobError::BadScale(NetworkId::EncoderPast))
-    );
-    assert_eq!(
-        with(|n| n[0][0].in_exp = 31),
-        Err(BlobError::BadScale(NetworkId::EncoderPast))
-    );
-    assert_eq!(
-        with(|n| n[1][1].s[0] = -1),
-        Err(BlobError::BadScale(NetworkId::Decoder))
-    );
-    assert_eq!(
-        with(|n| n[1][0].s[0] = -32),
-        Err(BlobError::BadScale(NetworkId::Decoder))
-    );
-    assert_eq!(
-        with(|n| n[1][0].s[0] = 63),
-        Err(BlobError::BadScale(NetworkId::Decoder))
-    );
-    assert_eq!(with(|n| n[1][0].s[0] = -31), Ok(()));
-    // Boundaries between networks.
-    assert_eq!(
-        with(|n| n[1][0].in_exp = 9),
-        Err(BlobError::BadScale(NetworkId::Decoder))
-    );
-    assert_eq!(
-        with(|n| n[2][0].in_exp = 6),
-        Err(BlobError::BadScale(NetworkId::EncoderDest))
-    );
-    assert_eq!(
-        with(|n| n[2][1].out_exp = 9),
-        Err(BlobError::BadScale(NetworkId::EncoderDest))
-    );
-    assert_eq!(
-        with(|n| n[3][0].in_exp = 9),
-        Err(BlobError::BadScale(NetworkId::Predictor))
-    );
-    // Endpoint-only fixed models are valid.
-    assert_eq!(
-        with(|n| {
-            n[2].clear();
-            n[3].clear();
-        }),
-        Ok(())
-    );
+    use NetworkId::*;
+    type Edit = fn(&mut [Vec<WireLayer>; 4]);
+    let cases: [(&str, Edit, Result<(), BlobError>); 15] = [
+        // Shapes: i16 weights (2 bytes), i32 biases, one shift per channel.
+        (
+            "weight missing",
+            |n| {
+                n[1][0].weights.drain(..2);
+            },
+            Err(BlobError::ShapeMismatch(Decoder)),
+        ),
+        (
+            "extra bias",
+            |n| n[0][0].bias.extend(0i32.to_le_bytes()),
+            Err(BlobError::ShapeMismatch(EncoderPast)),
+        ),
+        (
+            "shift missing",
+            |n| {
+                scale(&mut n[3][1]).shifts.pop();
+            },
+            Err(BlobError::ShapeMismatch(Predictor)),
+        ),
+        // Scales.
+        (
+            "in_exp",
+            |n| scale(&mut n[0][1]).in_exp = 14,
+            Err(BlobError::BadScale(EncoderPast)),
+        ),
+        (
+            "out_exp",
+            |n| scale(&mut n[0][0]).out_exp = 14,
+            Err(BlobError::BadScale(EncoderPast)),
+        ),
+        (
+            "in_exp 31",
+            |n| scale(&mut n[0][0]).in_exp = 31,
+            Err(BlobError::BadScale(EncoderPast)),
+        ),
+        (
+            "shift -1",
+            |n| scale(&mut n[1][1]).shifts[0] = -1,
+            Err(BlobError::BadScale(Decoder)),
+        ),
+        (
+            "shift -32",
+            |n| scale(&mut n[1][0]).shifts[0] = -32,
+            Err(BlobError::BadScale(Decoder)),
+        ),
+        (
+            "shift 63",
+            |n| scale(&mut n[1][0]).shifts[0] = 63,
+            Err(BlobError::BadScale(Decoder)),
+        ),
+        ("shift -31", |n| scale(&mut n[1][0]).shifts[0] = -31, Ok(())),
+        // Boundaries between networks.
+        (
+            "decoder in",
+            |n| scale(&mut n[1][0]).in_exp = 9,
+            Err(BlobError::BadScale(Decoder)),
+        ),
+        (
+            "dest in",
+            |n| scale(&mut n[2][0]).in_exp = 6,
+            Err(BlobError::BadScale(EncoderDest)),
+        ),
+        (
+            "dest out",
+            |n| scale(&mut n[2][1]).out_exp = 9,
+            Err(BlobError::BadScale(EncoderDest)),
+        ),
+        (
+            "predictor in",
+            |n| scale(&mut n[3][0]).in_exp = 9,
+            Err(BlobError::BadScale(Predictor)),
+        ),
+        // Endpoint-only fixed models are valid.
+        (
+            "endpoint-only",
+            |n| {
+                n[2].clear();
+                n[3].clear();
+            },
+            Ok(()),
+        ),
+    ];
+    for (what, edit, want) in cases {
+        assert_eq!(with(edit), want.map_err(|e| e.to_string()), "{what}");
+    }
 }
 
 #[test]
 fn f32_models_are_refused_by_the_fixed_engine_and_run_by_the_predictor() {
-    // Same config, f32 layers: build via the f32 wire with zero weights.
-    use gpecnet_core::blob::LayerWire;
-    let mut out = postcard::to_stdvec(&Preamble {
-        magic: MAGIC,
-        version: MIN_FORMAT_VERSION,
-    })
-    .unwrap();
-    out.extend(
-        postcard::to_stdvec(&ModelInfo {
-            numeric: NumericKind::F32,
-            name: "f",
-            config: config(),
-        })
-        .unwrap(),
-    );
-    for dims in [&[(16usize, 4usize)][..], &[(7, 2)], &[(2, 3)], &[(9, 22)]] {
-        out.extend(postcard::to_stdvec(&(dims.len() as u8)).unwrap());
-        for &(i, o) in dims {
-            let (w, b) = (vec![0u8; i * o * 4], vec![0u8; o * 4]);
-            let wire = LayerWire {
-                in_dim: i as u16,
-                out_dim: o as u16,
-                activation: Activation::Linear,
-                weights: &w,
-                bias: &b,
-            };
-            out.extend(postcard::to_stdvec(&wire).unwrap());
-        }
-    }
-    let b = seal(out);
+    // Same config, f32 layers with zero weights.
+    let zeros = |i: usize, o: usize| {
+        vec![WireLayer::f32(
+            i,
+            o,
+            Activation::Linear,
+            &vec![0.0; i * o],
+            &vec![0.0; o],
+        )]
+    };
+    let nets = [zeros(16, 4), zeros(7, 2), zeros(2, 3), zeros(9, 22)];
+    let b = try_encode("f", config(), &nets).unwrap();
     let m = Model::from_blob(&b).unwrap();
     assert!(matches!(
         Engine::<Q15, 32>::new(m),
@@ -412,11 +279,11 @@ fn accumulators_exact_at_extremes() {
     const N: usize = 131;
     const M: usize = 23;
     let mut ns = nets();
-    let mut wide = qlayer(N, M, Activation::Linear, (15, 15), 9);
     // Rows: all −32768, all 32767, alternating signs, then mixed extremes.
+    let (mut w, mut b, mut s) = (vec![0i16; N * M], vec![0i32; M], vec![0i8; M]);
     for j in 0..M {
         for i in 0..N {
-            wide.w[j * N + i] = match j % 4 {
+            w[j * N + i] = match j % 4 {
                 0 => i16::MIN,
                 1 => i16::MAX,
                 2 => {
@@ -435,16 +302,22 @@ fn accumulators_exact_at_extremes() {
                 }
             };
         }
-        wide.b[j] = if j % 2 == 0 { i32::MIN } else { i32::MAX };
-        wide.s[j] = [0, 1, 31, 32, 62][j % 5];
+        b[j] = if j % 2 == 0 { i32::MIN } else { i32::MAX };
+        s[j] = [0, 1, 31, 32, 62][j % 5];
     }
+    let scale = FixedScale {
+        in_exp: 15,
+        out_exp: 15,
+        shifts: s.clone(),
+    };
+    let wide = WireLayer::q15(N, M, Activation::Linear, &w, &b, scale);
     ns[3] = vec![
         qlayer(9, N, Activation::Sine, (10, 15), 6),
         wide.clone(),
         qlayer(M, 22, Activation::Linear, (15, 5), 7),
     ];
-    let b = encode(&ns, config());
-    let m = Model::from_blob(&b).unwrap();
+    let blob = encode(&ns).unwrap();
+    let m = Model::from_blob(&blob).unwrap();
     let l = m.predictor().layer(1).unwrap();
     assert_eq!((l.in_dim(), l.out_dim()), (N, M));
     let inputs: [[i16; N]; 4] = [
@@ -476,14 +349,14 @@ fn accumulators_exact_at_extremes() {
                     assert_eq!(shorter, out[..M - 4]);
                 }
                 for j in 0..M {
-                    let want: i128 = i128::from(wide.b[j])
+                    let want: i128 = i128::from(b[j])
                         + (0..len)
-                            .map(|i| i128::from(wide.w[j * N + i]) * i128::from(xs[i]))
+                            .map(|i| i128::from(w[j * N + i]) * i128::from(xs[i]))
                             .sum::<i128>();
                     assert_eq!(i128::from(part[j]), want, "row {j}, {len} inputs");
                     if len == N {
                         let acc = i64::try_from(want).unwrap();
-                        assert_eq!(out[j], activate_q(Activation::Linear, acc, wide.s[j]));
+                        assert_eq!(out[j], activate_q(Activation::Linear, acc, s[j]));
                     }
                 }
             }

@@ -7,16 +7,19 @@ use gpecnet_core::{LibmSine, Model, PredictError, Predictor, Trajectory};
 static F32: &[u8] = include_bytes!("../../weights/sdd-tiny-v2.gpec");
 static Q15: &[u8] = include_bytes!("../../weights/sdd-tiny-v2-qe.gpec");
 
-const PAST: [[f32; 2]; 8] = [
-    [512.0, 300.0],
-    [514.0, 301.0],
-    [516.5, 302.0],
-    [519.0, 303.5],
-    [521.0, 304.5],
-    [523.5, 305.0],
-    [526.0, 306.0],
-    [528.0, 307.5],
-];
+/// A pedestrian walking right and slightly down, about 2.5 px per 0.4 s step (SDD pixels).
+const PAST: [[f32; 2]; 8] = walk([512.0, 300.0], [2.3, 1.1]);
+
+/// Eight positions from `start`, `step` apart.
+const fn walk(start: [f32; 2], step: [f32; 2]) -> [[f32; 2]; 8] {
+    let mut p = [start; 8];
+    let mut t = 1;
+    while t < 8 {
+        p[t] = [p[t - 1][0] + step[0], p[t - 1][1] + step[1]];
+        t += 1;
+    }
+    p
+}
 
 type P = Predictor<'static, LibmSine, 64>;
 

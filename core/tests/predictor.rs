@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use gpecnet_core::blob::{Activation, MIN_FORMAT_VERSION};
+use gpecnet_core::blob::Activation;
 use gpecnet_core::prng::Gaussian;
 use gpecnet_core::{FastSine, LibmSine, Model, PredictError, Predictor, Sine};
 
@@ -20,14 +20,15 @@ const PAST: [[f32; 2]; 8] = [
 ];
 
 /// Naive dense layer, f32, left-to-right (the documented order).
-fn dense_f32<S: Sine>(l: &TestLayer, x: &[f32]) -> Vec<f32> {
+fn dense_f32<S: Sine>(l: &WireLayer, x: &[f32]) -> Vec<f32> {
+    let (w, b) = (f32s(&l.weights), f32s(&l.bias));
     (0..l.out_dim)
         .map(|j| {
-            let mut acc = l.b[j];
+            let mut acc = b[j];
             for i in 0..l.in_dim {
-                acc += l.w[j * l.in_dim + i] * x[i];
+                acc += w[j * l.in_dim + i] * x[i];
             }
-            match l.act {
+            match l.activation {
                 Activation::Linear => acc,
                 Activation::Relu => {
                     if acc < 0.0 {
@@ -42,14 +43,15 @@ fn dense_f32<S: Sine>(l: &TestLayer, x: &[f32]) -> Vec<f32> {
         .collect()
 }
 
-fn dense_f64(l: &TestLayer, x: &[f64]) -> Vec<f64> {
+fn dense_f64(l: &WireLayer, x: &[f64]) -> Vec<f64> {
+    let (w, b) = (f32s(&l.weights), f32s(&l.bias));
     (0..l.out_dim)
         .map(|j| {
-            let acc: f64 = l.b[j] as f64
+            let acc: f64 = b[j] as f64
                 + (0..l.in_dim)
-                    .map(|i| l.w[j * l.in_dim + i] as f64 * x[i])
+                    .map(|i| w[j * l.in_dim + i] as f64 * x[i])
                     .sum::<f64>();
-            match l.act {
+            match l.activation {
                 Activation::Linear => acc,
                 Activation::Relu => acc.max(0.0),
                 Activation::Sine => acc.sin(),
@@ -58,17 +60,17 @@ fn dense_f64(l: &TestLayer, x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-fn net_f32<S: Sine>(net: &[TestLayer], x: &[f32]) -> Vec<f32> {
+fn net_f32<S: Sine>(net: &[WireLayer], x: &[f32]) -> Vec<f32> {
     net.iter().fold(x.to_vec(), |h, l| dense_f32::<S>(l, &h))
 }
 
-fn net_f64(net: &[TestLayer], x: &[f64]) -> Vec<f64> {
+fn net_f64(net: &[WireLayer], x: &[f64]) -> Vec<f64> {
     net.iter().fold(x.to_vec(), |h, l| dense_f64(l, &h))
 }
 
 /// The whole documented computation, written out naively (full decoder pass,
 /// no feature-column caching), returning endpoints and trajectories.
-fn naive<S: Sine>(nets: &[Vec<TestLayer>; 4], seed: u64, k: usize) -> Vec<Vec<[f32; 2]>> {
+fn naive<S: Sine>(nets: &[Vec<WireLayer>; 4], seed: u64, k: usize) -> Vec<Vec<[f32; 2]>> {
     let c = config();
     let o = PAST[0];
     let x: Vec<f32> = PAST
@@ -109,21 +111,21 @@ fn hand_computed_single_sine_layer() {
     // encoder: one Sine layer 16 -> 4 with W[j][i] = 0.01 (i+1)(j+1), b = -0.1 j;
     // decoder linear 7 -> 2 summing the features and ignoring z.
     let mut nets = small_nets(Activation::Sine);
-    let mut enc = layer(16, 4, Activation::Sine, 0, 0.0);
+    let (mut w, mut b) = (vec![0.0f32; 16 * 4], vec![0.0f32; 4]);
     for j in 0..4 {
         for i in 0..16 {
-            enc.w[j * 16 + i] = 0.01 * ((i + 1) * (j + 1)) as f32;
+            w[j * 16 + i] = 0.01 * ((i + 1) * (j + 1)) as f32;
         }
-        enc.b[j] = -0.1 * j as f32;
+        b[j] = -0.1 * j as f32;
     }
-    nets[0] = vec![enc];
-    let mut dec = layer(7, 2, Activation::Linear, 0, 0.0);
+    nets[0] = vec![WireLayer::f32(16, 4, Activation::Sine, &w, &b)];
+    let mut w = vec![0.0f32; 2 * 7];
     for i in 0..4 {
-        dec.w[i] = 1.0; // endpoint x = sum of features
-        dec.w[7 + i] = if i == 0 { 1.0 } else { 0.0 }; // endpoint y = feature 0
+        w[i] = 1.0; // endpoint x = sum of features
+        w[7 + i] = if i == 0 { 1.0 } else { 0.0 }; // endpoint y = feature 0
     }
-    nets[1] = vec![dec];
-    let blob = encode("hand", config(), &nets, MIN_FORMAT_VERSION);
+    nets[1] = vec![WireLayer::f32(7, 2, Activation::Linear, &w, &[0.0; 2])];
+    let blob = encode("hand", config(), &nets);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     let e = samples(&mut p, &PAST, 0, 1).unwrap()[0];
@@ -150,11 +152,10 @@ fn relu_layer_and_nan_propagation() {
     let mut nets = small_nets(Activation::Relu);
     // All-negative bias, zero weights: ReLU gives exactly 0 features.
     for l in nets[0].iter_mut() {
-        l.w.iter_mut().for_each(|w| *w = 0.0);
-        l.b.iter_mut().for_each(|b| *b = -1.0);
-        l.act = Activation::Relu;
+        let (i, o) = (l.in_dim, l.out_dim);
+        *l = WireLayer::f32(i, o, Activation::Relu, &vec![0.0; i * o], &vec![-1.0; o]);
     }
-    let blob = encode("relu", config(), &nets, MIN_FORMAT_VERSION);
+    let blob = encode("relu", config(), &nets);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     let got = samples(&mut p, &PAST, 3, 4).unwrap();
@@ -166,7 +167,7 @@ fn relu_layer_and_nan_propagation() {
 
 fn check_bit_exact<S: Sine>(act: Activation) {
     let nets = small_nets(act);
-    let blob = encode("exact", config(), &nets, MIN_FORMAT_VERSION);
+    let blob = encode("exact", config(), &nets);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<S, 32>::new(m).unwrap();
     for seed in [0u64, 1, 42, u64::MAX] {
@@ -202,7 +203,7 @@ fn bit_exact_with_naive_pass_fast_sine() {
 #[test]
 fn close_to_f64() {
     let nets = small_nets(Activation::Sine);
-    let blob = encode("f64", config(), &nets, MIN_FORMAT_VERSION);
+    let blob = encode("f64", config(), &nets);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     let ends = samples(&mut p, &PAST, 9, 5).unwrap();
@@ -294,7 +295,7 @@ fn input_errors() {
     let mut nets = small_nets(Activation::Sine);
     nets[2].clear();
     nets[3].clear();
-    let blob = encode("ends", config(), &nets, MIN_FORMAT_VERSION);
+    let blob = encode("ends", config(), &nets);
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     assert!(samples(&mut p, &PAST, 0, 4).is_ok());

@@ -1,43 +1,92 @@
-//! A small blob writer for tests (the trainer has the production exporter).
+//! Test blobs for the core's integration tests, written through `gpecnet-blob-writer` (the one
+//! writer of blobs, as the trainer and the firmware host tools use it). Networks are
+//! [`WireLayer`]s; the helpers below read and edit their little-endian tensors, and the
+//! reader-contract tests damage finished blobs ([`seal`], [`reseal`], [`with_version`]).
 #![allow(dead_code)]
 
-use gpecnet_core::blob::{
-    Activation, LayerWire, ModelConfig, ModelInfo, NumericKind, Preamble, CRC32, MAGIC,
-    MIN_FORMAT_VERSION,
-};
+use gpecnet_blob_writer::{blob_bytes, BlobHead, Extensions, WriteError};
+pub use gpecnet_blob_writer::{FixedScale, WireLayer};
+use gpecnet_core::blob::{Activation, ModelConfig, NumericKind, Preamble, CRC32};
+use gpecnet_core::{BlobError, Model};
 
-pub struct TestLayer {
-    pub in_dim: usize,
-    pub out_dim: usize,
-    pub act: Activation,
-    pub w: Vec<f32>,
-    pub b: Vec<f32>,
-}
-
-/// Deterministic pseudo-random weights in [-scale, scale).
-pub fn layer(in_dim: usize, out_dim: usize, act: Activation, seed: u32, scale: f32) -> TestLayer {
-    let mut s = seed.wrapping_mul(2654435761).wrapping_add(1);
-    let mut next = move || {
-        s ^= s << 13;
-        s ^= s >> 17;
-        s ^= s << 5;
-        ((s >> 8) as f32 / 16_777_216.0 * 2.0 - 1.0) * scale
-    };
-    let w = (0..in_dim * out_dim).map(|_| next()).collect();
-    let b = (0..out_dim).map(|_| next()).collect();
-    TestLayer {
-        in_dim,
-        out_dim,
-        act,
-        w,
-        b,
+/// A xorshift32 stream from `state` (non-zero): the tests' deterministic "random" numbers.
+pub fn xorshift32(mut state: u32) -> impl FnMut() -> u32 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state
     }
 }
 
-pub fn bytes(v: &[f32]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+/// The xorshift stream of layer `seed` (spread so that small seeds differ).
+fn layer_stream(seed: u32) -> impl FnMut() -> u32 {
+    xorshift32(seed.wrapping_mul(2654435761).wrapping_add(1))
 }
 
+/// An f32 layer with deterministic pseudo-random weights in [-scale, scale).
+pub fn layer(in_dim: usize, out_dim: usize, act: Activation, seed: u32, scale: f32) -> WireLayer {
+    let mut s = layer_stream(seed);
+    let mut next = move || ((s() >> 8) as f32 / 16_777_216.0 * 2.0 - 1.0) * scale;
+    let w: Vec<f32> = (0..in_dim * out_dim).map(|_| next()).collect();
+    let b: Vec<f32> = (0..out_dim).map(|_| next()).collect();
+    WireLayer::f32(in_dim, out_dim, act, &w, &b)
+}
+
+/// A fixed-point layer with pseudo-random int16 weights and int32 biases, input and output
+/// exponents `e`, and the shifts that make the scales consistent (sine: `15 + in_exp - 32`,
+/// affine: `15 + in_exp - out_exp`).
+pub fn qlayer(in_dim: usize, out_dim: usize, act: Activation, e: (i8, i8), seed: u32) -> WireLayer {
+    let mut next = layer_stream(seed);
+    let w: Vec<i16> = (0..in_dim * out_dim).map(|_| next() as i16 >> 2).collect();
+    let b: Vec<i32> = (0..out_dim).map(|_| (next() as i32) >> 8).collect();
+    let shift = match act {
+        Activation::Sine => 15 + e.0 - 32,
+        _ => 15 + e.0 - e.1,
+    };
+    let scale = FixedScale {
+        in_exp: e.0,
+        out_exp: e.1,
+        shifts: vec![shift; out_dim],
+    };
+    WireLayer::q15(in_dim, out_dim, act, &w, &b, scale)
+}
+
+/// The values of a little-endian f32 tensor.
+pub fn f32s(bytes: &[u8]) -> Vec<f32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect()
+}
+
+/// The values of a little-endian int16 tensor.
+pub fn i16s(bytes: &[u8]) -> Vec<i16> {
+    bytes
+        .chunks_exact(2)
+        .map(|c| i16::from_le_bytes(c.try_into().unwrap()))
+        .collect()
+}
+
+/// The values of a little-endian int32 tensor.
+pub fn i32s(bytes: &[u8]) -> Vec<i32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
+        .collect()
+}
+
+/// Overwrites element `i` of a tensor of `N`-byte values with `v`.
+pub fn set<const N: usize>(tensor: &mut [u8], i: usize, v: [u8; N]) {
+    tensor[i * N..(i + 1) * N].copy_from_slice(&v);
+}
+
+/// The fixed-point scaling of a Q15 layer.
+pub fn scale(l: &mut WireLayer) -> &mut FixedScale {
+    l.fixed.as_mut().expect("a fixed-point layer")
+}
+
+/// The hyper-parameters of the small test models.
 pub fn config() -> ModelConfig {
     ModelConfig {
         past_len: 8,
@@ -53,7 +102,7 @@ pub fn config() -> ModelConfig {
 }
 
 /// A small but complete model: encoder 16-6-4, decoder 7-5-2, dest 2-3, predictor 9-6-22.
-pub fn small_nets(act: Activation) -> [Vec<TestLayer>; 4] {
+pub fn small_nets(act: Activation) -> [Vec<WireLayer>; 4] {
     [
         vec![
             layer(16, 6, act, 1, 0.5),
@@ -71,95 +120,66 @@ pub fn small_nets(act: Activation) -> [Vec<TestLayer>; 4] {
     ]
 }
 
-/// Serialises a blob exactly as weights/FORMAT.md describes.
-pub fn encode(
+/// Why the writer refused a model: the core reader's error, as text (the writer reads every
+/// blob back through `Model::from_blob` and reports its `BlobError` with `Display`).
+pub type Refused = String;
+
+/// `Err(e)` as [`write`] reports a blob the reader refuses with `e`.
+pub fn refused<T>(e: BlobError) -> Result<T, Refused> {
+    Err(e.to_string())
+}
+
+/// Writes a blob of kind `numeric` (format 1 without `extensions`, else format 2 with
+/// `point_head`) through `gpecnet-blob-writer`; `Err` carries the reader's refusal.
+pub fn write(
+    numeric: NumericKind,
     name: &str,
     config: ModelConfig,
-    nets: &[Vec<TestLayer>; 4],
-    version: u16,
-) -> Vec<u8> {
-    let mut out = postcard::to_stdvec(&Preamble {
-        magic: MAGIC,
-        version,
+    nets: &[Vec<WireLayer>; 4],
+    extensions: Option<Extensions>,
+    point_head: &[WireLayer],
+) -> Result<Vec<u8>, Refused> {
+    let head = BlobHead {
+        numeric,
+        name,
+        config,
+        extensions,
+    };
+    let [a, b, c, d] = nets;
+    blob_bytes(&head, [a, b, c, d, point_head]).map_err(|e| match e {
+        WriteError::Rejected { reason, .. } => reason,
+        other => panic!("the writer failed before the reader: {other}"),
     })
-    .unwrap();
-    out.extend(
-        postcard::to_stdvec(&ModelInfo {
-            numeric: NumericKind::F32,
-            name,
-            config,
-        })
-        .unwrap(),
-    );
-    for net in nets {
-        out.extend(postcard::to_stdvec(&(net.len() as u8)).unwrap());
-        for l in net {
-            let (w, b) = (bytes(&l.w), bytes(&l.b));
-            let wire = LayerWire {
-                in_dim: l.in_dim as u16,
-                out_dim: l.out_dim as u16,
-                activation: l.act,
-                weights: &w,
-                bias: &b,
-            };
-            out.extend(postcard::to_stdvec(&wire).unwrap());
-        }
-    }
-    seal(out)
+}
+
+/// A format-1 f32 blob (`Err`: the reader's refusal).
+pub fn try_encode(
+    name: &str,
+    config: ModelConfig,
+    nets: &[Vec<WireLayer>; 4],
+) -> Result<Vec<u8>, Refused> {
+    write(NumericKind::F32, name, config, nets, None, &[])
+}
+
+/// A valid format-1 f32 blob.
+pub fn encode(name: &str, config: ModelConfig, nets: &[Vec<WireLayer>; 4]) -> Vec<u8> {
+    try_encode(name, config, nets).unwrap()
 }
 
 /// A format-2 blob: `nets` plus a point head (16 → 8 → 24), heading frame over
 /// `heading_steps`, `tts` test-time samples (3 Lloyd iterations, first-K init).
-pub fn encode_v2(name: &str, nets: &[Vec<TestLayer>; 4], heading_steps: u8, tts: u16) -> Vec<u8> {
-    let v1 = encode(name, config(), nets, MIN_FORMAT_VERSION);
-    // Re-assemble: preamble (version 2), model info, extensions, 4 networks, point head.
-    let mut out = postcard::to_stdvec(&Preamble {
-        magic: MAGIC,
-        version: 2,
-    })
-    .unwrap();
-    let head_len = postcard::to_stdvec(&Preamble {
-        magic: MAGIC,
-        version: MIN_FORMAT_VERSION,
-    })
-    .unwrap()
-    .len();
-    let info = postcard::to_stdvec(&ModelInfo {
-        numeric: NumericKind::F32,
-        name,
-        config: config(),
-    })
-    .unwrap();
-    out.extend(&info);
-    out.extend(
-        postcard::to_stdvec(&gpecnet_core::blob::Extensions {
-            heading_steps,
-            tts_samples: tts,
-            tts_iters: 3,
-            tts_init: 0,
-        })
-        .unwrap(),
-    );
-    out.extend(&v1[head_len + info.len()..v1.len() - 4]);
+pub fn encode_v2(name: &str, nets: &[Vec<WireLayer>; 4], heading_steps: u8, tts: u16) -> Vec<u8> {
     let head = [
         layer(16, 8, Activation::Sine, 21, 0.5),
         layer(8, 24, Activation::Linear, 22, 0.5),
     ];
-    out.extend(postcard::to_stdvec(&(head.len() as u8)).unwrap());
-    for l in &head {
-        let (w, b) = (bytes(&l.w), bytes(&l.b));
-        out.extend(
-            postcard::to_stdvec(&LayerWire {
-                in_dim: l.in_dim as u16,
-                out_dim: l.out_dim as u16,
-                activation: l.act,
-                weights: &w,
-                bias: &b,
-            })
-            .unwrap(),
-        );
-    }
-    seal(out)
+    let ext = Extensions {
+        heading_steps,
+        tts_samples: tts,
+        tts_iters: 3,
+        tts_init: 0,
+    };
+    write(NumericKind::F32, name, config(), nets, Some(ext), &head).unwrap()
 }
 
 /// Appends the CRC-32 of `body`.
@@ -174,13 +194,78 @@ pub fn reseal(blob: &[u8]) -> Vec<u8> {
     seal(blob[..blob.len() - 4].to_vec())
 }
 
+/// `blob` relabelled as format `version` (same body after the preamble, CRC recomputed).
+pub fn with_version(blob: &[u8], version: u16) -> Vec<u8> {
+    let (old, rest) = postcard::take_from_bytes::<Preamble>(blob).unwrap();
+    let mut out = postcard::to_stdvec(&Preamble {
+        magic: old.magic,
+        version,
+    })
+    .unwrap();
+    out.extend(&rest[..rest.len() - 4]);
+    seal(out)
+}
+
+/// The format version of a blob the writer produced.
+pub fn version_of(blob: &[u8]) -> u16 {
+    postcard::take_from_bytes::<Preamble>(blob)
+        .unwrap()
+        .0
+        .version
+}
+
+/// The small f32 test model `test-small` (sine hidden layers), format 1.
 pub fn small_blob() -> Vec<u8> {
-    encode(
-        "test-small",
-        config(),
-        &small_nets(Activation::Sine),
-        MIN_FORMAT_VERSION,
-    )
+    encode("test-small", config(), &small_nets(Activation::Sine))
+}
+
+/// The reader's contract on damaged copies of the valid `blob`:
+/// - every truncation is refused: without the CRC as truncated (below 4 bytes) or by the
+///   checksum, and, with a valid CRC over what is left (from byte 6 on), as truncated or by a
+///   shape;
+/// - every single bit flip is refused, a flip in the magic as `BadMagic`, and the CRC catches
+///   more than 7 of every 8 flips.
+///
+/// Returns how many bit flips gave `BadMagic`, `UnsupportedVersion`, `ChecksumMismatch` and
+/// anything else.
+pub fn assert_damage_rejected(blob: &[u8]) -> [usize; 4] {
+    for n in 0..blob.len() {
+        let err = Model::from_blob(&blob[..n]).unwrap_err();
+        if n < 4 {
+            assert_eq!(err, BlobError::Truncated, "len {n}");
+        }
+        assert!(
+            matches!(
+                err,
+                BlobError::Truncated | BlobError::ChecksumMismatch { .. }
+            ),
+            "len {n}: {err:?}"
+        );
+    }
+    for n in 6..blob.len() - 4 {
+        let err = Model::from_blob(&seal(blob[..n].to_vec())).unwrap_err();
+        assert!(
+            err == BlobError::Truncated || matches!(err, BlobError::ShapeMismatch(_)),
+            "len {n}: {err:?}"
+        );
+    }
+    let mut counts = [0usize; 4];
+    for i in 0..blob.len() * 8 {
+        let mut b = blob.to_vec();
+        b[i / 8] ^= 1 << (i % 8);
+        let err = Model::from_blob(&b).unwrap_err();
+        if i < 32 {
+            assert_eq!(err, BlobError::BadMagic, "bit {i}");
+        }
+        counts[match err {
+            BlobError::BadMagic => 0,
+            BlobError::UnsupportedVersion(_) => 1,
+            BlobError::ChecksumMismatch { .. } => 2,
+            _ => 3,
+        }] += 1;
+    }
+    assert!(counts[2] > blob.len() * 7, "{counts:?}");
+    counts
 }
 
 /// `k` plain latent samples through the caller-owned-output API (`Err` as the core returns it).
