@@ -12,9 +12,7 @@
 use std::fmt;
 
 pub use gpecnet_core::blob::{Activation, Extensions, ModelConfig, NumericKind};
-use gpecnet_core::blob::{
-    LayerWire, LayerWireQ, ModelInfo, Preamble, CRC32, FORMAT_VERSION, MAGIC, MIN_FORMAT_VERSION,
-};
+use gpecnet_core::blob::{ModelInfo, Preamble, CRC32, FORMAT_VERSION, MAGIC, TENSOR_ALIGN};
 pub use gpecnet_core::golden::GoldenInfo;
 use gpecnet_core::golden::{
     GoldenCaseWire, GoldenCaseWireV2, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
@@ -68,6 +66,28 @@ fn narrow<T: TryFrom<usize>>(what: &'static str, value: usize) -> Result<T, Writ
 fn push<T: serde::Serialize>(out: &mut Vec<u8>, v: &T) -> Result<(), WriteError> {
     out.extend(postcard::to_allocvec(v).map_err(WriteError::Encode)?);
     Ok(())
+}
+
+/// Length of `n` as a postcard (LEB128) varint.
+fn varint_len(mut n: usize) -> usize {
+    let mut len = 1;
+    while n >= 0x80 {
+        n >>= 7;
+        len += 1;
+    }
+    len
+}
+
+/// A format-version-3 tensor (`weights/FORMAT.md`): the padding byte string
+/// (0–3 zero bytes, its length prefix one byte) that puts the tensor's first
+/// byte at a multiple of [`TENSOR_ALIGN`] from the blob's start (`out` is the
+/// blob so far), then the tensor as a postcard byte string.
+fn push_aligned(out: &mut Vec<u8>, tensor: &[u8]) -> Result<(), WriteError> {
+    let data_at = out.len() + 1 + varint_len(tensor.len());
+    let pad = vec![0u8; (TENSOR_ALIGN - data_at % TENSOR_ALIGN) % TENSOR_ALIGN];
+    push(out, &pad.as_slice())?;
+    debug_assert_eq!((out.len() + varint_len(tensor.len())) % TENSOR_ALIGN, 0);
+    push(out, &tensor)
 }
 
 fn seal(mut out: Vec<u8>) -> Vec<u8> {
@@ -148,36 +168,28 @@ impl WireLayer {
     }
 
     fn push(&self, out: &mut Vec<u8>, numeric: NumericKind) -> Result<(), WriteError> {
-        let (in_dim, out_dim) = (
+        let (in_dim, out_dim): (u16, u16) = (
             narrow("in_dim", self.in_dim)?,
             narrow("out_dim", self.out_dim)?,
         );
         match (numeric, &self.fixed) {
-            (NumericKind::F32, None) => push(
-                out,
-                &LayerWire {
-                    in_dim,
-                    out_dim,
-                    activation: self.activation,
-                    weights: &self.weights,
-                    bias: &self.bias,
-                },
-            ),
+            (NumericKind::F32, None) => {
+                push(out, &in_dim)?;
+                push(out, &out_dim)?;
+                push(out, &self.activation)?;
+                push_aligned(out, &self.weights)?;
+                push_aligned(out, &self.bias)
+            }
             (NumericKind::Int16Q15, Some(s)) => {
                 let shifts: Vec<u8> = s.shifts.iter().map(|&v| v as u8).collect();
-                push(
-                    out,
-                    &LayerWireQ {
-                        in_dim,
-                        out_dim,
-                        activation: self.activation,
-                        in_exp: s.in_exp,
-                        out_exp: s.out_exp,
-                        weights: &self.weights,
-                        bias: &self.bias,
-                        shifts: &shifts,
-                    },
-                )
+                push(out, &in_dim)?;
+                push(out, &out_dim)?;
+                push(out, &self.activation)?;
+                push(out, &s.in_exp)?;
+                push(out, &s.out_exp)?;
+                push_aligned(out, &self.weights)?;
+                push_aligned(out, &self.bias)?;
+                push(out, &shifts.as_slice())
             }
             _ => Err(WriteError::Shape(format!(
                 "a {} layer in a {numeric:?} blob",
@@ -200,31 +212,24 @@ pub struct BlobHead<'a> {
     pub name: &'a str,
     /// Hyper-parameters.
     pub config: ModelConfig,
-    /// The version-2 settings: `Some` writes format version 2 (with the point head),
-    /// `None` version 1, so models without the new features keep their bytes.
+    /// The version-2 settings (heading frame, test-time sampling); `None` is all zeros
+    /// (raw orientation, plain sampling). Every blob is written in the newest format
+    /// version ([`FORMAT_VERSION`], 3: aligned tensors), which stores them either way.
     pub extensions: Option<Extensions>,
 }
 
-/// Serialises a blob: preamble, model info, (extensions,) the networks in the blob's order
-/// (`encoder_past`, `decoder`, `encoder_dest`, `predictor`, `point_head`; a version-1 blob has
-/// no point head) and the CRC-32; checked by `gpecnet-core`'s reader.
+/// Serialises a blob in format version 3 ([`FORMAT_VERSION`]): preamble, model info,
+/// extensions, the networks in the blob's order (`encoder_past`, `decoder`,
+/// `encoder_dest`, `predictor`, `point_head`), each weight and bias tensor after the
+/// padding that aligns it to [`TENSOR_ALIGN`] bytes from the blob's start, and the
+/// CRC-32; checked by `gpecnet-core`'s reader.
 pub fn blob_bytes(head: &BlobHead<'_>, networks: [&[WireLayer]; 5]) -> Result<Vec<u8>, WriteError> {
-    let v2 = head.extensions.is_some();
-    if !v2 && !networks[4].is_empty() {
-        return Err(WriteError::Shape(
-            "a point head needs format version 2 (extensions)".into(),
-        ));
-    }
     let mut out = Vec::new();
     push(
         &mut out,
         &Preamble {
             magic: MAGIC,
-            version: if v2 {
-                FORMAT_VERSION
-            } else {
-                MIN_FORMAT_VERSION
-            },
+            version: FORMAT_VERSION,
         },
     )?;
     push(
@@ -235,10 +240,8 @@ pub fn blob_bytes(head: &BlobHead<'_>, networks: [&[WireLayer]; 5]) -> Result<Ve
             config: head.config,
         },
     )?;
-    if let Some(x) = &head.extensions {
-        push(&mut out, x)?;
-    }
-    for net in networks.into_iter().take(if v2 { 5 } else { 4 }) {
+    push(&mut out, &head.extensions.unwrap_or_default())?;
+    for net in networks {
         push(&mut out, &narrow::<u8>("layers in a network", net.len())?)?;
         for l in net {
             l.push(&mut out, head.numeric)?;
@@ -334,5 +337,134 @@ pub fn golden_bytes(info: &GoldenInfo<'_>, cases: &[GoldenCase]) -> Result<Vec<u
         what: "golden file",
         reason: e.to_string(),
     })?;
+    Ok(out)
+}
+
+/// Re-writes any readable blob (format version 1, 2 or 3) in the newest format with the same
+/// name, hyper-parameters, extensions and tensors, byte for byte: what `gpec-rewrite` runs
+/// over `weights/`. Writing a version-3 blob again gives the same bytes (the padding is
+/// canonical).
+pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
+    let model = gpecnet_core::Model::from_blob(blob).map_err(|e| WriteError::Rejected {
+        what: "blob to rewrite",
+        reason: e.to_string(),
+    })?;
+    let wire = |net: &gpecnet_core::blob::Network<'_>| -> Vec<WireLayer> {
+        net.layers()
+            .map(|l| {
+                let (weights, bias, shifts) = l.tensors_q();
+                WireLayer {
+                    in_dim: l.in_dim(),
+                    out_dim: l.out_dim(),
+                    activation: l.activation(),
+                    weights: weights.to_vec(),
+                    bias: bias.to_vec(),
+                    fixed: (model.numeric() == NumericKind::Int16Q15).then(|| FixedScale {
+                        in_exp: l.in_exp(),
+                        out_exp: l.out_exp(),
+                        shifts: shifts.iter().map(|&s| s as i8).collect(),
+                    }),
+                }
+            })
+            .collect()
+    };
+    let nets = [
+        wire(model.encoder_past()),
+        wire(model.decoder()),
+        wire(model.encoder_dest()),
+        wire(model.predictor()),
+        wire(model.point_head()),
+    ];
+    let head = BlobHead {
+        numeric: model.numeric(),
+        name: model.name(),
+        config: *model.config(),
+        extensions: Some(*model.extensions()),
+    };
+    let out = blob_bytes(&head, [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]])?;
+    // The same model, tensor for tensor (only the framing may differ).
+    let again = gpecnet_core::Model::from_blob(&out).map_err(|e| WriteError::Rejected {
+        what: "rewritten blob",
+        reason: e.to_string(),
+    })?;
+    let tensors = |m: &gpecnet_core::Model<'_>| -> Vec<(usize, usize, Vec<u8>, Vec<u8>, Vec<u8>)> {
+        [
+            m.encoder_past(),
+            m.decoder(),
+            m.encoder_dest(),
+            m.predictor(),
+            m.point_head(),
+        ]
+        .into_iter()
+        .flat_map(|n| n.layers())
+        .map(|l| {
+            let (w, b, s) = l.tensors_q();
+            (l.in_dim(), l.out_dim(), w.to_vec(), b.to_vec(), s.to_vec())
+        })
+        .collect()
+    };
+    if tensors(&model) != tensors(&again)
+        || model.config() != again.config()
+        || model.extensions() != again.extensions()
+    {
+        return Err(WriteError::Shape(
+            "rewritten blob differs from the original".into(),
+        ));
+    }
+    Ok(out)
+}
+
+/// Re-writes a golden file for the re-written blob whose CRC is `model_crc`: the same cases,
+/// bit for bit, through [`golden_bytes`]; only `GoldenInfo::model_crc` (and so the trailing
+/// CRC) changes. The file must belong to `old_crc`, the blob it was made with.
+pub fn rewrite_golden(golden: &[u8], old_crc: u32, model_crc: u32) -> Result<Vec<u8>, WriteError> {
+    let rejected = |what: &'static str| {
+        move |e: gpecnet_core::BlobError| WriteError::Rejected {
+            what,
+            reason: e.to_string(),
+        }
+    };
+    let set = gpecnet_core::golden::GoldenSet::parse(golden).map_err(rejected("golden file"))?;
+    let info = *set.info();
+    if info.model_crc != old_crc && info.model_crc != model_crc {
+        return Err(WriteError::Shape(format!(
+            "golden file belongs to blob CRC {:#010x}, not {old_crc:#010x}",
+            info.model_crc
+        )));
+    }
+    let pairs = |f: &dyn Fn(usize) -> Option<[u32; 2]>| -> Vec<[f32; 2]> {
+        (0..)
+            .map_while(f)
+            .map(|[x, y]| [f32::from_bits(x), f32::from_bits(y)])
+            .collect()
+    };
+    let cases: Vec<GoldenCase> = set
+        .cases()
+        .map(|c| GoldenCase {
+            past: c.past.to_vec(),
+            seed: c.seed,
+            endpoints: pairs(&|i| (i < c.k()).then(|| c.endpoint_bits(i))),
+            trajectory0: pairs(&|t| c.trajectory0_bits(t)),
+            point: pairs(&|t| c.point_bits(t)),
+        })
+        .collect();
+    let out = golden_bytes(&GoldenInfo { model_crc, ..info }, &cases)?;
+    // Only the header's CRC field (a varint: its length may change) and the trailing CRC
+    // may differ; every case is the same bytes.
+    let check =
+        gpecnet_core::golden::GoldenSet::parse(&out).map_err(rejected("rewritten golden"))?;
+    let same = check.cases().zip(set.cases()).all(|(a, b)| a == b)
+        && check.cases().count() == set.cases().count()
+        && {
+            // The case bytes: after the preamble (6 bytes: magic, 1-byte version) and the info.
+            let head = |i: &GoldenInfo<'_>| postcard::to_allocvec(i).map_or(0, |v| v.len()) + 5;
+            let (a, b) = (head(&info) + 1, head(check.info()) + 1);
+            golden.get(a..golden.len() - 4) == out.get(b..out.len() - 4)
+        };
+    if !same {
+        return Err(WriteError::Shape(
+            "rewritten golden file differs from the original".into(),
+        ));
+    }
     Ok(out)
 }

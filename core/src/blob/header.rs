@@ -8,12 +8,18 @@ use super::BlobError;
 
 /// The four bytes every blob starts with.
 pub const MAGIC: [u8; 4] = *b"GPEC";
-/// The newest format version this reader understands (it also reads version 1).
+/// The newest format version this reader understands (it also reads versions 1 and 2).
 ///
 /// Version 2 adds [`Extensions`] after [`ModelInfo`] and a fifth network, the
-/// point-forecast head, after the predictor. Writers emit version 1 whenever a
-/// model uses none of that, so such blobs keep their bytes.
-pub const FORMAT_VERSION: u16 = 2;
+/// point-forecast head, after the predictor. Version 3 keeps version 2's
+/// values and puts a padding byte string before every weight and bias
+/// tensor so that the tensor's first byte lies at a multiple of
+/// [`TENSOR_ALIGN`](super::TENSOR_ALIGN) from the blob's start (the word
+/// loads of the Cortex-M kernels' fast paths); the writer emits version 3.
+pub const FORMAT_VERSION: u16 = 3;
+/// The first format version whose tensors are aligned (padding before each
+/// weight and bias tensor).
+pub const ALIGNED_FORMAT_VERSION: u16 = 3;
 /// The oldest format version this reader understands.
 pub const MIN_FORMAT_VERSION: u16 = 1;
 /// Most layers one network may have.

@@ -5,6 +5,13 @@ use serde::{Deserialize, Serialize};
 
 use super::Activation;
 
+/// Format version 3: every weight and bias tensor starts at a multiple of
+/// this many bytes from the blob's start. 4 is what the Cortex-M4/M7 word
+/// loads need (`LDRD`, `LDM`, `VLDM`, `VLDR` require word alignment, not
+/// doubleword); 8 would not make every row 8-aligned anyway (an int16 row of
+/// `n` weights is `2n` bytes), so it would only add padding.
+pub const TENSOR_ALIGN: usize = 4;
+
 #[doc(hidden)]
 /// One layer on the wire: dims, activation, and raw little-endian tensors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -41,13 +41,13 @@ mod validate;
 
 pub use error::{BlobError, NetworkId};
 pub use header::{
-    Activation, Extensions, ModelConfig, NumericKind, FORMAT_VERSION, MAGIC, MAX_FUTURE,
-    MAX_LAYERS, MAX_PAST, MAX_TTS_SAMPLES, MIN_FORMAT_VERSION,
+    Activation, Extensions, ModelConfig, NumericKind, ALIGNED_FORMAT_VERSION, FORMAT_VERSION,
+    MAGIC, MAX_FUTURE, MAX_LAYERS, MAX_PAST, MAX_TTS_SAMPLES, MIN_FORMAT_VERSION,
 };
 #[doc(hidden)]
 pub use header::{ModelInfo, Preamble, CRC32};
 pub(crate) use layer::read_f32;
-pub use layer::Layer;
+pub use layer::{Layer, TENSOR_ALIGN};
 #[doc(hidden)]
 pub use layer::{LayerWire, LayerWireQ, MAX_EXP, MIN_EXP};
 pub use model::{Model, Network};

@@ -4,8 +4,9 @@
 use super::header::take;
 use super::validate::validate;
 use super::{
-    BlobError, Extensions, Layer, LayerWire, LayerWireQ, ModelConfig, ModelInfo, NumericKind,
-    Preamble, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS, MIN_FORMAT_VERSION,
+    Activation, BlobError, Extensions, Layer, LayerWire, LayerWireQ, ModelConfig, ModelInfo,
+    NumericKind, Preamble, ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS,
+    MIN_FORMAT_VERSION, TENSOR_ALIGN,
 };
 
 /// A validated network: up to [`MAX_LAYERS`] layers whose widths chain.
@@ -140,6 +141,27 @@ impl<'a> Model<'a> {
     pub fn crc(&self) -> u32 {
         self.crc
     }
+    /// Whether every weight and bias tensor of this view starts at a
+    /// 4-byte ([`TENSOR_ALIGN`]) aligned address: a version-3 blob placed at
+    /// an aligned address (e.g. inside a `#[repr(C, align(8))]` wrapper).
+    /// Only speed depends on it: the Cortex-M4/M7 kernels check each row's
+    /// address and take their word-load paths (`LDRD`, `VLDM`) where it is
+    /// aligned, the one-word-at-a-time path elsewhere; other targets never
+    /// look. Results are the same bits either way.
+    pub fn tensors_aligned(&self) -> bool {
+        [
+            &self.encoder_past,
+            &self.decoder,
+            &self.encoder_dest,
+            &self.predictor,
+            &self.point_head,
+        ]
+        .iter()
+        .flat_map(|n| n.layers())
+        .all(|l| {
+            (l.weights.as_ptr() as usize | l.bias.as_ptr() as usize).is_multiple_of(TENSOR_ALIGN)
+        })
+    }
     /// The past-trajectory encoder.
     pub fn encoder_past(&self) -> &Network<'a> {
         &self.encoder_past
@@ -229,6 +251,7 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     let pre: Preamble = take(&mut cur)?;
     let info: ModelInfo = take(&mut cur)?;
     let v2 = pre.version >= 2;
+    let aligned = pre.version >= ALIGNED_FORMAT_VERSION;
     let ext: Extensions = if v2 {
         take(&mut cur)?
     } else {
@@ -242,31 +265,35 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
             return Err(BlobError::ExceedsCapacity);
         }
         for slot in net.layers.iter_mut().take(n as usize) {
-            *slot = Some(match info.numeric {
-                NumericKind::F32 => {
-                    let w: LayerWire = take(&mut cur)?;
-                    Layer {
-                        in_dim: w.in_dim as usize,
-                        out_dim: w.out_dim as usize,
-                        activation: w.activation,
-                        weights: w.weights,
-                        bias: w.bias,
-                        shifts: &[],
-                        in_exp: 0,
-                        out_exp: 0,
+            *slot = Some(if aligned {
+                take_aligned_layer(&mut cur, body, info.numeric)?
+            } else {
+                match info.numeric {
+                    NumericKind::F32 => {
+                        let w: LayerWire = take(&mut cur)?;
+                        Layer {
+                            in_dim: w.in_dim as usize,
+                            out_dim: w.out_dim as usize,
+                            activation: w.activation,
+                            weights: w.weights,
+                            bias: w.bias,
+                            shifts: &[],
+                            in_exp: 0,
+                            out_exp: 0,
+                        }
                     }
-                }
-                NumericKind::Int16Q15 => {
-                    let w: LayerWireQ = take(&mut cur)?;
-                    Layer {
-                        in_dim: w.in_dim as usize,
-                        out_dim: w.out_dim as usize,
-                        activation: w.activation,
-                        weights: w.weights,
-                        bias: w.bias,
-                        shifts: w.shifts,
-                        in_exp: w.in_exp,
-                        out_exp: w.out_exp,
+                    NumericKind::Int16Q15 => {
+                        let w: LayerWireQ = take(&mut cur)?;
+                        Layer {
+                            in_dim: w.in_dim as usize,
+                            out_dim: w.out_dim as usize,
+                            activation: w.activation,
+                            weights: w.weights,
+                            bias: w.bias,
+                            shifts: w.shifts,
+                            in_exp: w.in_exp,
+                            out_exp: w.out_exp,
+                        }
                     }
                 }
             });
@@ -291,4 +318,53 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     };
     validate(&model)?;
     Ok(model)
+}
+
+/// A version-3 tensor: `pad: &[u8]`, then `tensor: &[u8]`. The padding is
+/// canonical: fewer than [`TENSOR_ALIGN`] zero bytes, and the tensor's first
+/// byte lies at a multiple of [`TENSOR_ALIGN`] from the blob's start
+/// (`body`); anything else is [`BlobError::Malformed`].
+fn take_aligned<'a>(cur: &mut &'a [u8], body: &'a [u8]) -> Result<&'a [u8], BlobError> {
+    let pad: &[u8] = take(cur)?;
+    let tensor: &[u8] = take(cur)?;
+    let offset = (tensor.as_ptr() as usize).wrapping_sub(body.as_ptr() as usize);
+    if pad.len() >= TENSOR_ALIGN
+        || pad.iter().any(|&b| b != 0)
+        || !offset.is_multiple_of(TENSOR_ALIGN)
+    {
+        return Err(BlobError::Malformed);
+    }
+    Ok(tensor)
+}
+
+/// A version-3 layer: the version-2 fields in the same order, with
+/// [`take_aligned`] padding before the weights and before the bias.
+fn take_aligned_layer<'a>(
+    cur: &mut &'a [u8],
+    body: &'a [u8],
+    numeric: NumericKind,
+) -> Result<Layer<'a>, BlobError> {
+    let in_dim: u16 = take(cur)?;
+    let out_dim: u16 = take(cur)?;
+    let activation: Activation = take(cur)?;
+    let (in_exp, out_exp) = match numeric {
+        NumericKind::F32 => (0, 0),
+        NumericKind::Int16Q15 => (take::<i8>(cur)?, take::<i8>(cur)?),
+    };
+    let weights = take_aligned(cur, body)?;
+    let bias = take_aligned(cur, body)?;
+    let shifts: &[u8] = match numeric {
+        NumericKind::F32 => &[],
+        NumericKind::Int16Q15 => take(cur)?,
+    };
+    Ok(Layer {
+        in_dim: in_dim as usize,
+        out_dim: out_dim as usize,
+        activation,
+        weights,
+        bias,
+        shifts,
+        in_exp,
+        out_exp,
+    })
 }
