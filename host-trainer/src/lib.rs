@@ -10,6 +10,7 @@ pub mod export;
 pub mod frame;
 pub mod model;
 pub mod network;
+pub mod onnx;
 pub mod optim;
 pub mod quantize;
 pub mod reference;

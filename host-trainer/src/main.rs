@@ -69,6 +69,54 @@ enum Command {
     /// same config, each best-validation model evaluated on the SDD test set through
     /// gpecnet-core; writes <out>/aug-<K>/ runs and <out>/sweep.md, sweep.csv.
     Sweep(SweepArgs),
+    /// Export an f32 blob's networks to ONNX (opset 17) for onnxruntime / TensorRT.
+    ///
+    /// Inputs (n = windows, k = latent samples per window):
+    ///   x [n, 2*past_len]: the observed past as gpecnet-core's frame input,
+    ///     x[2t+c] = (p_t[c] - p_0[c]) * data_scale, rotated into the heading frame first when
+    ///     the blob has heading_steps > 0 (gpecnet_core::frame::Frame::inputs);
+    ///   z [n, k, zdim]: the latent samples, already multiplied by sigma (the core draws them
+    ///     from gpecnet_core::prng::Gaussian);
+    ///   pos [n, 2] (only with a trajectory predictor): the last observed point as the
+    ///     predictor sees it (rotated in the heading frame), divided by initial_pos_divisor.
+    /// Outputs, in the normalised frame (caller units: divide by data_scale, rotate back, add
+    /// p_0; gpecnet_core::frame::Frame::output):
+    ///   d [n, k, 2]: each sample's endpoint (encoder_past, then the decoder on [f, z]);
+    ///   point [n, 2*future_len] (only with a point-forecast head): the point forecast;
+    ///   traj [n, k, 2*(future_len-1)] (only with a trajectory predictor): each sample's
+    ///     intermediate points (its last point is d).
+    /// Blob settings (data_scale, sigma, zdim, heading_steps, ...) are metadata properties.
+    ///
+    /// Fixed-point (Int16Q15) blobs are refused: their integer arithmetic has no ONNX float
+    /// equivalent; export the f32 blob they were quantised from. onnxruntime agrees with the
+    /// core within rounding, not bit for bit (scripts/peers/check.py measures it; docs/peers.md).
+    #[command(verbatim_doc_comment)]
+    Onnx(OnnxArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct OnnxArgs {
+    /// The f32 blob to export.
+    #[arg(long, value_name = "FILE")]
+    blob: PathBuf,
+    /// The ONNX file to write.
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+}
+
+fn cmd_onnx(a: OnnxArgs) -> Result<()> {
+    let s = gpecnet_trainer::onnx::export_onnx(&a.blob, &a.out)?;
+    println!(
+        "wrote {} ({} bytes, {} parameters, opset {}) from model {}",
+        a.out.display(),
+        s.bytes,
+        s.parameters,
+        gpecnet_trainer::onnx::OPSET,
+        s.name
+    );
+    println!("inputs:\n{}", gpecnet_trainer::onnx::describe(&s.inputs));
+    println!("outputs:\n{}", gpecnet_trainer::onnx::describe(&s.outputs));
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
@@ -705,5 +753,6 @@ fn main() -> Result<()> {
         Command::Synth(a) => cmd_synth(a),
         Command::RlTrain(a) => cmd_rl_train(a),
         Command::Sweep(a) => cmd_sweep(a),
+        Command::Onnx(a) => cmd_onnx(a),
     }
 }

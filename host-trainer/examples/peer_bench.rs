@@ -1,0 +1,393 @@
+//! The gpecnet side of the side-by-side peer benchmark (`scripts/peers/bench.sh`,
+//! `docs/peers.md`): dumps the exact inputs, latents and core outputs that the peers
+//! (onnxruntime, PyTorch eager) are fed and checked against, and times `gpecnet-core` and the
+//! trainer on the same cases, one thread, printing JSON.
+//!
+//! ```text
+//! cargo run --release -p gpecnet-trainer --example peer_bench -- dump --blob weights/sdd-small.gpec --out target/peers/sdd-small
+//! cargo run --release -p gpecnet-trainer --example peer_bench -- infer --blob weights/sdd-small.gpec
+//! cargo run --release -p gpecnet-trainer --example peer_bench -- train-data --config host-trainer/configs/sdd-small.toml --out target/peers/train-sdd-small
+//! cargo run --release -p gpecnet-trainer --example peer_bench -- train --config host-trainer/configs/sdd-small.toml --threads 1
+//! ```
+//!
+//! Arrays are written as raw little-endian f32 files next to a `manifest.json` that gives each
+//! one's file and shape (`numpy.fromfile(path, "<f4").reshape(shape)`). Latents follow the
+//! core's sampler exactly: window `i` of the SDD test set uses seed `i`, and its `k`-th latent
+//! is the `k`-th group of `zdim` draws of `gpecnet_core::prng::Gaussian::new(i)`, each times
+//! `sigma`; the single-pedestrian case is test window 0, seed 0.
+//!
+//! Timing: each case is called until `--min-ms` have passed, `--reps` times; the JSON holds the
+//! median seconds per call. Wall-clock numbers live in `docs/peers.md`, never in tests.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Parser, Subcommand};
+use gpecnet_core::frame::Frame;
+use gpecnet_core::prng::Gaussian;
+use gpecnet_core::{LibmSine, Model, Predictor};
+use gpecnet_trainer::config::TrainConfig;
+use gpecnet_trainer::data::{self, load_sdd, SddSplit, Window};
+use gpecnet_trainer::train::{prepare_data, Trainer};
+use serde_json::json;
+
+/// Scratch width of the host predictor (the widest shipped model, sdd-paper, needs 1,024).
+const WIDTH: usize = 1024;
+/// The single-pedestrian sample counts.
+const PED_KS: [usize; 4] = [1, 20, 200, 1000];
+/// Samples per window for the whole test set.
+const SET_K: usize = 20;
+
+#[derive(Parser)]
+#[command(about = "gpecnet side of scripts/peers/bench.sh (dump inputs, time core and trainer)")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Write x, z, pos, frame and the core's outputs for the SDD test set (K = 20) and the
+    /// single pedestrian (test window 0, K = 1000) as raw f32 + manifest.json.
+    Dump {
+        /// f32 blob.
+        #[arg(long)]
+        blob: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Data root holding sdd/.
+        #[arg(long, default_value_os_t = data::default_data_root())]
+        data: PathBuf,
+    },
+    /// Time the core on one pedestrian (K = 1, 20, 200, 1000) and the whole test set (K = 20).
+    Infer {
+        /// Blob.
+        #[arg(long)]
+        blob: PathBuf,
+        /// Data root holding sdd/.
+        #[arg(long, default_value_os_t = data::default_data_root())]
+        data: PathBuf,
+        /// Minimum time of one repetition of a case.
+        #[arg(long, default_value_t = 300)]
+        min_ms: u64,
+        /// Repetitions per case (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        reps: usize,
+    },
+    /// Write a config's training samples (obs, dest, future, initial_pos) + the config.
+    TrainData {
+        /// Training config TOML.
+        #[arg(long)]
+        config: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Data root.
+        #[arg(long, default_value_os_t = data::default_data_root())]
+        data: PathBuf,
+    },
+    /// Time training epochs of a config at a thread count (one warm-up epoch first).
+    Train {
+        /// Training config TOML.
+        #[arg(long)]
+        config: PathBuf,
+        /// Threads (the config's `threads`).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Timed epochs (the median is reported).
+        #[arg(long, default_value_t = 2)]
+        epochs: usize,
+        /// Data root.
+        #[arg(long, default_value_os_t = data::default_data_root())]
+        data: PathBuf,
+    },
+}
+
+/// Raw arrays + their shapes, written as `<name>.f32` and listed in `manifest.json`.
+struct Arrays {
+    dir: PathBuf,
+    list: serde_json::Map<String, serde_json::Value>,
+}
+
+impl Arrays {
+    fn new(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            list: serde_json::Map::new(),
+        })
+    }
+
+    fn put(&mut self, name: &str, shape: &[usize], data: &[f32]) -> Result<()> {
+        let n: usize = shape.iter().product();
+        if n != data.len() {
+            bail!(
+                "{name}: shape {shape:?} holds {n} values, got {}",
+                data.len()
+            );
+        }
+        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let file = format!("{name}.f32");
+        std::fs::write(self.dir.join(&file), bytes)?;
+        self.list
+            .insert(name.into(), json!({ "file": file, "shape": shape }));
+        Ok(())
+    }
+
+    fn finish(self, meta: serde_json::Value) -> Result<()> {
+        let mut m = meta;
+        m["arrays"] = serde_json::Value::Object(self.list);
+        std::fs::write(
+            self.dir.join("manifest.json"),
+            serde_json::to_string_pretty(&m)?,
+        )?;
+        Ok(())
+    }
+}
+
+fn read(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("reading {}", path.display()))
+}
+
+fn predictor<'a>(model: Model<'a>) -> Result<Box<Predictor<'a, LibmSine, WIDTH>>> {
+    Ok(Box::new(
+        Predictor::<LibmSine, WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
+    ))
+}
+
+/// `k` latents of seed `seed`, as the engine draws them (`sigma · N(0, 1)`, `zdim` per sample).
+fn latents(seed: u64, k: usize, zdim: usize, sigma: f32) -> Vec<f32> {
+    let mut g = Gaussian::new(seed);
+    (0..k * zdim).map(|_| sigma * g.next()).collect()
+}
+
+fn test_windows(root: &Path) -> Result<Vec<Window>> {
+    let t = load_sdd(root, SddSplit::Test).map_err(|e| anyhow!("SDD test set: {e}"))?;
+    if t.windows.is_empty() {
+        bail!("the SDD test set under {} is empty", root.display());
+    }
+    Ok(t.windows)
+}
+
+fn dump(blob: &Path, out: &Path, root: &Path) -> Result<()> {
+    let bytes = read(blob)?;
+    let model = Model::from_blob(&bytes).map_err(|e| anyhow!("{}: {e}", blob.display()))?;
+    let c = *model.config();
+    let (zdim, fl) = (c.zdim as usize, c.future_len as usize);
+    let windows = test_windows(root)?;
+    let n = windows.len();
+    let mut p = predictor(model)?;
+    let (has_point, has_traj) = (model.has_point_head(), model.has_predictor());
+    let (mut x, mut z, mut pos, mut origin, mut rot) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut ends, mut point, mut traj) = (Vec::new(), Vec::new(), Vec::new());
+    let mut out_k = [[0.0f32; 2]; SET_K];
+    let mut trajs = vec![gpecnet_core::Trajectory::new(); SET_K];
+    for (i, w) in windows.iter().enumerate() {
+        let past = w.obs();
+        let (frame, pts) = Frame::inputs(&past, &model).map_err(|e| anyhow!("window {i}: {e}"))?;
+        x.extend(pts.iter().take(past.len()).flatten());
+        let q = frame.predictor_position(past[past.len() - 1]);
+        pos.extend([q[0] / c.initial_pos_divisor, q[1] / c.initial_pos_divisor]);
+        origin.extend(frame.origin());
+        rot.extend(frame.rotation().unwrap_or([1.0, 0.0]));
+        z.extend(latents(i as u64, SET_K, zdim, c.sigma));
+        p.predict_samples(&past, i as u64, &mut out_k)
+            .map_err(|e| anyhow!("window {i}: {e}"))?;
+        ends.extend(out_k.iter().flatten());
+        if has_point {
+            let t = p
+                .predict_point(&past)
+                .map_err(|e| anyhow!("window {i}: {e}"))?;
+            point.extend(t.iter().flatten());
+        }
+        if has_traj {
+            p.predict_trajectories(&past, i as u64, &mut trajs)
+                .map_err(|e| anyhow!("window {i}: {e}"))?;
+            for t in &trajs {
+                traj.extend(t.iter().flatten());
+            }
+        }
+    }
+    let kmax = PED_KS[PED_KS.len() - 1];
+    let past0 = windows[0].obs();
+    let mut ped = vec![[0.0f32; 2]; kmax];
+    p.predict_samples(&past0, 0, &mut ped)
+        .map_err(|e| anyhow!("window 0: {e}"))?;
+    let mut a = Arrays::new(out)?;
+    let inx = 2 * c.past_len as usize;
+    a.put("x", &[n, inx], &x)?;
+    a.put("z", &[n, SET_K, zdim], &z)?;
+    a.put("pos", &[n, 2], &pos)?;
+    a.put("origin", &[n, 2], &origin)?;
+    a.put("rot", &[n, 2], &rot)?;
+    a.put("core_endpoints", &[n, SET_K, 2], &ends)?;
+    if has_point {
+        a.put("core_point", &[n, fl, 2], &point)?;
+    }
+    if has_traj {
+        a.put("core_traj", &[n, SET_K, fl, 2], &traj)?;
+    }
+    a.put("ped_z", &[1, kmax, zdim], &latents(0, kmax, zdim, c.sigma))?;
+    a.put(
+        "ped_core_endpoints",
+        &[1, kmax, 2],
+        &ped.iter().flatten().copied().collect::<Vec<_>>(),
+    )?;
+    a.finish(json!({
+        "model": model.name(),
+        "blob": blob.display().to_string(),
+        "sine": "libm",
+        "data_scale": c.data_scale,
+        "sigma": c.sigma,
+        "zdim": zdim,
+        "past_len": c.past_len,
+        "future_len": fl,
+        "heading": model.extensions().heading_steps > 0,
+        "n_windows": n,
+        "k": SET_K,
+        "ped_window": 0,
+        "ped_ks": PED_KS,
+        "seeds": "window i: seed i; single pedestrian: window 0, seed 0",
+    }))?;
+    println!(
+        "wrote {} ({} windows x K = {SET_K}, single pedestrian K = {kmax})",
+        out.display(),
+        n
+    );
+    Ok(())
+}
+
+/// Median seconds per call of `f` (each repetition runs `f` for at least `min_ms`).
+fn time_case(min_ms: u64, reps: usize, mut f: impl FnMut() -> Result<()>) -> Result<f64> {
+    f()?; // warm-up
+    let mut per_call = Vec::with_capacity(reps);
+    for _ in 0..reps.max(1) {
+        let (t0, mut calls) = (Instant::now(), 0u64);
+        while calls == 0 || t0.elapsed().as_millis() < u128::from(min_ms) {
+            f()?;
+            calls += 1;
+        }
+        per_call.push(t0.elapsed().as_secs_f64() / calls as f64);
+    }
+    per_call.sort_by(f64::total_cmp);
+    Ok(per_call[per_call.len() / 2])
+}
+
+fn infer(blob: &Path, root: &Path, min_ms: u64, reps: usize) -> Result<()> {
+    let bytes = read(blob)?;
+    let model = Model::from_blob(&bytes).map_err(|e| anyhow!("{}: {e}", blob.display()))?;
+    let windows = test_windows(root)?;
+    let pasts: Vec<_> = windows.iter().map(Window::obs).collect();
+    let mut p = predictor(model)?;
+    let mut cases = serde_json::Map::new();
+    let kmax = PED_KS[PED_KS.len() - 1];
+    let mut out = vec![[0.0f32; 2]; kmax];
+    for k in PED_KS {
+        let s = time_case(min_ms, reps, || {
+            p.predict_samples(&pasts[0], 0, &mut out[..k])
+                .map_err(|e| anyhow!("{e}"))
+        })?;
+        cases.insert(format!("ped_k{k}"), json!(s));
+    }
+    let s = time_case(min_ms, reps, || {
+        for (i, past) in pasts.iter().enumerate() {
+            p.predict_samples(past, i as u64, &mut out[..SET_K])
+                .map_err(|e| anyhow!("window {i}: {e}"))?;
+        }
+        Ok(())
+    })?;
+    cases.insert(format!("set_k{SET_K}"), json!(s));
+    println!(
+        "{}",
+        json!({
+            "impl": "gpecnet",
+            "model": model.name(),
+            "api": "Predictor::predict_samples, one window at a time, libm sine, 1 thread",
+            "n_windows": pasts.len(),
+            "seconds_per_call": cases,
+        })
+    );
+    Ok(())
+}
+
+fn load_config(path: &Path) -> Result<TrainConfig> {
+    TrainConfig::from_file(path).with_context(|| format!("reading {}", path.display()))
+}
+
+fn train_data(config: &Path, out: &Path, root: &Path) -> Result<()> {
+    let cfg = load_config(config)?;
+    let d = prepare_data(&cfg, root)?;
+    let n = d.train.len();
+    let (mut obs, mut dest, mut fut, mut init) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for s in &d.train {
+        obs.extend(s.obs.iter().flatten());
+        let (last, inter) = s
+            .future
+            .split_last()
+            .ok_or_else(|| anyhow!("empty future"))?;
+        dest.extend(last);
+        fut.extend(inter.iter().flatten());
+        init.extend(s.initial_pos);
+    }
+    let mut a = Arrays::new(out)?;
+    a.put("obs", &[n, obs.len() / n.max(1)], &obs)?;
+    a.put("dest", &[n, 2], &dest)?;
+    a.put("future", &[n, fut.len() / n.max(1)], &fut)?;
+    a.put("initial_pos", &[n, 2], &init)?;
+    a.finish(json!({ "config": config.display().to_string(), "n_train": n, "cfg": cfg }))?;
+    println!("wrote {} ({n} training samples)", out.display());
+    Ok(())
+}
+
+fn train(config: &Path, threads: usize, epochs: usize, root: &Path) -> Result<()> {
+    let mut cfg = load_config(config)?;
+    cfg.threads = threads;
+    let batch = cfg.batch_size;
+    let d = prepare_data(&cfg, root)?;
+    let n = d.train.len();
+    let mut t = Trainer::new(cfg, d)?;
+    t.train_epoch(None)?; // warm-up
+    let mut times = Vec::new();
+    for _ in 0..epochs.max(1) {
+        let t0 = Instant::now();
+        t.train_epoch(None)?;
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    let mut s = times.clone();
+    s.sort_by(f64::total_cmp);
+    println!(
+        "{}",
+        json!({
+            "impl": "gpecnet",
+            "config": config.display().to_string(),
+            "threads": threads,
+            "n_train": n,
+            "batch_size": batch,
+            "epoch_seconds": times,
+            "median": s[s.len() / 2],
+        })
+    );
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().cmd {
+        Cmd::Dump { blob, out, data } => dump(&blob, &out, &data),
+        Cmd::Infer {
+            blob,
+            data,
+            min_ms,
+            reps,
+        } => infer(&blob, &data, min_ms, reps),
+        Cmd::TrainData { config, out, data } => train_data(&config, &out, &data),
+        Cmd::Train {
+            config,
+            threads,
+            epochs,
+            data,
+        } => train(&config, threads, epochs, &data),
+    }
+}
