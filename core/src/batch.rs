@@ -110,13 +110,14 @@ fn run_lanes<'l, 'a: 'l, B: Backend, const L: usize, const W: usize>(
     src: &mut Lanes<B::Act, L, W>,
     dst: &mut Lanes<B::Act, L, W>,
     width: usize,
+    used: usize,
 ) -> (usize, bool) {
     let (mut s, mut d) = (src, dst);
     let mut width = width.min(W);
     let mut in_src = true;
     for layer in layers {
         let out = layer.out_dim().min(W);
-        B::dense_lanes(layer, &s[..width], &mut d[..out]);
+        B::dense_lanes(layer, &s[..width], &mut d[..out], used);
         core::mem::swap(&mut s, &mut d);
         in_src = !in_src;
         width = out;
@@ -215,11 +216,13 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             self.lasts[l] = q.past.last().copied().unwrap_or([0.0; 2]);
             self.gauss[l] = Gaussian::new(q.seed);
         }
+        let used = group.len().min(L);
         Ok(run_lanes::<B, L, W>(
             net.layers(),
             &mut self.a,
             &mut self.b,
             n,
+            used,
         ))
     }
 
@@ -335,7 +338,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             return Err(fail(0, PredictError::NonFiniteOutput));
         }
         let (dw, d_in_a) =
-            run_lanes::<B, L, W>(dec.layers(), &mut self.a, &mut self.b, fdim + zdim);
+            run_lanes::<B, L, W>(dec.layers(), &mut self.a, &mut self.b, fdim + zdim, lanes);
         if dw < 2 {
             return Err(fail(0, PredictError::NonFiniteOutput));
         }
@@ -351,7 +354,8 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             let (dest, pred) = (self.model.encoder_dest(), self.model.predictor());
             self.a[0] = d[0];
             self.a[1] = d[1];
-            let (ddim, g_in_a) = run_lanes::<B, L, W>(dest.layers(), &mut self.a, &mut self.b, 2);
+            let (ddim, g_in_a) =
+                run_lanes::<B, L, W>(dest.layers(), &mut self.a, &mut self.b, 2, lanes);
             let n_in = fdim + ddim + 2;
             if n_in > W {
                 return Err(fail(0, PredictError::CapacityExceeded));
@@ -371,7 +375,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
                 x[fdim + ddim][l] = B::from_f32(pos[0] / c.initial_pos_divisor, ef);
                 x[fdim + ddim + 1][l] = B::from_f32(pos[1] / c.initial_pos_divisor, ef);
             }
-            let (qw, q_in_x) = run_lanes::<B, L, W>(pred.layers(), x, y, n_in);
+            let (qw, q_in_x) = run_lanes::<B, L, W>(pred.layers(), x, y, n_in, lanes);
             q_rows = (qw, q_in_x == g_in_a);
         }
         let po = out_exp(self.model.predictor());

@@ -99,11 +99,14 @@ pub trait Backend: Sealed {
     /// Each lane gets exactly the operations of [`Backend::dense`] on its
     /// own column, in the same order (f32: bias, then the products added
     /// left to right, separate multiply and add), so the same bits; each
-    /// weight is read once for all `L` lanes.
+    /// weight is read once for all `L` lanes. Only lanes `l < used` are
+    /// activated; the others are set to 0 (a short chunk does not pay for
+    /// the sines of its empty lanes).
     fn dense_lanes<const L: usize>(
         layer: &Layer<'_>,
         x: &[[Self::Act; L]],
         out: &mut [[Self::Act; L]],
+        used: usize,
     );
 }
 

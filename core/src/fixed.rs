@@ -566,7 +566,12 @@ fn rows_lanes<const R: usize, const L: usize>(
 /// [`dense_q`] ([`ROWS`] rows at a time, then one at a time), then
 /// [`activate_q`] with the channel's shift, lane by lane.
 #[inline]
-fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[i16; L]], out: &mut [[i16; L]]) {
+fn dense_lanes<const L: usize>(
+    layer: &Layer<'_>,
+    x: &[[i16; L]],
+    out: &mut [[i16; L]],
+    used: usize,
+) {
     let n = 2 * layer.in_dim();
     let (w, _, _) = layer.tensors_q();
     let act = layer.activation();
@@ -580,7 +585,7 @@ fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[i16; L]], out: &mut [[i1
             core::array::from_fn(|r| [i64::from(layer.bias_q(j + r)); L]);
         rows_lanes::<ROWS, L>(g, n, x, &mut acc);
         for (r, (o, a)) in o.iter_mut().zip(&acc).enumerate() {
-            finish::<L>(act, a, layer.shift(j + r), o);
+            finish::<L>(act, a, layer.shift(j + r), used, o);
         }
         j += ROWS;
     }
@@ -588,16 +593,27 @@ fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[i16; L]], out: &mut [[i1
         let g = w.get(j * n..).unwrap_or(&[]);
         let mut acc = [[i64::from(layer.bias_q(j)); L]];
         rows_lanes::<1, L>(g, n, x, &mut acc);
-        finish::<L>(act, &acc[0], layer.shift(j), o);
+        finish::<L>(act, &acc[0], layer.shift(j), used, o);
         j += 1;
     }
 }
 
-/// `o[l] = activate_q(act, acc[l], shift)` for every lane.
+/// `o[l] = activate_q(act, acc[l], shift)` for the lanes `l < used`, 0
+/// for the others.
 #[inline(always)]
-fn finish<const L: usize>(act: Activation, acc: &[i64; L], shift: i8, o: &mut [i16; L]) {
-    for (o, &a) in o.iter_mut().zip(acc) {
-        *o = activate_q(act, a, shift);
+fn finish<const L: usize>(
+    act: Activation,
+    acc: &[i64; L],
+    shift: i8,
+    used: usize,
+    o: &mut [i16; L],
+) {
+    for (l, (o, &a)) in o.iter_mut().zip(acc).enumerate() {
+        *o = if l < used {
+            activate_q(act, a, shift)
+        } else {
+            0
+        };
     }
 }
 
@@ -628,8 +644,13 @@ impl Backend for Q15 {
         accumulate(layer, 0, x, part, |p, acc, _| *p = acc, dot1);
     }
 
-    fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[i16; L]], out: &mut [[i16; L]]) {
-        dense_lanes::<L>(layer, x, out);
+    fn dense_lanes<const L: usize>(
+        layer: &Layer<'_>,
+        x: &[[i16; L]],
+        out: &mut [[i16; L]],
+        used: usize,
+    ) {
+        dense_lanes::<L>(layer, x, out, used);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[i16], part: &[i64], out: &mut [i16]) {

@@ -165,7 +165,12 @@ fn rows_lanes<const R: usize, const L: usize>(
 /// ([`rows_lanes`]), the last `out_dim mod 4` rows one at a time, then the
 /// activation of each lane ([`activate`], the sine lane by lane).
 #[inline]
-fn dense_lanes<S: Sine, const L: usize>(layer: &Layer<'_>, x: &[[f32; L]], out: &mut [[f32; L]]) {
+fn dense_lanes<S: Sine, const L: usize>(
+    layer: &Layer<'_>,
+    x: &[[f32; L]],
+    out: &mut [[f32; L]],
+    used: usize,
+) {
     let n = 4 * layer.in_dim();
     let w = layer.tensors_q().0;
     let act = layer.activation();
@@ -178,7 +183,7 @@ fn dense_lanes<S: Sine, const L: usize>(layer: &Layer<'_>, x: &[[f32; L]], out: 
         let mut acc: [[f32; L]; ROWS] = core::array::from_fn(|r| [layer.bias(j + r); L]);
         rows_lanes::<ROWS, L>(g, n, x, &mut acc);
         for (o, a) in o.iter_mut().zip(&acc) {
-            finish::<S, L>(act, a, o);
+            finish::<S, L>(act, a, used, o);
         }
         j += ROWS;
     }
@@ -186,17 +191,17 @@ fn dense_lanes<S: Sine, const L: usize>(layer: &Layer<'_>, x: &[[f32; L]], out: 
         let g = w.get(j * n..).unwrap_or(&[]);
         let mut acc = [[layer.bias(j); L]];
         rows_lanes::<1, L>(g, n, x, &mut acc);
-        finish::<S, L>(act, &acc[0], o);
+        finish::<S, L>(act, &acc[0], used, o);
         j += 1;
     }
 }
 
-/// `o[l] = activate(acc[l])` for every lane (the sine lane by lane; LLVM
-/// takes the `match` out of the loop, so `Relu` vectorises).
+/// `o[l] = activate(acc[l])` for the lanes `l < used` (the sine lane by
+/// lane; LLVM takes the `match` out of the loop), 0 for the others.
 #[inline(always)]
-fn finish<S: Sine, const L: usize>(act: Activation, acc: &[f32; L], o: &mut [f32; L]) {
-    for (o, &v) in o.iter_mut().zip(acc) {
-        *o = activate::<S>(act, v);
+fn finish<S: Sine, const L: usize>(act: Activation, acc: &[f32; L], used: usize, o: &mut [f32; L]) {
+    for (l, (o, &v)) in o.iter_mut().zip(acc).enumerate() {
+        *o = if l < used { activate::<S>(act, v) } else { 0.0 };
     }
 }
 
@@ -233,8 +238,13 @@ impl<S: Sine> Backend for Float<S> {
         accumulate(layer, 0, x, &mut part[..out]);
     }
 
-    fn dense_lanes<const L: usize>(layer: &Layer<'_>, x: &[[f32; L]], out: &mut [[f32; L]]) {
-        dense_lanes::<S, L>(layer, x, out);
+    fn dense_lanes<const L: usize>(
+        layer: &Layer<'_>,
+        x: &[[f32; L]],
+        out: &mut [[f32; L]],
+        used: usize,
+    ) {
+        dense_lanes::<S, L>(layer, x, out, used);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[f32], part: &[f32], out: &mut [f32]) {

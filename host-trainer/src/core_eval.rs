@@ -5,12 +5,20 @@
 //! `base_seed + i`. Predictions are computed in parallel but accumulated in
 //! window order, so the metrics are identical for any thread count.
 //!
+//! Whole data sets go through the core's batched path
+//! ([`gpecnet_core::batch`]: [`BLOCK`] windows per task, their samples
+//! [`gpecnet_core::batch::HOST_LANES`] side by side), which gives the same
+//! bits as [`gpecnet_core::Predictor`] window by window (`tests/tests/batch_vs_scalar.rs`)
+//! in a fraction of the time.
+//!
 //! For a model without a trajectory predictor, the 11 intermediate points
 //! are placed on the straight line from the last observation to each
 //! endpoint (documented in the model card when used).
 
 use anyhow::{anyhow, Result};
-use gpecnet_core::{FastSine, LibmSine, Model, Predictor, Sine};
+use gpecnet_core::batch::{HostBatchPredictor, Query};
+use gpecnet_core::blob::MAX_TTS_SAMPLES;
+use gpecnet_core::{FastSine, LibmSine, Model, Sine, Trajectory};
 
 use crate::data::{Dataset, Window, FUTURE, PAST};
 use crate::eval::{Metrics, MetricsAccumulator, Prediction};
@@ -42,40 +50,86 @@ pub fn linear_fill(last: [f32; 2], end: [f32; 2]) -> [[f32; 2]; FUTURE] {
     out
 }
 
-/// One window through `gpecnet-core`'s run-time dispatching predictor: the
-/// blob's endpoint set (test-time sampling), or `k` trajectories, or `k`
-/// straight-line-filled endpoints of an endpoint-only model.
-fn predict_core_with<S: Sine>(
+/// Windows per task of the batched evaluation: enough to fill the lanes
+/// many times over, few enough that two threads share the work evenly.
+pub const BLOCK: usize = 64;
+
+/// `windows` through `gpecnet-core`'s batched predictor (window `i` with
+/// seed `seeds(i)`): per window the blob's endpoint set (test-time
+/// sampling), or `k` trajectories, or `k` straight-line-filled endpoints of
+/// an endpoint-only model. The same bits as [`gpecnet_core::Predictor`] window by window.
+fn predict_block_with<S: Sine>(
     model: &Model<'_>,
-    w: &Window,
-    seed: u64,
+    windows: &[Window],
+    seeds: impl Fn(usize) -> u64,
     k: usize,
-) -> Result<Prediction> {
-    let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
-    let past = w.obs();
-    let at = |e| anyhow!("{}#{}: {e}", w.scene, w.ped_id);
-    let fill = |ends: Vec<[f32; 2]>| -> Vec<[[f32; 2]; FUTURE]> {
-        ends.iter()
+) -> Result<Vec<Prediction>> {
+    let mut p =
+        Box::new(HostBatchPredictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
+    let pasts: Vec<[[f32; 2]; PAST]> = windows.iter().map(Window::obs).collect();
+    let queries: Vec<Query<'_>> = pasts
+        .iter()
+        .enumerate()
+        .map(|(i, past)| Query {
+            past,
+            seed: seeds(i),
+        })
+        .collect();
+    let at = |e: gpecnet_core::batch::QueryError| {
+        let w = &windows[e.index.min(windows.len().saturating_sub(1))];
+        anyhow!("{}#{}: {}", w.scene, w.ped_id, e.error)
+    };
+    let fill = |ends: &[[f32; 2]], past: &[[f32; 2]; PAST]| Prediction {
+        trajectories: ends
+            .iter()
             .map(|e| linear_fill(past[PAST - 1], *e))
-            .collect()
+            .collect(),
     };
-    let mut ends = vec![[0.0f32; 2]; k];
-    let trajectories = if model.extensions().tts_samples > 0 {
-        p.predict_endpoint_set::<{ gpecnet_core::blob::MAX_TTS_SAMPLES }>(&past, seed, &mut ends)
+    let n = queries.len();
+    if model.extensions().tts_samples == 0 && model.has_predictor() {
+        let mut t = vec![Trajectory::new(); n * k];
+        p.predict_trajectories_many(&queries, k, &mut t)
             .map_err(at)?;
-        fill(ends)
-    } else if model.has_predictor() {
-        let mut t = vec![gpecnet_core::Trajectory::new(); k];
-        p.predict_trajectories(&past, seed, &mut t).map_err(at)?;
-        t.iter().map(|t| to_fixed(t)).collect()
+        return Ok(t
+            .chunks(k)
+            .map(|t| Prediction {
+                trajectories: t.iter().map(|t| to_fixed(t)).collect(),
+            })
+            .collect());
+    }
+    let mut ends = vec![[0.0f32; 2]; n * k];
+    if model.extensions().tts_samples > 0 {
+        p.predict_endpoint_sets::<MAX_TTS_SAMPLES>(&queries, k, &mut ends)
+            .map_err(at)?;
     } else {
-        p.predict_samples(&past, seed, &mut ends).map_err(at)?;
-        fill(ends)
-    };
-    Ok(Prediction { trajectories })
+        p.predict_samples_many(&queries, k, &mut ends).map_err(at)?;
+    }
+    Ok(ends
+        .chunks(k)
+        .zip(&pasts)
+        .map(|(e, past)| fill(e, past))
+        .collect())
 }
 
-/// K samples for one window through `gpecnet-core`.
+/// [`predict_block_with`] with the sine of `sine` (ignored by fixed-point blobs).
+fn predict_block(
+    model: &Model<'_>,
+    sine: SineKind,
+    windows: &[Window],
+    seeds: impl Fn(usize) -> u64,
+    k: usize,
+) -> Result<Vec<Prediction>> {
+    if k == 0 || k > HOST_MAX_K {
+        return Err(anyhow!("k must be 1..={HOST_MAX_K}"));
+    }
+    match sine {
+        SineKind::Libm => predict_block_with::<LibmSine>(model, windows, seeds, k),
+        SineKind::Fast => predict_block_with::<FastSine>(model, windows, seeds, k),
+    }
+}
+
+/// K samples for one window through `gpecnet-core` (its batched path; the
+/// same bits as [`gpecnet_core::Predictor`]).
 pub fn predict_core(
     model: &Model<'_>,
     sine: SineKind,
@@ -83,13 +137,8 @@ pub fn predict_core(
     seed: u64,
     k: usize,
 ) -> Result<Prediction> {
-    if k == 0 || k > HOST_MAX_K {
-        return Err(anyhow!("k must be 1..={HOST_MAX_K}"));
-    }
-    match sine {
-        SineKind::Libm => predict_core_with::<LibmSine>(model, w, seed, k),
-        SineKind::Fast => predict_core_with::<FastSine>(model, w, seed, k),
-    }
+    let mut p = predict_block(model, sine, std::slice::from_ref(w), |_| seed, k)?;
+    p.pop().ok_or_else(|| anyhow!("no prediction"))
 }
 
 /// K samples for one window through the reference path.
@@ -152,7 +201,8 @@ pub fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) ->
     Ok(out)
 }
 
-/// Evaluates a blob through `gpecnet-core` on every window of `ds`.
+/// Evaluates a blob through `gpecnet-core` on every window of `ds` (the
+/// batched path, [`BLOCK`] windows per task on all cores).
 pub fn evaluate_core(
     blob: &[u8],
     sine: SineKind,
@@ -161,15 +211,18 @@ pub fn evaluate_core(
     base_seed: u64,
 ) -> Result<(Metrics, Vec<Prediction>)> {
     let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
-    let preds = parallel_map(ds.windows.len(), |i| {
-        predict_core(
+    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
+        let lo = b * BLOCK;
+        let hi = (lo + BLOCK).min(ds.windows.len());
+        predict_block(
             &model,
             sine,
-            &ds.windows[i],
-            base_seed.wrapping_add(i as u64),
+            &ds.windows[lo..hi],
+            |i| base_seed.wrapping_add((lo + i) as u64),
             k,
         )
     })?;
+    let preds: Vec<Prediction> = blocks.into_iter().flatten().collect();
     Ok((accumulate(ds, &preds)?, preds))
 }
 
@@ -209,20 +262,30 @@ pub(crate) fn accumulate(ds: &Dataset, preds: &[Prediction]) -> Result<Metrics> 
     Ok(acc.finish())
 }
 
-/// The point forecast of one window through `gpecnet-core` (f32 blobs with
-/// `sine`; fixed-point blobs always with their integer sine).
-fn point_core(model: &Model<'_>, sine: SineKind, w: &Window) -> Result<[[f32; 2]; FUTURE]> {
-    fn point<S: Sine>(model: &Model<'_>, past: &[[f32; 2]]) -> Result<gpecnet_core::Trajectory> {
-        let mut p = Box::new(Predictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
-        p.predict_point(past).map_err(|e| anyhow!("{e}"))
+/// The point forecasts of `windows` through `gpecnet-core`'s batched path
+/// (f32 blobs with `sine`; fixed-point blobs always with their integer sine).
+fn points_core(
+    model: &Model<'_>,
+    sine: SineKind,
+    windows: &[Window],
+) -> Result<Vec<[[f32; 2]; FUTURE]>> {
+    fn points<S: Sine>(model: &Model<'_>, windows: &[Window]) -> Result<Vec<Trajectory>> {
+        let mut p =
+            Box::new(HostBatchPredictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
+        let pasts: Vec<[[f32; 2]; PAST]> = windows.iter().map(Window::obs).collect();
+        let queries: Vec<Query<'_>> = pasts.iter().map(|past| Query { past, seed: 0 }).collect();
+        let mut out = vec![Trajectory::new(); queries.len()];
+        p.predict_points(&queries, &mut out).map_err(|e| {
+            let w = &windows[e.index.min(windows.len().saturating_sub(1))];
+            anyhow!("{}#{}: {}", w.scene, w.ped_id, e.error)
+        })?;
+        Ok(out)
     }
-    let past = w.obs();
     let t = match sine {
-        SineKind::Libm => point::<LibmSine>(model, &past),
-        SineKind::Fast => point::<FastSine>(model, &past),
-    }
-    .map_err(|e| anyhow!("{}#{}: {e}", w.scene, w.ped_id))?;
-    Ok(to_fixed(&t))
+        SineKind::Libm => points::<LibmSine>(model, windows),
+        SineKind::Fast => points::<FastSine>(model, windows),
+    }?;
+    Ok(t.iter().map(|t| to_fixed(t)).collect())
 }
 
 /// The point forecast (K = 1: `ade_k1`/`fde_k1` are its ADE/FDE) of a blob through
@@ -237,12 +300,15 @@ pub fn evaluate_point_core(
     if !model.has_point_head() {
         return Ok(None);
     }
-    let preds = parallel_map(ds.windows.len(), |i| {
-        Ok(Prediction::single(point_core(
-            &model,
-            sine,
-            &ds.windows[i],
-        )?))
+    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
+        let lo = b * BLOCK;
+        let hi = (lo + BLOCK).min(ds.windows.len());
+        points_core(&model, sine, &ds.windows[lo..hi])
     })?;
+    let preds: Vec<Prediction> = blocks
+        .into_iter()
+        .flatten()
+        .map(Prediction::single)
+        .collect();
     Ok(Some((accumulate(ds, &preds)?, preds)))
 }

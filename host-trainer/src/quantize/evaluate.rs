@@ -51,11 +51,12 @@ pub fn evaluate_core_fixed(
     k: usize,
     base_seed: u64,
 ) -> Result<(Metrics, Vec<Prediction>)> {
+    // The one evaluation through the core (batched); its sine is unused here.
     let model = gpecnet_core::Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
-    let preds = crate::core_eval::parallel_map(ds.windows.len(), |i| {
-        predict_core_fixed(&model, &ds.windows[i], base_seed.wrapping_add(i as u64), k)
-    })?;
-    Ok((crate::core_eval::accumulate(ds, &preds)?, preds))
+    if model.numeric() != gpecnet_core::NumericKind::Int16Q15 {
+        return Err(anyhow!("not a fixed-point blob"));
+    }
+    crate::core_eval::evaluate_core(blob, crate::reference::SineKind::Libm, ds, k, base_seed)
 }
 
 /// Evaluates the integer reference on every window of `ds`.
