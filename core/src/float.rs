@@ -196,12 +196,21 @@ fn dense_lanes<S: Sine, const L: usize>(
     }
 }
 
-/// `o[l] = activate(acc[l])` for the lanes `l < used` (the sine lane by
-/// lane; LLVM takes the `match` out of the loop), 0 for the others.
+/// `o[l] = activate(acc[l])` for the lanes `l < used`, 0 for the others;
+/// the sine through [`Sine::sin_lanes`] (all lanes at once: the same bits
+/// as [`Sine::sin`] lane by lane).
 #[inline(always)]
 fn finish<S: Sine, const L: usize>(act: Activation, acc: &[f32; L], used: usize, o: &mut [f32; L]) {
-    for (l, (o, &v)) in o.iter_mut().zip(acc).enumerate() {
-        *o = if l < used { activate::<S>(act, v) } else { 0.0 };
+    if act == Activation::Sine {
+        *o = *acc;
+        S::sin_lanes(o);
+    } else {
+        for (o, &v) in o.iter_mut().zip(acc) {
+            *o = activate::<S>(act, v);
+        }
+    }
+    for o in o.iter_mut().skip(used) {
+        *o = 0.0;
     }
 }
 

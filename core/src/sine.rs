@@ -32,6 +32,16 @@ pub trait Sine {
     const NAME: &'static str;
     /// `sin(x)` for `x` in radians; NaN for non-finite `x`.
     fn sin(x: f32) -> f32;
+    /// `x[l] = sin(x[l])` for every lane: the same bits as [`Sine::sin`]
+    /// lane by lane (the batched path, [`crate::batch`]). The default calls
+    /// [`Sine::sin`] per lane; [`LibmSine`] overrides it with a branch-free
+    /// form that LLVM vectorises across lanes.
+    #[inline]
+    fn sin_lanes<const L: usize>(x: &mut [f32; L]) {
+        for v in x.iter_mut() {
+            *v = Self::sin(*v);
+        }
+    }
 }
 
 /// The reference: `libm::sinf` from the `libm` crate 0.2.16 (pinned with
@@ -54,6 +64,140 @@ impl Sine for LibmSine {
     #[inline]
     fn sin(x: f32) -> f32 {
         libm::sinf(x)
+    }
+    /// Every lane through [`libm_sinf_medium`] (branch-free, so the lanes
+    /// vectorise) when all of them are below `2^28·π/2` in magnitude (the
+    /// case of every SIREN pre-activation); otherwise `libm::sinf` lane by
+    /// lane. The same bits as `libm::sinf` either way
+    /// (`sine::tests::lanes_equal_libm_*`).
+    #[inline]
+    fn sin_lanes<const L: usize>(x: &mut [f32; L]) {
+        if x.iter().any(|v| v.to_bits() & 0x7fff_ffff >= MEDIUM_LIMIT) {
+            for v in x.iter_mut() {
+                *v = libm::sinf(*v);
+            }
+            return;
+        }
+        for v in x.iter_mut() {
+            *v = libm_sinf_medium(*v);
+        }
+    }
+}
+
+/// `|x|` bits from which `libm::sinf` reduces with Payne–Hanek (`2^28·π/2`;
+/// infinities and NaN above it too).
+const MEDIUM_LIMIT: u32 = 0x4dc9_0fdb;
+
+/// `libm::sinf` (libm 0.2.16, FreeBSD's `s_sinf.c`) for `|x| < 2^28·π/2`,
+/// written without branches: every case's reduced argument is computed and
+/// the right one selected, then both kernels (`k_sinf`, `k_cosf`, the same
+/// f64 polynomials in the same order) and the result selected and signed.
+/// The cases, by `|x|` bits `ix`: below `2^-12` `x` itself; up to `π/4`
+/// `k_sinf(x)`; up to `3π/4` `∓k_cosf(x ± π/2)`; up to `5π/4`
+/// `k_sinf(−(x ± π))`; up to `7π/4` `±k_cosf(x ± 3π/2)`; up to `9π/4`
+/// `k_sinf(x ± 2π)`; beyond, `n = rint(x·2/π)` (the `1.5·2^52` trick),
+/// `y = x − n·P1 − n·P1T` and quadrant `n mod 4` picks `k_sinf(y)`,
+/// `k_cosf(y)`, `k_sinf(−y)` or `−k_cosf(y)`.
+#[inline(always)]
+fn libm_sinf_medium(x: f32) -> f32 {
+    const S1_PIO2: f64 = core::f64::consts::FRAC_PI_2;
+    const S2_PIO2: f64 = 2. * core::f64::consts::FRAC_PI_2;
+    const S3_PIO2: f64 = 3. * core::f64::consts::FRAC_PI_2;
+    const S4_PIO2: f64 = 4. * core::f64::consts::FRAC_PI_2;
+    const TOINT: f64 = 1.5 / f64::EPSILON;
+    const INV_PIO2: f64 = f64::from_bits(0x3fe4_5f30_6dc9_c883);
+    const PIO2_1: f64 = f64::from_bits(0x3ff9_21fb_5000_0000);
+    const PIO2_1T: f64 = f64::from_bits(0x3e51_10b4_611a_6263);
+    // The kernels' coefficients (libm's `k_sinf.rs` S1..S4, `k_cosf.rs` C0..C3).
+    const KS3: f64 = f64::from_bits(0xbf2a00f9e2cae774); // -0.000198393348360966317347
+    const KS4: f64 = f64::from_bits(0x3ec6cd878c3b46a7); // 0.0000027183114939898219064
+    const KS1: f64 = f64::from_bits(0xbfc5555554cbac77); // -0.166666666416265235595
+    const KS2: f64 = f64::from_bits(0x3f811110896efbb2); // 0.0083333293858894631756
+    const KC2: f64 = f64::from_bits(0xbf56c087e80f1e27); // -0.00138867637746099294692
+    const KC3: f64 = f64::from_bits(0x3ef99342e0ee5069); // 0.0000243904487962774090654
+    const KC0: f64 = f64::from_bits(0xbfdffffffd0c5e81); // -0.499999997251031003120
+    const KC1: f64 = f64::from_bits(0x3fa55553e1053a42); // 0.0416666233237390631894
+    let x64 = x as f64;
+    let ix = x.to_bits() & 0x7fff_ffff;
+    let neg = (x.to_bits() >> 31) != 0;
+    // Medium reduction (`rem_pio2f`).
+    let f_n = (x64 * INV_PIO2 + TOINT) - TOINT;
+    let n = f_n as i32;
+    let y_med = x64 - f_n * PIO2_1 - f_n * PIO2_1T;
+    let y_med = if n & 2 != 0 && n & 1 == 0 {
+        -y_med
+    } else {
+        y_med
+    };
+    // The small multiples of π/2.
+    let (p1, m1) = (x64 + S1_PIO2, x64 - S1_PIO2);
+    let (p2, m2) = (-(x64 + S2_PIO2), -(x64 - S2_PIO2));
+    let (p3, m3) = (x64 + S3_PIO2, x64 - S3_PIO2);
+    let (p4, m4) = (x64 + S4_PIO2, x64 - S4_PIO2);
+    let y1 = if neg { p1 } else { m1 };
+    let y2 = if neg { p2 } else { m2 };
+    let y3 = if neg { p3 } else { m3 };
+    let y4 = if neg { p4 } else { m4 };
+    let (c1, c2, c3, c4, c5) = (
+        ix <= 0x3f49_0fda,
+        ix <= 0x4016_cbe3,
+        ix <= 0x407b_53d1,
+        ix <= 0x40af_eddf,
+        ix <= 0x40e2_31d5,
+    );
+    let y = if c1 {
+        x64
+    } else if c2 {
+        y1
+    } else if c3 {
+        y2
+    } else if c4 {
+        y3
+    } else if c5 {
+        y4
+    } else {
+        y_med
+    };
+    let use_cos = if c1 {
+        false
+    } else if c2 {
+        true
+    } else if c3 {
+        false
+    } else if c4 {
+        true
+    } else if c5 {
+        false
+    } else {
+        n & 1 != 0
+    };
+    let negate = if c1 {
+        false
+    } else if c2 {
+        neg
+    } else if c3 {
+        false
+    } else if c4 {
+        !neg
+    } else if c5 {
+        false
+    } else {
+        n & 3 == 3
+    };
+    // k_sinf and k_cosf (libm's `k_sinf.rs`, `k_cosf.rs`).
+    let z = y * y;
+    let w = z * z;
+    let r = KS3 + z * KS4;
+    let s = z * y;
+    let sin = ((y + s * (KS1 + z * KS2)) + s * w * r) as f32;
+    let rc = KC2 + z * KC3;
+    let cos = (((1.0 + z * KC0) + w * KC1) + (w * z) * rc) as f32;
+    let v = if use_cos { cos } else { sin };
+    let v = if negate { -v } else { v };
+    if ix < 0x3980_0000 {
+        x
+    } else {
+        v
     }
 }
 
@@ -115,6 +259,59 @@ mod tests {
             }
         }
         worst
+    }
+
+    /// Bit patterns `start, start + step, …` of one sign, through
+    /// `sin_lanes` 8 at a time, against `libm::sinf`.
+    fn lanes_vs_libm(start: u32, step: u32, end: u32) {
+        let mut b = start;
+        while b < end {
+            let mut x = [0.0f32; 8];
+            for (l, v) in x.iter_mut().enumerate() {
+                *v = f32::from_bits(b.wrapping_add(l as u32 * step));
+            }
+            let mut y = x;
+            LibmSine::sin_lanes(&mut y);
+            for (a, v) in x.iter().zip(y) {
+                let want = libm::sinf(*a);
+                assert!(
+                    want.to_bits() == v.to_bits() || (want.is_nan() && v.is_nan()),
+                    "{a:e} ({:#x}): {v:e} != {want:e}",
+                    a.to_bits()
+                );
+            }
+            b = b.saturating_add(8 * step);
+        }
+    }
+
+    #[test]
+    fn lanes_equal_libm_sampled() {
+        // Every 97th pattern of both signs (inf/NaN and Payne–Hanek
+        // included: they take the scalar fallback), and densely around the
+        // case boundaries.
+        lanes_vs_libm(0, 97, 0x7fff_ffff);
+        lanes_vs_libm(0x8000_0000, 97, 0xffff_ffff);
+        for edge in [
+            0x3980_0000u32,
+            0x3f49_0fda,
+            0x4016_cbe3,
+            0x407b_53d1,
+            0x40af_eddf,
+            0x40e2_31d5,
+            0x4dc9_0fdb,
+        ] {
+            for sign in [0, 0x8000_0000] {
+                lanes_vs_libm((edge - 5000) | sign, 1, (edge + 5000) | sign);
+            }
+        }
+    }
+
+    /// Every f32 (about a minute): `cargo test -p gpecnet-core --release --lib lanes_equal_libm_all -- --ignored`.
+    #[test]
+    #[ignore]
+    fn lanes_equal_libm_all() {
+        lanes_vs_libm(0, 1, 0x7fff_ffff);
+        lanes_vs_libm(0x8000_0000, 1, 0xffff_ffff);
     }
 
     #[test]
