@@ -225,6 +225,20 @@ fn cases_named<const W: usize>(
     }
 }
 
+impl EmbeddedModel {
+    /// The blob's model and its golden set, checked to belong together; `Err`: why not, as
+    /// [`Line::Error`] reports it.
+    fn open(&self) -> Result<(Model<'static>, GoldenSet<'static>), &'static str> {
+        let model = Model::from_blob(self.blob).map_err(|_| "blob rejected by Model::from_blob")?;
+        let set = GoldenSet::parse(self.golden)
+            .map_err(|_| "golden sidecar rejected by GoldenSet::parse")?;
+        if set.info().model_crc != model.crc() {
+            return Err("golden sidecar belongs to another blob (model_crc)");
+        }
+        Ok((model, set))
+    }
+}
+
 /// Verifies every model with predictors of scratch width `W` (a model
 /// wider than `W` is reported as [`Line::TooWide`]); `xcheck`: also run the
 /// other compiled-in sines. The firmware takes `W` = 128 (64 on the
@@ -237,36 +251,17 @@ pub fn verify_all<const W: usize>(
     let mut s = Summary::default();
     for m in models {
         s.models += 1;
-        let model = match Model::from_blob(m.blob) {
-            Ok(model) => model,
-            Err(_) => {
+        let (model, set) = match m.open() {
+            Ok(pair) => pair,
+            Err(what) => {
                 s.errors += 1;
                 out(Line::Error {
                     model: m.name,
-                    what: "blob rejected by Model::from_blob",
+                    what,
                 });
                 continue;
             }
         };
-        let set = match GoldenSet::parse(m.golden) {
-            Ok(set) => set,
-            Err(_) => {
-                s.errors += 1;
-                out(Line::Error {
-                    model: m.name,
-                    what: "golden sidecar rejected by GoldenSet::parse",
-                });
-                continue;
-            }
-        };
-        if set.info().model_crc != model.crc() {
-            s.errors += 1;
-            out(Line::Error {
-                model: m.name,
-                what: "golden sidecar belongs to another blob (model_crc)",
-            });
-            continue;
-        }
         if model.scratch_width() > W {
             s.errors += 1;
             out(Line::TooWide {

@@ -319,34 +319,45 @@ pub(crate) fn profile(o: &Opts) -> i32 {
         t,
         "Profile: release (opt-level 3, fat LTO), thumbv7em-none-eabihf, QEMU netduinoplus2 (STM32F405), one prediction K = 20\n"
     );
-    let _ = writeln!(
-        t,
-        "| model | path | flash B (.text / .rodata) | blob B | predict code B | code + weights B | static RAM B | stack peak B (run / predict) | Predictor B | instructions (K=20) | MACs (K=20) | insns/MAC | output fnv32 |"
+    md_table(
+        &mut t,
+        &[
+            "model",
+            "path",
+            "flash B (.text / .rodata)",
+            "blob B",
+            "predict code B",
+            "code + weights B",
+            "static RAM B",
+            "stack peak B (run / predict)",
+            "Predictor B",
+            "instructions (K=20)",
+            "MACs (K=20)",
+            "insns/MAC",
+            "output fnv32",
+        ],
+        rows.iter().map(|r| {
+            vec![
+                r.model.clone(),
+                r.sine.clone(),
+                format!("{} ({} / {})", r.flash, r.text, r.rodata),
+                r.blob.to_string(),
+                opt(r.exec_code.map(u64::from)),
+                opt(r.exec_code.map(|c| u64::from(c + r.blob))),
+                r.ram.to_string(),
+                format!(
+                    "{} / {}",
+                    opt(r.stack_total.map(u64::from)),
+                    opt(r.stack_predict.map(u64::from))
+                ),
+                opt(r.predictor.map(u64::from)),
+                opt(r.insns),
+                opt(r.macs),
+                per_mac(r.insns, r.macs),
+                r.hash.clone(),
+            ]
+        }),
     );
-    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    for r in &rows {
-        let per = per_mac(r.insns, r.macs);
-        let _ = writeln!(
-            t,
-            "| {} | {} | {} ({} / {}) | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} |",
-            r.model,
-            r.sine,
-            r.flash,
-            r.text,
-            r.rodata,
-            r.blob,
-            opt(r.exec_code.map(u64::from)),
-            opt(r.exec_code.map(|c| u64::from(c + r.blob))),
-            r.ram,
-            opt(r.stack_total.map(|v: u32| v as u64)),
-            opt(r.stack_predict.map(|v: u32| v as u64)),
-            opt(r.predictor.map(|v: u32| v as u64)),
-            opt(r.insns),
-            opt(r.macs),
-            per,
-            r.hash
-        );
-    }
     let _ = writeln!(t, "\nWhere the instructions go (top functions in the window; full lists in target/fw-profile/<model>-<path>.hot.txt):\n");
     for r in &rows {
         let total: u64 = r.hot.iter().map(|h| h.1).sum();
@@ -426,6 +437,21 @@ pub(crate) fn short_name(n: &str) -> String {
     parts[parts.len().saturating_sub(2)..].join("::")
 }
 
+/// Appends a markdown table to `out`: the `header` row, the separator, one line per row of
+/// `rows` (each as many cells as the header).
+pub(crate) fn md_table(
+    out: &mut String,
+    header: &[&str],
+    rows: impl IntoIterator<Item = Vec<String>>,
+) {
+    let _ = writeln!(out, "| {} |", header.join(" | "));
+    let _ = writeln!(out, "|{}", "---|".repeat(header.len()));
+    for row in rows {
+        debug_assert_eq!(row.len(), header.len());
+        let _ = writeln!(out, "| {} |", row.join(" | "));
+    }
+}
+
 /// A table cell: the number, or `-` when it was not measured.
 pub(crate) fn opt(v: Option<u64>) -> String {
     v.map_or("-".to_string(), |v| v.to_string())
@@ -436,5 +462,27 @@ pub(crate) fn per_mac(insns: Option<u64>, macs: Option<u64>) -> String {
     match (insns, macs) {
         (Some(i), Some(m)) if m > 0 => format!("{:.2}", i as f64 / m as f64),
         _ => "-".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn md_table_writes_header_separator_and_rows() {
+        let mut t = String::new();
+        md_table(
+            &mut t,
+            &["model", "insns/MAC"],
+            [
+                vec!["sdd-tiny".to_string(), per_mac(Some(1000), Some(400))],
+                vec!["x".to_string(), opt(None)],
+            ],
+        );
+        assert_eq!(
+            t,
+            "| model | insns/MAC |\n|---|---|\n| sdd-tiny | 2.50 |\n| x | - |\n"
+        );
     }
 }

@@ -13,7 +13,8 @@ use std::path::Path;
 use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::mcu::{self, Mcu};
 use crate::profile::{
-    blob_is_fixed, build_profile_image, field, opt, per_mac, plugin, run_with_plugin, FIXED_PATH,
+    blob_is_fixed, build_profile_image, field, md_table, opt, per_mac, plugin, run_with_plugin,
+    FIXED_PATH,
 };
 use crate::toolchain::{host_cargo, output, require};
 use crate::{die, root};
@@ -416,32 +417,42 @@ fn matrix_table(rows: &[Row]) -> String {
         t,
         "\nGolden replay and profile per MCU class (`cargo xtask qemu --all-targets`; release, opt-level 3, fat LTO; one call = point forecast + 20 endpoints):\n"
     );
-    let _ = writeln!(
-        t,
-        "| MCU | model | path | flash B (code + blob) | static RAM B | stack B (golden run / predictor + one call) | instructions per call | insns/MAC | bit-exact with host |"
+    md_table(
+        &mut t,
+        &[
+            "MCU",
+            "model",
+            "path",
+            "flash B (code + blob)",
+            "static RAM B",
+            "stack B (golden run / predictor + one call)",
+            "instructions per call",
+            "insns/MAC",
+            "bit-exact with host",
+        ],
+        rows.iter().map(|r| {
+            vec![
+                r.mcu.to_string(),
+                r.model.clone(),
+                r.path.clone(),
+                opt(r.flash.map(u64::from)),
+                opt(r.ram.map(u64::from)),
+                format!(
+                    "{} / {}",
+                    opt(r.stack_run.map(u64::from)),
+                    opt(r.stack_call.map(u64::from))
+                ),
+                opt(r.insns),
+                per_mac(r.insns, r.macs),
+                match r.bit_exact {
+                    Some(true) => "pass",
+                    Some(false) => "FAIL",
+                    None => "-",
+                }
+                .to_string(),
+            ]
+        }),
     );
-    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|");
-    for r in rows {
-        let per = per_mac(r.insns, r.macs);
-        let _ = writeln!(
-            t,
-            "| {} | {} | {} | {} | {} | {} / {} | {} | {} | {} |",
-            r.mcu,
-            r.model,
-            r.path,
-            opt(r.flash.map(u64::from)),
-            opt(r.ram.map(u64::from)),
-            opt(r.stack_run.map(u64::from)),
-            opt(r.stack_call.map(u64::from)),
-            opt(r.insns),
-            per,
-            match r.bit_exact {
-                Some(true) => "pass",
-                Some(false) => "FAIL",
-                None => "-",
-            }
-        );
-    }
     let _ = writeln!(
         t,
         "\nm0 = {}, m4f = {}, m7 = {}. Instructions are QEMU guest instructions between the bench markers \
