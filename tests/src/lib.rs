@@ -1,9 +1,12 @@
 //! Shared helpers for the workspace tests: finding the data and the shipped blobs.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::{Model, Predictor, Sine};
+use gpecnet_core::{Model, NumericKind, Predictor, Sine};
+
+use gpecnet_trainer::data::Dataset;
+use gpecnet_trainer::eval::Prediction;
 
 use gpecnet_trainer::network::{Act, Layer, Networks};
 use gpecnet_trainer::reference::{RefConfig, RefModel};
@@ -34,6 +37,138 @@ pub fn shipped_blobs() -> Vec<PathBuf> {
         .unwrap_or_default();
     v.sort();
     v
+}
+
+/// The shipped blobs of one numeric kind, sorted.
+pub fn shipped_blobs_of(kind: NumericKind) -> Vec<PathBuf> {
+    shipped_blobs()
+        .into_iter()
+        .filter(|p| {
+            let b = std::fs::read(p).unwrap();
+            Model::from_blob(&b).is_ok_and(|m| m.numeric() == kind)
+        })
+        .collect()
+}
+
+/// Asserts that a shipped blob has its golden file and model card (`.json`, `.md`) beside it.
+pub fn assert_sidecars(blob: &Path) {
+    for ext in ["golden", "json", "md"] {
+        assert!(
+            blob.with_extension(ext).exists(),
+            "{} has no .{ext}",
+            blob.display()
+        );
+    }
+}
+
+/// A shipped blob and its golden file, read.
+pub struct Shipped {
+    /// The blob's path.
+    pub path: PathBuf,
+    /// The blob's bytes.
+    pub blob: Vec<u8>,
+    /// The golden file's bytes.
+    pub golden: Vec<u8>,
+}
+
+impl Shipped {
+    /// Reads `path` and the golden file beside it.
+    pub fn read(path: &Path) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            blob: std::fs::read(path).unwrap(),
+            golden: std::fs::read(path.with_extension("golden")).unwrap(),
+        }
+    }
+
+    /// The blob's model.
+    pub fn model(&self) -> Model<'_> {
+        Model::from_blob(&self.blob).unwrap()
+    }
+
+    /// The golden file, checked to be for these weights.
+    pub fn golden(&self) -> GoldenSet<'_> {
+        let golden = GoldenSet::parse(&self.golden).unwrap();
+        assert_eq!(
+            golden.info().model_crc,
+            self.model().crc(),
+            "{}: golden file is for other weights",
+            self.path.display()
+        );
+        golden
+    }
+
+    /// Replays every golden case through `gpecnet_core::Predictor` with the sine the golden
+    /// file names ([`replay_golden`]) and asserts that every value is reproduced bit for bit.
+    pub fn assert_replays(&self) {
+        let (model, golden) = (self.model(), self.golden());
+        let bad = match golden.info().sine {
+            "libm" | "q15-table" => replay_golden::<gpecnet_core::LibmSine>(&model, &golden),
+            "fast-f32" => replay_golden::<gpecnet_core::FastSine>(&model, &golden),
+            other => panic!("{}: unknown sine {other}", self.path.display()),
+        };
+        assert_eq!(
+            bad,
+            0,
+            "{}: {bad} values differ from the trainer's",
+            self.path.display()
+        );
+    }
+}
+
+/// How many trajectory points of `a` and `b` (prediction by prediction, sample by sample)
+/// differ in their bits; the sample counts must agree.
+pub fn mismatches(a: &[Prediction], b: &[Prediction]) -> usize {
+    let mut n = 0;
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!(x.trajectories.len(), y.trajectories.len());
+        for (tx, ty) in x.trajectories.iter().zip(&y.trajectories) {
+            for (p, q) in tx.iter().zip(ty) {
+                n += usize::from(p.map(f32::to_bits) != q.map(f32::to_bits));
+            }
+        }
+    }
+    n
+}
+
+/// Golden-file inputs from every `stride`-th window of `test`: the observed positions and
+/// the latent seed (the input's index).
+pub fn golden_inputs(test: &Dataset, stride: usize) -> Vec<(Vec<[f32; 2]>, u64)> {
+    test.windows
+        .iter()
+        .step_by(stride)
+        .enumerate()
+        .map(|(i, w)| (w.obs().to_vec(), i as u64))
+        .collect()
+}
+
+/// SplitMix64: a tiny deterministic generator for test inputs.
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1), 24 bits.
+    pub fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Uniform in `0..n`.
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+
+    /// Uniform in [lo, hi), 53 bits.
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+    }
 }
 
 /// A SIREN model with SIREN-initialised random weights (w0 folded), of the

@@ -2,7 +2,7 @@
 //! on real SDD test windows — independent of any shipped weights.
 
 use gpecnet_core::Model;
-use gpecnet_tests::{data_root, random_siren};
+use gpecnet_tests::{data_root, mismatches, random_siren};
 use gpecnet_trainer::core_eval::{evaluate_core, evaluate_reference};
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::export::{blob_bytes, read_blob};
@@ -27,16 +27,7 @@ fn random_siren_matches_on_sdd_test_set() {
         let blob = blob_bytes(&m).unwrap();
         let (mc, pc) = evaluate_core(&blob, sine, &test, 20, seed).unwrap();
         let (mr, pr) = evaluate_reference(&m, sine, &test, 20, seed).unwrap();
-        let mut mismatches = 0usize;
-        for (a, b) in pc.iter().zip(&pr) {
-            for (ta, tb) in a.trajectories.iter().zip(&b.trajectories) {
-                for (p, q) in ta.iter().zip(tb) {
-                    mismatches += usize::from(
-                        p[0].to_bits() != q[0].to_bits() || p[1].to_bits() != q[1].to_bits(),
-                    );
-                }
-            }
-        }
+        let mismatches = mismatches(&pc, &pr);
         assert_eq!(mismatches, 0, "{sine:?}: {mismatches} points differ");
         assert_eq!(pc.len(), 2829);
         assert_eq!(mc.min_fde.to_bits(), mr.min_fde.to_bits());

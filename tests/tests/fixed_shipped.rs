@@ -4,21 +4,14 @@
 //! and re-evaluating the SDD test set through `gpecnet-core` reproduces its card.
 
 use gpecnet_core::blob::NumericKind;
-use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::{LibmSine, Model};
-use gpecnet_tests::{data_root, replay_golden, shipped_blobs};
+use gpecnet_core::Model;
+use gpecnet_tests::{assert_sidecars, data_root, shipped_blobs_of, Shipped};
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::eval::dist_metrics;
 use gpecnet_trainer::quantize::{evaluate_core_fixed, QuantCard};
 
 fn fixed_blobs() -> Vec<std::path::PathBuf> {
-    shipped_blobs()
-        .into_iter()
-        .filter(|p| {
-            let b = std::fs::read(p).unwrap();
-            Model::from_blob(&b).is_ok_and(|m| m.numeric() == NumericKind::Int16Q15)
-        })
-        .collect()
+    shipped_blobs_of(NumericKind::Int16Q15)
 }
 
 #[test]
@@ -30,32 +23,16 @@ fn fixed_blobs_are_named_q_and_complete() {
             "{}: fixed-point blobs are named <name>-q (<name>-qe: endpoint-only)",
             b.display()
         );
-        for ext in ["golden", "json", "md"] {
-            assert!(
-                b.with_extension(ext).exists(),
-                "{} has no .{ext}",
-                b.display()
-            );
-        }
+        assert_sidecars(&b);
     }
 }
 
 #[test]
 fn fixed_golden_vectors_replay_bit_exact() {
     for path in fixed_blobs() {
-        let blob = std::fs::read(&path).unwrap();
-        let model = Model::from_blob(&blob).unwrap();
-        let gbytes = std::fs::read(path.with_extension("golden")).unwrap();
-        let golden = GoldenSet::parse(&gbytes).unwrap();
-        assert_eq!(golden.info().model_crc, model.crc(), "{}", path.display());
-        assert_eq!(golden.info().sine, "q15-table");
-        let bad = replay_golden::<LibmSine>(&model, &golden);
-        assert_eq!(
-            bad,
-            0,
-            "{}: {bad} values differ from the trainer's",
-            path.display()
-        );
+        let shipped = Shipped::read(&path);
+        assert_eq!(shipped.golden().info().sine, "q15-table");
+        shipped.assert_replays();
     }
 }
 

@@ -2,7 +2,7 @@
 //! reference (`gpecnet_trainer::quantize`), bit for bit, on the whole SDD test set.
 
 use gpecnet_core::Model;
-use gpecnet_tests::{data_root, random_siren};
+use gpecnet_tests::{data_root, golden_inputs, mismatches, random_siren};
 use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::export::blob_bytes;
@@ -43,16 +43,7 @@ fn random_siren_fixed_matches_on_sdd_test_set() {
     let (mc, pc) = evaluate_core_fixed(&blob, &test, 20, 0).unwrap();
     let (mr, pr) = evaluate_reference_fixed(&q, &test, 20, 0).unwrap();
     assert_eq!(pc.len(), 2829);
-    let mut mismatches = 0usize;
-    for (a, b) in pc.iter().zip(&pr) {
-        for (ta, tb) in a.trajectories.iter().zip(&b.trajectories) {
-            for (p, r) in ta.iter().zip(tb) {
-                mismatches += usize::from(
-                    p[0].to_bits() != r[0].to_bits() || p[1].to_bits() != r[1].to_bits(),
-                );
-            }
-        }
-    }
+    let mismatches = mismatches(&pc, &pr);
     assert_eq!(mismatches, 0, "{mismatches} points differ");
     assert_eq!(mc, mr);
     // The fixed path tracks the f32 model it came from.
@@ -67,14 +58,7 @@ fn random_siren_fixed_matches_on_sdd_test_set() {
     );
 
     // Golden replay through core.
-    let inputs: Vec<(Vec<[f32; 2]>, u64)> = test
-        .windows
-        .iter()
-        .step_by(97)
-        .enumerate()
-        .map(|(i, w)| (w.obs().to_vec(), i as u64))
-        .collect();
-    let golden = qgolden_bytes(&q, core.crc(), 20, &inputs).unwrap();
+    let golden = qgolden_bytes(&q, core.crc(), 20, &golden_inputs(&test, 97)).unwrap();
     let set = gpecnet_core::golden::GoldenSet::parse(&golden).unwrap();
     assert_eq!(set.info().sine, "q15-table");
     let mut p = Box::new(gpecnet_core::Engine::<gpecnet_core::fixed::Q15, 256>::new(core).unwrap());

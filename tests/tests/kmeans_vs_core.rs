@@ -4,27 +4,8 @@
 //! counts), including sets with many exact ties.
 
 use gpecnet_core::cluster::{kmeans_reduce, ClusterError, Init, MAX_CENTERS};
+use gpecnet_tests::SplitMix64 as Rng;
 use gpecnet_trainer::tts::{kmeans, TtsInit};
-
-/// SplitMix64: a tiny deterministic generator for the test inputs.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-}
 
 /// A point set of one of several shapes: Gaussian-ish blobs in pixels, a
 /// coarse integer grid (many exact ties and duplicates), tiny and huge scales.

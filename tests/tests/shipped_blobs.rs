@@ -2,9 +2,8 @@
 //! through `gpecnet-core` and through the trainer's reference path, and the
 //! whole SDD test set through `gpecnet-core` reproduces its model card exactly.
 
-use gpecnet_core::golden::GoldenSet;
-use gpecnet_core::{FastSine, LibmSine, Model, NumericKind};
-use gpecnet_tests::{data_root, replay_golden, shipped_blobs};
+use gpecnet_core::NumericKind;
+use gpecnet_tests::{assert_sidecars, data_root, shipped_blobs_of, Shipped};
 use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::eval::dist_metrics;
@@ -13,13 +12,7 @@ use gpecnet_trainer::reference::SineKind;
 use gpecnet_trainer::ship::ModelCard;
 
 fn f32_blobs() -> Vec<std::path::PathBuf> {
-    shipped_blobs()
-        .into_iter()
-        .filter(|p| {
-            let b = std::fs::read(p).unwrap();
-            Model::from_blob(&b).is_ok_and(|m| m.numeric() == NumericKind::F32)
-        })
-        .collect()
+    shipped_blobs_of(NumericKind::F32)
 }
 
 #[test]
@@ -30,13 +23,7 @@ fn weights_folder_ships_models() {
         "weights/sdd-small.gpec missing: {blobs:?}"
     );
     for b in &blobs {
-        for ext in ["golden", "json", "md"] {
-            assert!(
-                b.with_extension(ext).exists(),
-                "{} has no .{ext}",
-                b.display()
-            );
-        }
+        assert_sidecars(b);
         let card = std::fs::read_to_string(b.with_extension("md")).unwrap();
         assert!(
             card.contains("CC BY-NC-SA 3.0"),
@@ -49,31 +36,13 @@ fn weights_folder_ships_models() {
 #[test]
 fn golden_vectors_replay_bit_exact() {
     for path in f32_blobs() {
-        let blob = std::fs::read(&path).unwrap();
-        let model = Model::from_blob(&blob).unwrap();
-        let gbytes = std::fs::read(path.with_extension("golden")).unwrap();
-        let golden = GoldenSet::parse(&gbytes).unwrap();
-        assert_eq!(
-            golden.info().model_crc,
-            model.crc(),
-            "{}: golden file is for other weights",
-            path.display()
-        );
+        let shipped = Shipped::read(&path);
+        let golden = shipped.golden();
         assert!(golden.info().n_cases >= 200, "a few hundred cases expected");
-        let bad = match golden.info().sine {
-            "libm" => replay_golden::<LibmSine>(&model, &golden),
-            "fast-f32" => replay_golden::<FastSine>(&model, &golden),
-            other => panic!("unknown sine {other}"),
-        };
-        assert_eq!(
-            bad,
-            0,
-            "{}: {bad} values differ from the trainer's",
-            path.display()
-        );
+        shipped.assert_replays();
 
         // The trainer's reference path, reading the same blob, reproduces the golden file too.
-        let r = read_blob(&blob).unwrap();
+        let r = read_blob(&shipped.blob).unwrap();
         let sine = if golden.info().sine == "libm" {
             SineKind::Libm
         } else {

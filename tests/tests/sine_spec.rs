@@ -25,6 +25,7 @@
 //! part of the contract (x86-64 and Arm produce different default NaNs).
 
 use gpecnet_core::{LibmSine, Sine};
+use gpecnet_tests::SplitMix64;
 
 /// The specification of `weights/FORMAT.md`, transcribed.
 mod spec {
@@ -313,26 +314,10 @@ fn matches_libm_on_a_grid_of_minus_8_to_8() {
     assert!(n > 280_000_000);
 }
 
-/// SplitMix64.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [lo, hi).
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-}
-
 #[test]
 fn matches_libm_on_random_bit_patterns() {
-    let mut rng = Rng(11);
-    let bits: Vec<u32> = (0..4_000_000).map(|_| rng.next() as u32).collect();
+    let mut rng = SplitMix64(11);
+    let bits: Vec<u32> = (0..4_000_000).map(|_| rng.next_u64() as u32).collect();
     let (n, bad) = check(bits.iter().copied());
     assert_eq!(bad, 0, "{bad} of {n} differ");
     // The sample reaches every branch of the large reduction, and never
@@ -402,7 +387,7 @@ fn matches_libm_on_special_inputs() {
 /// rounding could be wrong) are skipped and counted.
 #[test]
 fn differs_from_correctly_rounded_rarely() {
-    let mut rng = Rng(2024);
+    let mut rng = SplitMix64(2024);
     for (lo, hi, expect) in [
         (
             -std::f64::consts::FRAC_PI_4,

@@ -3,7 +3,7 @@
 //! test windows, in f32 (both sines) and fixed point; and format-1 exports keep their bytes.
 
 use gpecnet_core::Model;
-use gpecnet_tests::{data_root, random_siren, with_v2_features};
+use gpecnet_tests::{data_root, golden_inputs, mismatches, random_siren, with_v2_features};
 use gpecnet_trainer::core_eval::{evaluate_core, evaluate_point_core, evaluate_reference};
 use gpecnet_trainer::data::{load_sdd, Dataset, SddSplit};
 use gpecnet_trainer::eval::Prediction;
@@ -12,21 +12,6 @@ use gpecnet_trainer::quantize::{
     evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize_with_data,
 };
 use gpecnet_trainer::reference::SineKind;
-
-fn mismatches(a: &[Prediction], b: &[Prediction]) -> usize {
-    let mut n = 0;
-    for (x, y) in a.iter().zip(b) {
-        assert_eq!(x.trajectories.len(), y.trajectories.len());
-        for (tx, ty) in x.trajectories.iter().zip(&y.trajectories) {
-            for (p, q) in tx.iter().zip(ty) {
-                n += usize::from(
-                    p[0].to_bits() != q[0].to_bits() || p[1].to_bits() != q[1].to_bits(),
-                );
-            }
-        }
-    }
-    n
-}
 
 fn test_subset(step: usize) -> Dataset {
     let mut test = load_sdd(&data_root(), SddSplit::Test)
@@ -105,14 +90,7 @@ fn heading_frame_point_head_and_tts_match_in_fixed_point() {
         .collect();
     assert_eq!(mismatches(&pp, &pr), 0);
     // The golden file records the point forecast (format 2) and replays through core.
-    let inputs: Vec<(Vec<[f32; 2]>, u64)> = test
-        .windows
-        .iter()
-        .step_by(50)
-        .enumerate()
-        .map(|(i, w)| (w.obs().to_vec(), i as u64))
-        .collect();
-    let golden = qgolden_bytes(&q, core.crc(), 20, &inputs).unwrap();
+    let golden = qgolden_bytes(&q, core.crc(), 20, &golden_inputs(&test, 50)).unwrap();
     let set = gpecnet_core::golden::GoldenSet::parse(&golden).unwrap();
     let mut p = Box::new(gpecnet_core::Engine::<gpecnet_core::fixed::Q15, 128>::new(core).unwrap());
     for case in set.cases() {
