@@ -16,8 +16,13 @@
 //! Every MLP is `Linear -> act -> ... -> Linear` (activation after every layer but the last),
 //! with `act = sin(w0 * .)` (SIREN, G-PECNet) or ReLU (PECNet). All weights are initialised
 //! from the crate's seeded [`Rng`]; no candle randomness is used.
+//!
+//! The sine activation is one fused candle op ([`SineOp`]): its forward computes candle's
+//! `x.affine(w0, 0).sin()` and its backward candle's gradient of that pair, element by element
+//! in the very same f32 operations, so training is bit-identical to the unfused graph, but in
+//! one pass without the intermediate tensors, split over the run's threads ([`for_each_job`]).
 
-use candle_core::{DType, Device, Tensor, Var};
+use candle_core::{CpuStorage, CustomOp1, CustomOp2, DType, Device, Layout, Shape, Tensor, Var};
 
 use crate::config::TrainConfig;
 use crate::data::{Sample, FUTURE, PAST};
@@ -112,12 +117,10 @@ impl Mlp {
         };
         let last = self.layers.len() - 1;
         for (i, l) in self.layers.iter().enumerate() {
-            h = h
-                .matmul(&l.weight.as_tensor().t()?)?
-                .broadcast_add(l.bias.as_tensor())?;
+            h = add_bias(&h.matmul(&l.weight.as_tensor().t()?)?, l.bias.as_tensor())?;
             if i < last {
                 h = match self.activation {
-                    Act::Sine => h.affine(f64::from(self.w0), 0.0)?.sin()?,
+                    Act::Sine => sine(&h, self.w0)?,
                     Act::Relu => h.relu()?,
                     Act::Linear => h,
                 };
@@ -170,6 +173,254 @@ impl Mlp {
             out.push(Layer::new(in_dim, out_dim, activation, weight, bias));
         }
         Ok(out)
+    }
+}
+
+/// Elements per job below which an elementwise pass is not split across threads.
+pub(crate) const PAR_MIN_CHUNK: usize = 32 * 1024;
+
+/// Length of the contiguous chunks an elementwise pass over `n` elements is split into: one
+/// chunk per thread of the run (`RAYON_NUM_THREADS`, see [`crate::train::set_num_threads`]),
+/// none shorter than [`PAR_MIN_CHUNK`]. Every element is computed on its own, so the result
+/// does not depend on the split.
+pub(crate) fn chunk_len(n: usize) -> usize {
+    let threads = candle_core::utils::get_num_threads().max(1);
+    n.div_ceil(threads).max(PAR_MIN_CHUNK).max(1)
+}
+
+/// Runs `f` on every job, the first on the calling thread and the others on scoped threads
+/// (inline when a thread cannot be started). Returns when all are done.
+pub(crate) fn for_each_job<T: Send, F: Fn(T) + Sync>(jobs: impl IntoIterator<Item = T>, f: F) {
+    let mut jobs = jobs.into_iter();
+    let Some(first) = jobs.next() else {
+        return;
+    };
+    let f = &f;
+    std::thread::scope(|s| {
+        let mut inline = Vec::new();
+        for job in jobs {
+            // A job the OS refuses a thread for runs on this thread instead.
+            let (tx, rx) = std::sync::mpsc::channel::<T>();
+            let spawned = std::thread::Builder::new().spawn_scoped(s, move || {
+                if let Ok(job) = rx.recv() {
+                    f(job);
+                }
+            });
+            match spawned {
+                Ok(_) => {
+                    if let Err(std::sync::mpsc::SendError(job)) = tx.send(job) {
+                        inline.push(job);
+                    }
+                }
+                Err(_) => inline.push(job),
+            }
+        }
+        f(first);
+        inline.into_iter().for_each(f);
+    });
+}
+
+/// A new vector of `n` elements filled by `fill(range, out)` over contiguous ranges (each
+/// `out` is the vector's `range`, its length a multiple of `align` but for the last), split
+/// over threads as [`chunk_len`] says.
+fn map_elements<F: Fn(std::ops::Range<usize>, &mut [f32]) + Sync>(
+    n: usize,
+    align: usize,
+    fill: F,
+) -> Vec<f32> {
+    let mut out = vec![0f32; n];
+    let align = align.max(1);
+    let chunk = chunk_len(n).div_ceil(align) * align;
+    let jobs = out
+        .chunks_mut(chunk)
+        .enumerate()
+        .map(|(i, o)| (i * chunk..i * chunk + o.len(), o));
+    for_each_job(jobs, |(range, o)| fill(range, o));
+    out
+}
+
+/// `h + b` for `h` `[rows, out]` and a bias `b` `[out]`, as one differentiable op
+/// ([`BiasAdd`]); the same bits as candle's `h.broadcast_add(b)` and its gradients. Other
+/// shapes fall back to `broadcast_add`.
+pub fn add_bias(h: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
+    match (h.dims(), b.dims()) {
+        (&[rows, out], &[bout]) if out == bout && rows * out > 0 => {
+            h.contiguous()?.apply_op2(&b.contiguous()?, BiasAdd)
+        }
+        _ => h.broadcast_add(b),
+    }
+}
+
+/// Adds a bias row to every row: forward `y[i][j] = h[i][j] + b[j]` (candle's broadcast add);
+/// backward `dh = dy` and `db[j] = Σ_i (0 + dy[i][j])` summed from 0 over the rows in order,
+/// which is what candle computes through its broadcast node (a zero-filled accumulator, then
+/// a row-ordered sum over dimension 0), so the bits are the same, without the
+/// `[rows, out]`-sized temporaries and in a loop that vectorises.
+#[derive(Clone, Copy, Debug)]
+pub struct BiasAdd;
+
+impl CustomOp2 for BiasAdd {
+    fn name(&self) -> &'static str {
+        "gpecnet-bias-add"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+    ) -> candle_core::Result<(CpuStorage, Shape)> {
+        let (h, b) = (f32_slice(s1, l1)?, f32_slice(s2, l2)?);
+        let cols = b.len();
+        if cols == 0 || h.len() % cols != 0 {
+            candle_core::bail!("bias add: {} values, bias of {cols}", h.len());
+        }
+        // Whole rows per job.
+        let y = map_elements(h.len(), cols, |range, y| {
+            for (y, h) in y.chunks_mut(cols).zip(h[range].chunks(cols)) {
+                for ((y, &h), &b) in y.iter_mut().zip(h).zip(b) {
+                    *y = h + b;
+                }
+            }
+        });
+        Ok((CpuStorage::F32(y), l1.shape().clone()))
+    }
+
+    fn bwd(
+        &self,
+        _h: &Tensor,
+        b: &Tensor,
+        _res: &Tensor,
+        grad: &Tensor,
+    ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>)> {
+        let grad = grad.contiguous()?;
+        let db = grad.apply_op1_no_bwd(&ColumnSum(b.elem_count()))?;
+        Ok((Some(grad), Some(db)))
+    }
+}
+
+/// `[rows, cols] -> [cols]`: `Σ_i (0 + g[i][j])`, from 0, rows in order (see [`BiasAdd`]).
+#[derive(Clone, Copy, Debug)]
+struct ColumnSum(usize);
+
+impl CustomOp1 for ColumnSum {
+    fn name(&self) -> &'static str {
+        "gpecnet-column-sum"
+    }
+
+    fn cpu_fwd(&self, s: &CpuStorage, l: &Layout) -> candle_core::Result<(CpuStorage, Shape)> {
+        let g = f32_slice(s, l)?;
+        let cols = self.0;
+        if cols == 0 || g.len() % cols != 0 {
+            candle_core::bail!("bias gradient: {} values, bias of {cols}", g.len());
+        }
+        let mut sum = vec![0f32; cols];
+        for row in g.chunks_exact(cols) {
+            for (s, &r) in sum.iter_mut().zip(row) {
+                *s += 0.0 + r;
+            }
+        }
+        Ok((CpuStorage::F32(sum), Shape::from(cols)))
+    }
+}
+
+/// The SIREN activation `sin(w0 · x)` as one differentiable op (see [`SineOp`]); `x` must be
+/// f32.
+pub fn sine(x: &Tensor, w0: f32) -> candle_core::Result<Tensor> {
+    if x.elem_count() == 0 {
+        // candle's affine and sin return an empty input as it is.
+        return Ok(x.clone());
+    }
+    x.contiguous()?.apply_op1(SineOp { w0 })
+}
+
+/// `sin(w0 · x)` fused: forward `y = sin(x · w0 + 0)`, backward
+/// `dx = ((0 + dy · cos(x · w0 + 0)) · w0) + 0`, exactly the f32 operations candle performs for
+/// `x.affine(w0, 0).sin()` and its two backward steps (including the additions to zero-filled
+/// gradient accumulators), so the results are bit-identical to the unfused graph. Elements are
+/// independent, so the multi-threaded split ([`chunk_len`]) does not change any bit.
+#[derive(Clone, Copy, Debug)]
+pub struct SineOp {
+    /// The SIREN factor.
+    pub w0: f32,
+}
+
+/// The contiguous f32 data of a storage under `layout`.
+fn f32_slice<'a>(s: &'a CpuStorage, layout: &Layout) -> candle_core::Result<&'a [f32]> {
+    let data = s.as_slice::<f32>()?;
+    match layout.contiguous_offsets() {
+        Some((a, b)) => data
+            .get(a..b)
+            .ok_or_else(|| candle_core::Error::Msg("sine: layout out of range".into())),
+        None => candle_core::bail!("sine: needs a contiguous input"),
+    }
+}
+
+impl SineOp {
+    /// candle's `affine(w0, 0)` on one element (`v * mul + add` in f32).
+    #[inline(always)]
+    fn arg(self, v: f32) -> f32 {
+        v * self.w0 + 0.0
+    }
+}
+
+impl CustomOp1 for SineOp {
+    fn name(&self) -> &'static str {
+        "gpecnet-sine"
+    }
+
+    fn cpu_fwd(&self, s: &CpuStorage, l: &Layout) -> candle_core::Result<(CpuStorage, Shape)> {
+        let x = f32_slice(s, l)?;
+        let op = *self;
+        let y = map_elements(x.len(), 1, |range, y| {
+            for (y, &x) in y.iter_mut().zip(&x[range]) {
+                *y = op.arg(x).sin();
+            }
+        });
+        Ok((CpuStorage::F32(y), l.shape().clone()))
+    }
+
+    fn bwd(
+        &self,
+        arg: &Tensor,
+        _res: &Tensor,
+        grad: &Tensor,
+    ) -> candle_core::Result<Option<Tensor>> {
+        let grad = grad.contiguous()?;
+        Ok(Some(arg.apply_op2_no_bwd(&grad, &SineBackward(*self))?))
+    }
+}
+
+/// The backward pass of [`SineOp`]: `(x, dy) -> dx`.
+#[derive(Clone, Copy, Debug)]
+struct SineBackward(SineOp);
+
+impl CustomOp2 for SineBackward {
+    fn name(&self) -> &'static str {
+        "gpecnet-sine-backward"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+    ) -> candle_core::Result<(CpuStorage, Shape)> {
+        let (x, g) = (f32_slice(s1, l1)?, f32_slice(s2, l2)?);
+        if x.len() != g.len() {
+            candle_core::bail!("sine backward: {} inputs, {} gradients", x.len(), g.len());
+        }
+        let op = self.0;
+        let dx = map_elements(x.len(), 1, |range, dx| {
+            for ((dx, &x), &g) in dx.iter_mut().zip(&x[range.clone()]).zip(&g[range]) {
+                // sin's backward into a zero-filled accumulator, then affine's backward.
+                let d_arg = 0.0 + g * op.arg(x).cos();
+                *dx = d_arg * op.w0 + 0.0;
+            }
+        });
+        Ok((CpuStorage::F32(dx), l1.shape().clone()))
     }
 }
 
@@ -634,6 +885,92 @@ mod tests {
             .unwrap();
         for (a, b) in got.iter().zip(&h) {
             assert!((*a as f64 - b).abs() < 1e-3, "{a} vs {b}");
+        }
+    }
+
+    /// Bits of a tensor.
+    fn bits(t: &Tensor) -> Vec<u32> {
+        t.flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap()
+            .iter()
+            .map(|v| v.to_bits())
+            .collect()
+    }
+
+    #[test]
+    fn fused_sine_is_bit_identical_to_candles_affine_sin() {
+        // Large enough to be split into several chunks on any thread count.
+        let n = 3 * PAR_MIN_CHUNK + 17;
+        let mut rng = Rng::new(9);
+        let mut x: Vec<f32> = (0..n).map(|_| rng.uniform(-40.0, 40.0)).collect();
+        x[..4].copy_from_slice(&[0.0, -0.0, 1e-30, -1e-30]);
+        let g: Vec<f32> = (0..n).map(|_| rng.uniform(-3.0, 3.0)).collect();
+        for w0 in [1.0f32, 30.0, 0.5] {
+            let xv = Var::from_vec(x.clone(), (n, 1), &Device::Cpu).unwrap();
+            let gt = Tensor::from_vec(g.clone(), xv.shape(), &Device::Cpu).unwrap();
+            let fused = sine(xv.as_tensor(), w0).unwrap();
+            let plain = xv
+                .as_tensor()
+                .affine(f64::from(w0), 0.0)
+                .unwrap()
+                .sin()
+                .unwrap();
+            assert_eq!(bits(&fused), bits(&plain), "forward, w0 = {w0}");
+            let gf = (&fused * &gt)
+                .unwrap()
+                .sum_all()
+                .unwrap()
+                .backward()
+                .unwrap();
+            let gp = (&plain * &gt)
+                .unwrap()
+                .sum_all()
+                .unwrap()
+                .backward()
+                .unwrap();
+            let (gf, gp) = (
+                gf.get(xv.as_tensor()).unwrap(),
+                gp.get(xv.as_tensor()).unwrap(),
+            );
+            assert_eq!(bits(gf), bits(gp), "backward, w0 = {w0}");
+        }
+    }
+
+    #[test]
+    fn fused_bias_add_is_bit_identical_to_candles_broadcast_add() {
+        let mut rng = Rng::new(11);
+        // Rows x columns large enough for several jobs; a second, odd shape.
+        for (rows, cols) in [(300, 257), (5, 3)] {
+            let h: Vec<f32> = (0..rows * cols).map(|_| rng.uniform(-5.0, 5.0)).collect();
+            let b: Vec<f32> = (0..cols).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            let g: Vec<f32> = (0..rows * cols).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            let hv = Var::from_vec(h, (rows, cols), &Device::Cpu).unwrap();
+            let bv = Var::from_vec(b, cols, &Device::Cpu).unwrap();
+            let gt = Tensor::from_vec(g, (rows, cols), &Device::Cpu).unwrap();
+            let fused = add_bias(hv.as_tensor(), bv.as_tensor()).unwrap();
+            let plain = hv.as_tensor().broadcast_add(bv.as_tensor()).unwrap();
+            assert_eq!(bits(&fused), bits(&plain));
+            let gf = (&fused * &gt)
+                .unwrap()
+                .sum_all()
+                .unwrap()
+                .backward()
+                .unwrap();
+            let gp = (&plain * &gt)
+                .unwrap()
+                .sum_all()
+                .unwrap()
+                .backward()
+                .unwrap();
+            for v in [&hv, &bv] {
+                let (a, b) = (
+                    gf.get(v.as_tensor()).unwrap(),
+                    gp.get(v.as_tensor()).unwrap(),
+                );
+                assert_eq!(bits(a), bits(b), "{rows}x{cols}");
+            }
         }
     }
 

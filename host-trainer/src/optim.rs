@@ -9,9 +9,15 @@
 //! denom = sqrt(v) / sqrt(1 - b2^t) + eps
 //! p = p - step_size * m / denom
 //! ```
+//!
+//! Every element is updated on its own, in place (the weights through a candle in-place op, the
+//! gradients read where backprop left them), split into chunks over the run's threads
+//! ([`crate::model::chunk_len`]); the split does not change any bit.
 
 use candle_core::backprop::GradStore;
-use candle_core::{Device, Tensor, Var};
+use candle_core::{CpuStorage, InplaceOp1, Layout, Storage, Tensor, Var};
+
+use crate::model::{chunk_len, for_each_job};
 use serde::{Deserialize, Serialize};
 
 /// Adam hyper-parameters.
@@ -127,34 +133,204 @@ impl Adam {
         let p = self.params;
         let bc1 = 1.0 - p.beta1.powi(t);
         let bc2_sqrt = (1.0 - p.beta2.powi(t)).sqrt();
-        let step_size = (p.lr / bc1) as f32;
-        let (b1, b2) = (p.beta1 as f32, p.beta2 as f32);
-        let (one_b1, one_b2) = ((1.0 - p.beta1) as f32, (1.0 - p.beta2) as f32);
-        let bc2_sqrt = bc2_sqrt as f32;
-        let eps = p.eps as f32;
+        let k = Coefficients {
+            step_size: (p.lr / bc1) as f32,
+            b1: p.beta1 as f32,
+            b2: p.beta2 as f32,
+            one_b1: (1.0 - p.beta1) as f32,
+            one_b2: (1.0 - p.beta2) as f32,
+            bc2_sqrt: bc2_sqrt as f32,
+            eps: p.eps as f32,
+        };
         for (i, var) in self.vars.iter().enumerate() {
             let n = var.elem_count();
-            let g = match grads.get(var.as_tensor()) {
-                Some(g) => g.flatten_all()?.to_vec1::<f32>()?,
-                None => vec![0.0; n],
-            };
-            let mut w = var.as_tensor().flatten_all()?.to_vec1::<f32>()?;
             let (m, v) = (&mut self.state.m[i], &mut self.state.v[i]);
-            for j in 0..n {
-                m[j] = b1 * m[j] + one_b1 * g[j];
-                v[j] = b2 * v[j] + one_b2 * (g[j] * g[j]);
-                let denom = v[j].sqrt() / bc2_sqrt + eps;
-                w[j] -= step_size * (m[j] / denom);
+            if m.len() != n || v.len() != n {
+                candle_core::bail!("Adam state shape mismatch for {:?}", var.shape());
             }
-            var.set(&Tensor::from_vec(w, var.shape(), &Device::Cpu)?)?;
+            match grads.get(var.as_tensor()) {
+                Some(g) => {
+                    let (storage, layout) = g.storage_and_layout();
+                    match (&*storage, layout.contiguous_offsets()) {
+                        (Storage::Cpu(cpu), Some((a, b))) => {
+                            let g = cpu.as_slice::<f32>()?;
+                            let g = g.get(a..b).filter(|g| g.len() == n).ok_or_else(|| {
+                                candle_core::Error::Msg("Adam: gradient shape mismatch".into())
+                            })?;
+                            update_var(var, k, g, m, v)?;
+                        }
+                        _ => {
+                            drop(storage);
+                            let g = g.flatten_all()?.to_vec1::<f32>()?;
+                            if g.len() != n {
+                                candle_core::bail!("Adam: gradient shape mismatch");
+                            }
+                            update_var(var, k, &g, m, v)?;
+                        }
+                    }
+                }
+                None => update_var(var, k, &vec![0.0; n], m, v)?,
+            }
         }
         Ok(())
     }
 }
 
+/// The f32 coefficients of one Adam step.
+#[derive(Clone, Copy, Debug)]
+struct Coefficients {
+    step_size: f32,
+    b1: f32,
+    b2: f32,
+    one_b1: f32,
+    one_b2: f32,
+    bc2_sqrt: f32,
+    eps: f32,
+}
+
+/// One step for the elements of one chunk, in torch's order (see the module docs).
+fn update_chunk(k: Coefficients, w: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32]) {
+    for (((w, &g), m), v) in w.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
+        *m = k.b1 * *m + k.one_b1 * g;
+        *v = k.b2 * *v + k.one_b2 * (g * g);
+        let denom = v.sqrt() / k.bc2_sqrt + k.eps;
+        *w -= k.step_size * (*m / denom);
+    }
+}
+
+/// The in-place update of one parameter tensor (a candle [`InplaceOp1`] on its storage).
+struct AdamUpdate<'a> {
+    k: Coefficients,
+    g: &'a [f32],
+    /// First and second moments (a lock only because candle hands the op out by `&self`).
+    mv: std::sync::Mutex<(&'a mut [f32], &'a mut [f32])>,
+}
+
+impl InplaceOp1 for AdamUpdate<'_> {
+    fn name(&self) -> &'static str {
+        "gpecnet-adam"
+    }
+
+    fn cpu_fwd(&self, storage: &mut CpuStorage, layout: &Layout) -> candle_core::Result<()> {
+        let mut mv = self
+            .mv
+            .lock()
+            .map_err(|_| candle_core::Error::Msg("Adam: moment lock poisoned".into()))?;
+        let (m, v) = &mut *mv;
+        let CpuStorage::F32(w) = storage else {
+            candle_core::bail!("Adam: parameters must be f32");
+        };
+        let n = self.g.len();
+        let w = match layout.contiguous_offsets() {
+            Some((a, b)) if b - a == n && m.len() == n && v.len() == n => &mut w[a..b],
+            _ => candle_core::bail!("Adam: parameter layout mismatch"),
+        };
+        let chunk = chunk_len(n);
+        let jobs = w
+            .chunks_mut(chunk)
+            .zip(self.g.chunks(chunk))
+            .zip(m.chunks_mut(chunk))
+            .zip(v.chunks_mut(chunk));
+        for_each_job(jobs, |(((w, g), m), v)| update_chunk(self.k, w, g, m, v));
+        Ok(())
+    }
+}
+
+/// Updates `var` in place from its gradient `g` (flat, `var`'s element count).
+fn update_var(
+    var: &Var,
+    k: Coefficients,
+    g: &[f32],
+    m: &mut [f32],
+    v: &mut [f32],
+) -> candle_core::Result<()> {
+    let op = AdamUpdate {
+        k,
+        g,
+        mv: std::sync::Mutex::new((m, v)),
+    };
+    var.as_tensor().inplace_op1(&op)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use candle_core::Device;
+
+    /// The update as it was before it became in place and multi-threaded: copies of weights
+    /// and gradients, one serial loop.
+    fn reference_step(
+        w: &mut [f32],
+        g: &[f32],
+        m: &mut [f32],
+        v: &mut [f32],
+        p: AdamParams,
+        t: i32,
+    ) {
+        let bc1 = 1.0 - p.beta1.powi(t);
+        let bc2_sqrt = ((1.0 - p.beta2.powi(t)).sqrt()) as f32;
+        let step_size = (p.lr / bc1) as f32;
+        let (b1, b2) = (p.beta1 as f32, p.beta2 as f32);
+        let (one_b1, one_b2) = ((1.0 - p.beta1) as f32, (1.0 - p.beta2) as f32);
+        let eps = p.eps as f32;
+        for j in 0..w.len() {
+            m[j] = b1 * m[j] + one_b1 * g[j];
+            v[j] = b2 * v[j] + one_b2 * (g[j] * g[j]);
+            let denom = v[j].sqrt() / bc2_sqrt + eps;
+            w[j] -= step_size * (m[j] / denom);
+        }
+    }
+
+    #[test]
+    fn in_place_chunked_step_is_bit_identical_to_the_serial_loop() {
+        let mut rng = crate::rng::Rng::new(4);
+        // One tensor split into several chunks, one small, one without a gradient.
+        let sizes = [3 * crate::model::PAR_MIN_CHUNK + 5, 7, 11];
+        let init: Vec<Vec<f32>> = sizes
+            .iter()
+            .map(|&n| (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect())
+            .collect();
+        let vars: Vec<Var> = init
+            .iter()
+            .map(|w| Var::from_vec(w.clone(), w.len(), &Device::Cpu).unwrap())
+            .collect();
+        let params = AdamParams::with_lr(3e-4);
+        let mut opt = Adam::new(vars.clone(), params);
+        let mut w = init.clone();
+        let mut m: Vec<Vec<f32>> = sizes.iter().map(|&n| vec![0.0; n]).collect();
+        let mut v = m.clone();
+        for t in 1..=3 {
+            let c: Vec<Vec<f32>> = sizes
+                .iter()
+                .map(|&n| (0..n).map(|_| rng.uniform(-2.0, 2.0)).collect())
+                .collect();
+            // loss = sum(c0 * x0) + sum(c1 * x1): gradients c0, c1; none for x2.
+            let mut loss = Tensor::new(0f32, &Device::Cpu).unwrap();
+            for i in 0..2 {
+                let ct = Tensor::from_vec(c[i].clone(), sizes[i], &Device::Cpu).unwrap();
+                loss = (loss + (vars[i].as_tensor() * ct).unwrap().sum_all().unwrap()).unwrap();
+            }
+            opt.backward_step(&loss).unwrap();
+            for i in 0..3 {
+                let g = if i < 2 {
+                    c[i].clone()
+                } else {
+                    vec![0.0; sizes[i]]
+                };
+                reference_step(&mut w[i], &g, &mut m[i], &mut v[i], params, t);
+            }
+        }
+        for i in 0..3 {
+            let got = vars[i].as_tensor().to_vec1::<f32>().unwrap();
+            let same = got
+                .iter()
+                .zip(&w[i])
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "tensor {i}");
+            assert_eq!(opt.state().m[i], m[i]);
+            assert_eq!(opt.state().v[i], v[i]);
+        }
+    }
 
     #[test]
     fn minimises_a_quadratic_and_matches_torch_first_step() {

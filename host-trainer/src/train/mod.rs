@@ -20,7 +20,12 @@
 //! count produce bit-identical weights, and `--resume` continues bit-exactly. The variable, not
 //! a local `rayon::ThreadPool`, is the knob on purpose: candle 0.11 sizes every CPU matmul from
 //! `candle_core::utils::get_num_threads()`, which reads `RAYON_NUM_THREADS` itself (falling back
-//! to the machine's core count), whatever pool the call runs in.
+//! to the machine's core count), whatever pool the call runs in. The elementwise passes the
+//! crate runs itself (the fused sine and bias add of [`crate::model`], the Adam update of
+//! [`crate::optim`]) split their work over the same number of threads, but compute every
+//! element on its own, so only the matmuls make results depend on the thread count; the fused
+//! ops compute the very f32 operations of the unfused candle graph, so the shipped weights keep
+//! their bits.
 //!
 //! Files: `prepare.rs` (the data a run trains and validates on), `trainer.rs` (the model,
 //! optimizer and RNG of a run and its epochs), `validate.rs` (validation metrics),
