@@ -42,5 +42,12 @@ pub const SCRATCH: usize = if cfg!(armv6m) { 64 } else { 128 };
 pub mod models {
     #[allow(unused_imports)]
     use crate::golden::EmbeddedModel;
+
+    /// An embedded blob at an 8-byte aligned address: a format-3 blob's
+    /// tensors start at multiples of 4 from its first byte, so in flash they
+    /// are word aligned and the Cortex-M4/M7 dense kernels take their
+    /// `LDRD`/`VLDM` paths (`include_bytes!` alone guarantees alignment 1).
+    #[repr(C, align(8))]
+    pub struct AlignedBlob<const N: usize>(pub [u8; N]);
     include!(concat!(env!("OUT_DIR"), "/models.rs"));
 }
