@@ -7,11 +7,9 @@
 #![no_main]
 
 use gpecnet_core::blob::CRC32;
-use gpecnet_core::{FastSine, LibmSine, Model, Predictor};
 use libfuzzer_sys::fuzz_target;
 
 mod common;
-use common::{exercise, PAST};
 
 fuzz_target!(|data: &[u8]| {
     if data.len() < 8 {
@@ -21,14 +19,5 @@ fuzz_target!(|data: &[u8]| {
     let body = blob.len() - 4;
     let crc = CRC32.checksum(&blob[..body]);
     blob[body..].copy_from_slice(&crc.to_le_bytes());
-    let Ok(model) = Model::from_blob(&blob) else {
-        return;
-    };
-    let past = &PAST[..(model.config().past_len as usize).min(8)];
-    if let Ok(mut p) = Predictor::<LibmSine, 256>::new(model) {
-        exercise(&mut p, past);
-    }
-    if let Ok(mut p) = Predictor::<FastSine, 256>::new(model) {
-        exercise(&mut p, past);
-    }
+    common::read_and_predict(&blob);
 });

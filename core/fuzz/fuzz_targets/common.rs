@@ -1,5 +1,8 @@
-//! Shared by the blob fuzz targets: a valid track and every prediction entry point.
-use gpecnet_core::{Predictor, Sine, Trajectory};
+//! Shared by the blob fuzz targets: a valid track, every prediction entry point, and the
+//! reader + both predictors on one byte string.
+#![allow(dead_code)]
+
+use gpecnet_core::{FastSine, LibmSine, Model, Predictor, Sine, Trajectory};
 
 /// Eight observed positions (pixels, 0.4 s apart).
 pub const PAST: [[f32; 2]; 8] = [
@@ -22,4 +25,21 @@ pub fn exercise<S: Sine>(p: &mut Predictor<'_, S, 256>, past: &[[f32; 2]]) {
     let mut t = [Trajectory::new(), Trajectory::new()];
     let _ = p.predict_trajectories(past, 1, &mut t);
     let _ = p.last_trajectory();
+}
+
+/// Reads `blob`; whatever the reader accepts goes through every entry point of the predictor
+/// with both sines (the predictor picks the engine; the sine matters for f32 blobs only).
+/// Returns whether the reader accepted it.
+pub fn read_and_predict(blob: &[u8]) -> bool {
+    let Ok(model) = Model::from_blob(blob) else {
+        return false;
+    };
+    let past = &PAST[..(model.config().past_len as usize).min(8)];
+    if let Ok(mut p) = Predictor::<LibmSine, 256>::new(model) {
+        exercise(&mut p, past);
+    }
+    if let Ok(mut p) = Predictor::<FastSine, 256>::new(model) {
+        exercise(&mut p, past);
+    }
+    true
 }
