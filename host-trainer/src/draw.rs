@@ -1,8 +1,11 @@
 //! Pictures a person can check: predicted vs. true trajectories as SVG.
 //!
-//! Plain SVG written by hand (no font or system library needed).
+//! Plain SVG written by hand (no font or system library needed); the `svg` module holds the pieces
+//! every hand-written picture of the crate shares (this one and `synth::plot`'s).
 
 use std::fmt::Write as _;
+
+use self::svg::{escape, header, Panel};
 
 use crate::data::Window;
 use crate::eval::Prediction;
@@ -23,51 +26,13 @@ pub fn predictions_svg(
     let rows = items.len().div_ceil(cols).max(1);
     let (w, h) = (cols as f32 * PANEL, rows as f32 * PANEL + 44.0);
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
-    );
-    let _ = writeln!(
-        s,
-        r#"<rect width="100%" height="100%" fill="white"/><text x="8" y="20" font-size="14">{}</text>"#,
-        escape(title)
-    );
+    header(&mut s, w, h, title);
     for (n, (win, pred)) in items.iter().enumerate() {
         let (ox, oy) = ((n % cols) as f32 * PANEL, (n / cols) as f32 * PANEL + 44.0);
         let mut pts: Vec<[f32; 2]> = win.pos.to_vec();
         pts.extend(pred.trajectories.iter().flatten());
-        let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for p in &pts {
-            x0 = x0.min(p[0]);
-            y0 = y0.min(p[1]);
-            x1 = x1.max(p[0]);
-            y1 = y1.max(p[1]);
-        }
-        let span = (x1 - x0).max(y1 - y0).max(1e-3);
-        let sc = (PANEL - 40.0) / span;
-        let map = |p: [f32; 2]| (ox + 20.0 + (p[0] - x0) * sc, oy + 20.0 + (p[1] - y0) * sc);
-        let poly = |s: &mut String, p: &[[f32; 2]], style: &str| {
-            let d: Vec<String> = p
-                .iter()
-                .map(|&q| {
-                    let (a, b) = map(q);
-                    format!("{a:.1},{b:.1}")
-                })
-                .collect();
-            let _ = writeln!(
-                s,
-                r#"<polyline fill="none" {style} points="{}"/>"#,
-                d.join(" ")
-            );
-        };
-        let _ = writeln!(
-            s,
-            r##"<rect x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#ccc"/>"##,
-            ox + 2.0,
-            oy + 2.0,
-            PANEL - 4.0,
-            PANEL - 4.0
-        );
+        let panel = Panel::fit((ox, oy), PANEL, &pts, (20.0, 20.0, 40.0), 1e-3);
+        panel.border(&mut s);
         let best = pred
             .trajectories
             .iter()
@@ -81,12 +46,12 @@ pub fn predictions_svg(
         for t in &pred.trajectories {
             let mut line = vec![win.pos[7]];
             line.extend_from_slice(t);
-            poly(
+            panel.polyline(
                 &mut s,
                 &line,
                 r##"stroke="#f4a261" stroke-width="0.8" opacity="0.7""##,
             );
-            let (a, b) = map(t[t.len() - 1]);
+            let (a, b) = panel.map(t[t.len() - 1]);
             let _ = writeln!(
                 s,
                 r##"<circle cx="{a:.1}" cy="{b:.1}" r="2.2" fill="#d62828"/>"##
@@ -95,36 +60,25 @@ pub fn predictions_svg(
         if let Some((i, fde)) = best {
             let mut line = vec![win.pos[7]];
             line.extend_from_slice(&pred.trajectories[i]);
-            poly(&mut s, &line, r##"stroke="#d62828" stroke-width="2""##);
-            let _ = writeln!(
-                s,
-                r#"<text x="{}" y="{}" font-size="10">{} #{} minFDE {:.1} {}</text>"#,
-                ox + 8.0,
-                oy + PANEL - 8.0,
+            panel.polyline(&mut s, &line, r##"stroke="#d62828" stroke-width="2""##);
+            let caption = format!(
+                "{} #{} minFDE {fde:.1} {unit}",
                 escape(&win.scene),
-                win.ped_id,
-                fde,
-                unit
+                win.ped_id
             );
+            panel.caption(&mut s, &caption);
         }
-        poly(
+        panel.polyline(
             &mut s,
             &win.pos[..8],
             r##"stroke="#1d3557" stroke-width="2.5""##,
         );
-        poly(
+        panel.polyline(
             &mut s,
             &win.pos[7..],
             r##"stroke="#2a9d8f" stroke-width="2.5" stroke-dasharray="4 2""##,
         );
-        let bar = 10f32.powf((span / 4.0).log10().floor());
-        let (a, b) = (ox + PANEL - 20.0 - bar * sc, oy + 14.0);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{a:.1}" y1="{b}" x2="{:.1}" y2="{b}" stroke="black"/><text x="{a:.1}" y="{}" font-size="9">{bar} {unit}</text>"#,
-            ox + PANEL - 20.0,
-            b - 3.0
-        );
+        panel.scale_bar(&mut s, unit);
     }
     let _ = writeln!(
         s,
@@ -134,8 +88,140 @@ pub fn predictions_svg(
     s
 }
 
-fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+/// The pieces of the crate's hand-written SVG pictures: the document header, and square
+/// trajectory panels scaled to their content with equal axes.
+pub(crate) mod svg {
+    use std::fmt::Write as _;
+
+    /// `t` with the XML special characters of text content escaped.
+    pub(crate) fn escape(t: &str) -> String {
+        t.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+    }
+
+    /// Opens a `w × h` SVG document on a white background with `title` at the top left.
+    pub(crate) fn header(s: &mut String, w: f32, h: f32, title: &str) {
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
+        );
+        let _ = writeln!(
+            s,
+            r#"<rect width="100%" height="100%" fill="white"/><text x="8" y="20" font-size="14">{}</text>"#,
+            escape(title)
+        );
+    }
+
+    /// One square panel of side `size` at `(ox, oy)`: data points map to pixels with one scale
+    /// for both axes, chosen so the content's larger extent fills the panel less its inset.
+    pub(crate) struct Panel {
+        ox: f32,
+        oy: f32,
+        size: f32,
+        /// Left and top inset in pixels.
+        left: f32,
+        top: f32,
+        /// The content's smallest coordinates.
+        x0: f32,
+        y0: f32,
+        /// The content's larger extent (at least the minimum span).
+        span: f32,
+        /// Pixels per data unit.
+        sc: f32,
+    }
+
+    impl Panel {
+        /// The panel at `origin` fitted to `points`; `inset` = (left, top, total of both
+        /// margins along an axis) in pixels; the extent is at least `min_span` (an empty set
+        /// of points is the unit square).
+        pub(crate) fn fit(
+            origin: (f32, f32),
+            size: f32,
+            points: &[[f32; 2]],
+            inset: (f32, f32, f32),
+            min_span: f32,
+        ) -> Self {
+            let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+            for q in points {
+                x0 = x0.min(q[0]);
+                y0 = y0.min(q[1]);
+                x1 = x1.max(q[0]);
+                y1 = y1.max(q[1]);
+            }
+            if points.is_empty() {
+                (x0, y0, x1, y1) = (0.0, 0.0, 1.0, 1.0);
+            }
+            let span = (x1 - x0).max(y1 - y0).max(min_span);
+            Self {
+                ox: origin.0,
+                oy: origin.1,
+                size,
+                left: inset.0,
+                top: inset.1,
+                x0,
+                y0,
+                span,
+                sc: (size - inset.2) / span,
+            }
+        }
+
+        /// The pixel position of data point `q`.
+        pub(crate) fn map(&self, q: [f32; 2]) -> (f32, f32) {
+            (
+                self.ox + self.left + (q[0] - self.x0) * self.sc,
+                self.oy + self.top + (q[1] - self.y0) * self.sc,
+            )
+        }
+
+        /// The panel's light grey border.
+        pub(crate) fn border(&self, s: &mut String) {
+            let _ = writeln!(
+                s,
+                r##"<rect x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#ccc"/>"##,
+                self.ox + 2.0,
+                self.oy + 2.0,
+                self.size - 4.0,
+                self.size - 4.0
+            );
+        }
+
+        /// A polyline through `points` with the SVG attributes `style`.
+        pub(crate) fn polyline(&self, s: &mut String, points: &[[f32; 2]], style: &str) {
+            let d: Vec<String> = points
+                .iter()
+                .map(|&q| {
+                    let (a, b) = self.map(q);
+                    format!("{a:.1},{b:.1}")
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                r#"<polyline fill="none" {style} points="{}"/>"#,
+                d.join(" ")
+            );
+        }
+
+        /// A scale bar at the top right: a power of ten of about a quarter of the extent.
+        pub(crate) fn scale_bar(&self, s: &mut String, unit: &str) {
+            let bar = 10f32.powf((self.span / 4.0).log10().floor());
+            let (a, b) = (self.ox + self.size - 20.0 - bar * self.sc, self.oy + 14.0);
+            let _ = writeln!(
+                s,
+                r#"<line x1="{a:.1}" y1="{b}" x2="{:.1}" y2="{b}" stroke="black"/><text x="{a:.1}" y="{}" font-size="9">{bar} {unit}</text>"#,
+                self.ox + self.size - 20.0,
+                b - 3.0
+            );
+        }
+
+        /// A caption at the bottom left (`text` is written as is: escape what needs it).
+        pub(crate) fn caption(&self, s: &mut String, text: &str) {
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}" font-size="10">{text}</text>"#,
+                self.ox + 8.0,
+                self.oy + self.size - 8.0
+            );
+        }
+    }
 }

@@ -3,27 +3,11 @@
 
 use std::fmt::Write as _;
 
+use crate::draw::svg::{escape, header, Panel as Frame};
+
 const COLORS: [&str; 6] = [
     "#1d3557", "#e76f51", "#2a9d8f", "#e9c46a", "#6a4c93", "#888888",
 ];
-
-fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-fn header(s: &mut String, w: f32, h: f32, title: &str) {
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
-    );
-    let _ = writeln!(
-        s,
-        r#"<rect width="100%" height="100%" fill="white"/><text x="8" y="20" font-size="14">{}</text>"#,
-        escape(title)
-    );
-}
 
 /// Axes frame with tick labels: plot area `(x0, y0, x1, y1)` in pixels for data ranges.
 #[allow(clippy::too_many_arguments)]
@@ -312,42 +296,12 @@ pub fn panels_svg(title: &str, panels: &[Panel], cols: usize) -> String {
             all.extend(m.iter().copied());
         }
         all.extend(p.goal);
-        let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for q in &all {
-            x0 = x0.min(q[0]);
-            y0 = y0.min(q[1]);
-            x1 = x1.max(q[0]);
-            y1 = y1.max(q[1]);
-        }
-        if all.is_empty() {
-            (x0, y0, x1, y1) = (0.0, 0.0, 1.0, 1.0);
-        }
-        let span = (x1 - x0).max(y1 - y0).max(1.0);
-        let sc = (P - 50.0) / span;
-        let map = |q: [f32; 2]| (ox + 25.0 + (q[0] - x0) * sc, oy + 20.0 + (q[1] - y0) * sc);
-        let _ = writeln!(
-            s,
-            r##"<rect x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#ccc"/>"##,
-            ox + 2.0,
-            oy + 2.0,
-            P - 4.0,
-            P - 4.0
-        );
+        let frame = Frame::fit((ox, oy), P, &all, (25.0, 20.0, 50.0), 1.0);
+        frame.border(&mut s);
         let poly = |s: &mut String, t: &[[f32; 2]], style: &str, dot: &str| {
-            let d: Vec<String> = t
-                .iter()
-                .map(|&q| {
-                    let (a, b) = map(q);
-                    format!("{a:.1},{b:.1}")
-                })
-                .collect();
-            let _ = writeln!(
-                s,
-                r#"<polyline fill="none" {style} points="{}"/>"#,
-                d.join(" ")
-            );
+            frame.polyline(s, t, style);
             if let Some(&q) = t.first() {
-                let (a, b) = map(q);
+                let (a, b) = frame.map(q);
                 let _ = writeln!(s, r#"<circle cx="{a:.1}" cy="{b:.1}" r="3" fill="{dot}"/>"#);
             }
         };
@@ -363,14 +317,14 @@ pub fn panels_svg(title: &str, panels: &[Panel], cols: usize) -> String {
             );
         }
         for &q in &p.marks {
-            let (a, b) = map(q);
+            let (a, b) = frame.map(q);
             let _ = writeln!(
                 s,
                 r##"<circle cx="{a:.1}" cy="{b:.1}" r="5" fill="none" stroke="#e76f51"/>"##
             );
         }
         if let Some(g) = p.goal {
-            let (a, b) = map(g);
+            let (a, b) = frame.map(g);
             let _ = writeln!(
                 s,
                 r##"<path d="M{} {} L{} {} M{} {} L{} {}" stroke="#d62828" stroke-width="2.5"/>"##,
@@ -384,21 +338,8 @@ pub fn panels_svg(title: &str, panels: &[Panel], cols: usize) -> String {
                 b - 6.0
             );
         }
-        let bar = 10f32.powf((span / 4.0).log10().floor());
-        let (a, b) = (ox + P - 20.0 - bar * sc, oy + 14.0);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{a:.1}" y1="{b}" x2="{:.1}" y2="{b}" stroke="black"/><text x="{a:.1}" y="{}" font-size="9">{bar} px</text>"#,
-            ox + P - 20.0,
-            b - 3.0
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}" font-size="10">{}</text>"#,
-            ox + 8.0,
-            oy + P - 8.0,
-            escape(&p.caption)
-        );
+        frame.scale_bar(&mut s, "px");
+        frame.caption(&mut s, &escape(&p.caption));
     }
     s.push_str("</svg>\n");
     s
