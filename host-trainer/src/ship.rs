@@ -289,78 +289,134 @@ pub fn ship(
     write_atomic(&p_blob, &blob)?;
     write_atomic(&p_golden, &golden)?;
     write_atomic(&p_json, serde_json::to_string_pretty(&card)?.as_bytes())?;
-    write_atomic(&p_md, model_card_md(&card, &test, run).as_bytes())?;
+    write_atomic(
+        &p_md,
+        model_card_md(&card, test.windows.len(), run).as_bytes(),
+    )?;
     Ok(card)
 }
 
-fn model_card_md(c: &ModelCard, test: &Dataset, run: &Path) -> String {
-    let m = &c.test;
-    let cv = &c.test_constant_velocity;
+/// A model card in markdown, as both card writers (`gpecnet export`, `gpecnet quantize`)
+/// lay it out: the title, an introduction, a two-column table of facts, then sections.
+pub struct CardMd(String);
+
+impl CardMd {
+    /// `# Model card: <title>`, the introduction paragraph, and the head of the facts table.
+    pub fn new(title: &str, intro: &str) -> Self {
+        Self(format!(
+            "# Model card: {title}\n\n{intro}\n\n| | |\n|---|---|\n"
+        ))
+    }
+
+    /// One row of the facts table.
+    pub fn fact(mut self, key: &str, value: impl std::fmt::Display) -> Self {
+        self.0 += &format!("| {key} | {value} |\n");
+        self
+    }
+
+    /// A new `## heading` section (after a blank line) starting with `text`.
+    pub fn section(mut self, heading: &str, text: &str) -> Self {
+        self.0 += &format!("\n## {heading}\n\n{text}");
+        self
+    }
+
+    /// The head of a table: its `columns` and the separator row.
+    pub fn table(mut self, columns: &[&str]) -> Self {
+        self.0 += &format!(
+            "| {} |\n|{}\n",
+            columns.join(" | "),
+            "---|".repeat(columns.len())
+        );
+        self
+    }
+
+    /// One table row of `cells`.
+    pub fn row(mut self, cells: &[&str]) -> Self {
+        self.0 += &format!("| {} |\n", cells.join(" | "));
+        self
+    }
+
+    /// Text as it is (e.g. rows that end in a newline).
+    pub fn text(mut self, text: &str) -> Self {
+        self.0 += text;
+        self
+    }
+
+    /// The markdown.
+    pub fn finish(self) -> String {
+        self.0
+    }
+}
+
+/// The human-readable card of an f32 blob: `n` test windows, exported from the run folder `run`.
+pub fn model_card_md(c: &ModelCard, n: usize, run: &Path) -> String {
+    let (m, cv) = (&c.test, &c.test_constant_velocity);
     let val = c.val.map_or("n/a".to_string(), |v| {
         format!(
             "minADE {:.2} / minFDE {:.2} px (K = {})",
             v.min_ade, v.min_fde, v.k
         )
     });
-    format!(
-        "# Model card: `{name}`\n\n\
-G-PECNet endpoint predictor (PECNet CVAE with SIREN sine MLPs), exported for `gpecnet-core`.\n\n\
-| | |\n|---|---|\n\
-| blob | `weights/{name}.gpec`, {bytes} bytes, CRC-32 `{crc:#010x}`, f32 |\n\
-| parameters | {params} |\n\
-| MACs, K = {k} endpoints{macs_note} | {macs} |\n\
-| sine for the numbers below | `{sine}` |\n\
-| training data | SDD TrajNet split, 30 train scenes minus the validation scenes, with time-reversed copies |\n\
-| model selection | epoch {epoch} by validation minFDE ({val}); the test set was never used in training or selection |\n\
-| produced by | `gpecnet export --run {run} --name {name}{flags}` |\n\n\
-## SDD test set ({n} windows, pixels), through `gpecnet-core`\n\n\
-Latent seed of window `i` = {seed} + i. Reproduce: `cargo run --release -p gpecnet-trainer -- eval --blob weights/{name}.gpec`.\n\n\
-| metric | this model | constant velocity |\n|---|---|---|\n\
-| minADE / minFDE, best of K = {k} | {a:.2} / {f:.2} | – |\n\
-| ADE / FDE, K = 1 (first sample) | {a1:.2} / {f1:.2} | {cva:.2} / {cvf:.2} |\n\
-| mean FDE over the K samples | {mf:.2} | – |\n\
-{dist}\n\
-## Configuration\n\n```toml\n{cfg}```\n\n\
-## Data licence\n\n\
-Trained on the Stanford Drone Dataset (Robicquet et al., ECCV 2016), TrajNet split, which is licensed under \
+    let (name, k) = (&c.name, c.k);
+    let macs_note = if c.inference.is_some() {
+        " (all samples drawn, and the point head)"
+    } else {
+        ""
+    };
+    let flags = c.inference.map_or(String::new(), |i| {
+        let tts = if i.tts_samples > 0 {
+            format!(" --tts {}", i.tts_samples)
+        } else {
+            String::new()
+        };
+        format!(" --sigma {}{tts}", i.sigma)
+    });
+    CardMd::new(
+        &format!("`{name}`"),
+        "G-PECNet endpoint predictor (PECNet CVAE with SIREN sine MLPs), exported for `gpecnet-core`.",
+    )
+    .fact(
+        "blob",
+        format!(
+            "`weights/{name}.gpec`, {} bytes, CRC-32 `{:#010x}`, f32",
+            c.blob_bytes, c.blob_crc
+        ),
+    )
+    .fact("parameters", c.parameters)
+    .fact(&format!("MACs, K = {k} endpoints{macs_note}"), c.endpoint_macs)
+    .fact("sine for the numbers below", format!("`{}`", c.sine.core_name()))
+    .fact("training data", "SDD TrajNet split, 30 train scenes minus the validation scenes, with time-reversed copies")
+    .fact("model selection", format!("epoch {} by validation minFDE ({val}); the test set was never used in training or selection", c.epoch))
+    .fact("produced by", format!("`gpecnet export --run {} --name {name}{flags}`", run.display()))
+    .section(
+        &format!("SDD test set ({n} windows, pixels), through `gpecnet-core`"),
+        &format!(
+            "Latent seed of window `i` = {} + i. Reproduce: `cargo run --release -p gpecnet-trainer -- eval --blob weights/{name}.gpec`.\n\n",
+            c.base_seed
+        ),
+    )
+    .table(&["metric", "this model", "constant velocity"])
+    .row(&[
+        &format!("minADE / minFDE, best of K = {k}"),
+        &format!("{:.2} / {:.2}", m.min_ade, m.min_fde),
+        "–",
+    ])
+    .row(&[
+        "ADE / FDE, K = 1 (first sample)",
+        &format!("{:.2} / {:.2}", m.ade_k1, m.fde_k1),
+        &format!("{:.2} / {:.2}", cv.ade_k1, cv.fde_k1),
+    ])
+    .row(&["mean FDE over the K samples", &format!("{:.2}", m.mean_fde), "–"])
+    .text(&model_card_dist_rows(&c.test_dist, k))
+    .text(&card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref()))
+    .section("Configuration", &format!("```toml\n{}```\n", c.config_toml))
+    .section(
+        "Data licence",
+        "Trained on the Stanford Drone Dataset (Robicquet et al., ECCV 2016), TrajNet split, which is licensed under \
 **Creative Commons Attribution-NonCommercial-ShareAlike 3.0** (CC BY-NC-SA 3.0). These weights are derived \
 from it: attribution is required, **no commercial use**, and derivatives must be shared under the same licence.\n",
-        name = c.name,
-        bytes = c.blob_bytes,
-        crc = c.blob_crc,
-        params = c.parameters,
-        k = c.k,
-        macs = c.endpoint_macs,
-        macs_note = if c.inference.is_some() {
-            " (all samples drawn, and the point head)"
-        } else {
-            ""
-        },
-        sine = c.sine.core_name(),
-        epoch = c.epoch,
-        val = val,
-        run = run.display(),
-        n = test.windows.len(),
-        seed = c.base_seed,
-        a = m.min_ade,
-        f = m.min_fde,
-        a1 = m.ade_k1,
-        f1 = m.fde_k1,
-        cva = cv.ade_k1,
-        cvf = cv.fde_k1,
-        mf = m.mean_fde,
-        flags = c.inference.map_or(String::new(), |i| {
-            let tts = if i.tts_samples > 0 {
-                format!(" --tts {}", i.tts_samples)
-            } else {
-                String::new()
-            };
-            format!(" --sigma {}{tts}", i.sigma)
-        }),
-        dist = model_card_dist_rows(&c.test_dist, c.k)
-            + &card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref()),
-        cfg = c.config_toml,
     )
+    .finish()
 }
 
 /// What `gpecnet export` evaluates with (sine, K, seeds) and the inference settings it
@@ -446,6 +502,12 @@ pub struct EvalReport {
     pub svg: Option<PathBuf>,
 }
 
+/// Field `key` of a model card's JSON `card`, if present and of type `T`.
+fn card_field<T: serde::de::DeserializeOwned>(card: &serde_json::Value, key: &str) -> Option<T> {
+    card.get(key)
+        .and_then(|t| serde_json::from_value(t.clone()).ok())
+}
+
 /// The sine a blob's golden sidecar names (the one its numbers were made with), if any.
 pub fn sine_of_blob(blob_path: &Path) -> Option<SineKind> {
     let bytes = std::fs::read(blob_path.with_extension("golden")).ok()?;
@@ -503,12 +565,8 @@ pub fn eval_blob(
         let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
         let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?.map(|p| p.0);
         let matches = card.map(|v| {
-            let want_point: Option<Metrics> = v
-                .get("test_point")
-                .and_then(|t| serde_json::from_value(t.clone()).ok());
-            let want_dist: Option<DistMetrics> = v
-                .get("test_dist")
-                .and_then(|t| serde_json::from_value(t.clone()).ok());
+            let want_point: Option<Metrics> = card_field(&v, "test_point");
+            let want_dist: Option<DistMetrics> = card_field(&v, "test_dist");
             let c: Option<ModelCard> = serde_json::from_value(v).ok();
             c.is_some_and(|c| {
                 c.blob_crc == model.crc()
@@ -532,15 +590,9 @@ pub fn eval_blob(
         let point =
             crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?.map(|p| p.0);
         let matches = card.map(|c| {
-            let want_point: Option<Metrics> = c
-                .get("test_fixed_point")
-                .and_then(|t| serde_json::from_value(t.clone()).ok());
-            let want: Option<Metrics> = c
-                .get("test_fixed")
-                .and_then(|t| serde_json::from_value(t.clone()).ok());
-            let want_dist: Option<DistMetrics> = c
-                .get("test_fixed_dist")
-                .and_then(|t| serde_json::from_value(t.clone()).ok());
+            let want_point: Option<Metrics> = card_field(&c, "test_fixed_point");
+            let want: Option<Metrics> = card_field(&c, "test_fixed");
+            let want_dist: Option<DistMetrics> = card_field(&c, "test_fixed_dist");
             c.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
                 && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
                 && want == Some(metrics)
@@ -642,14 +694,8 @@ pub fn update_card_dist(
             p_json.display()
         );
     }
-    let get = |key: &str| -> Option<Metrics> {
-        v.get(key)
-            .and_then(|t| serde_json::from_value(t.clone()).ok())
-    };
-    let getd = |key: &str| -> Option<DistMetrics> {
-        v.get(key)
-            .and_then(|t| serde_json::from_value(t.clone()).ok())
-    };
+    let get = |key: &str| -> Option<Metrics> { card_field(&v, key) };
+    let getd = |key: &str| -> Option<DistMetrics> { card_field(&v, key) };
     let fixed = v.get("test_fixed").is_some();
     let (key, fields): (&str, Vec<(&str, DistMetrics)>) = if fixed {
         if get("test_fixed") != Some(report.metrics) {

@@ -5,11 +5,11 @@ use gpecnet_core::blob::NumericKind;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    calibrate, evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize, QModel,
+    evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize_with_data, QModel,
     MARGIN,
 };
-use crate::data::Window;
 use crate::eval::{dist_metrics, DistMetrics, Metrics};
+use crate::ship::CardMd;
 
 /// The machine-readable card of a fixed-point blob (`weights/<name>-q.json`);
 /// the workspace tests re-evaluate the blob and require these exact numbers.
@@ -111,18 +111,10 @@ pub fn quantize_blob_with(
         model.nets.predictor.clear();
     }
     let train = load_sdd(data_root, SddSplit::Train)?;
-    let cal_windows: Vec<Window> = train
-        .windows
-        .iter()
-        .step_by(cal_stride.max(1))
-        .cloned()
-        .collect();
-    eprintln!(
-        "calibrating on {} SDD training windows (K = {cal_k}) ...",
-        cal_windows.len()
-    );
-    let cal = calibrate(&model, &cal_windows, cal_k);
-    let q = quantize(&model, &cal, &name)?;
+    // Every `cal_stride`-th training window (what `quantize_with_data` calibrates on).
+    let cal_windows = train.windows.len().div_ceil(cal_stride.max(1));
+    eprintln!("calibrating on {cal_windows} SDD training windows (K = {cal_k}) ...");
+    let q = quantize_with_data(&model, &train, cal_stride, cal_k, &name)?;
     let blob = crate::export::blob_bytes(&q)?;
     let core = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow!("{e}"))?;
     let test = load_sdd(data_root, SddSplit::Test)?;
@@ -185,7 +177,7 @@ pub fn quantize_blob_with(
         source_sine: sine.core_name().to_string(),
         k,
         base_seed,
-        calibration_windows: cal.windows,
+        calibration_windows: cal_windows,
         test_f32,
         test_fixed,
         scratch_bytes: 16 * width,
@@ -204,8 +196,40 @@ pub fn quantize_blob_with(
         &path("json"),
         serde_json::to_string_pretty(&card)?.as_bytes(),
     )?;
-    crate::rundir::write_atomic(&path("md"), quant_card_md(&card, &q).as_bytes())?;
+    let md = quant_card_md(&card, &exponents(&q), q.nets.predictor.is_empty());
+    crate::rundir::write_atomic(&path("md"), md.as_bytes())?;
     Ok(card)
+}
+
+/// One row of the fixed-point card's comparison table: `label`, the f32 source's value, the
+/// fixed-point value and their difference, each through `fmt` (with the sign forced on the
+/// difference).
+fn diff_row(label: &str, f: f64, x: f64, fmt: impl Fn(f64, bool) -> String) -> String {
+    format!(
+        "| {label} | {} | {} | {} |\n",
+        fmt(f, false),
+        fmt(x, false),
+        fmt(x - f, true)
+    )
+}
+
+/// Three decimals (`{:.3}` / `{:+.3}`).
+fn dec3(v: f64, signed: bool) -> String {
+    if signed {
+        format!("{v:+.3}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// Percent with two decimals (`{:.2} %` / `{:+.2} %`) of a fraction.
+fn pct2(v: f64, signed: bool) -> String {
+    let v = 100.0 * v;
+    if signed {
+        format!("{v:+.2} %")
+    } else {
+        format!("{v:.2} %")
+    }
 }
 
 /// Rows for the format-2 features of a fixed-point card (empty for format-1 models): the
@@ -214,18 +238,11 @@ pub fn quantize_blob_with(
 fn quant_card_v2_rows(c: &QuantCard) -> String {
     let mut s = String::new();
     if let (Some(f), Some(x), Some(cv)) = (&c.test_f32_point, &c.test_fixed_point, &c.test_cv) {
+        s += &diff_row("point forecast ADE", f.ade_k1, x.ade_k1, dec3);
+        s += &diff_row("point forecast FDE", f.fde_k1, x.fde_k1, dec3);
         s += &format!(
-            "| point forecast ADE | {:.3} | {:.3} | {:+.3} |\n| point forecast FDE | {:.3} | {:.3} | {:+.3} |\n\
-| constant velocity, last {} steps (chosen on validation), ADE / FDE | {:.3} / {:.3} | same | – |\n",
-            f.ade_k1,
-            x.ade_k1,
-            x.ade_k1 - f.ade_k1,
-            f.fde_k1,
-            x.fde_k1,
-            x.fde_k1 - f.fde_k1,
-            cv.n,
-            cv.test.ade_k1,
-            cv.test.fde_k1
+            "| constant velocity, last {} steps (chosen on validation), ADE / FDE | {:.3} / {:.3} | same | – |\n",
+            cv.n, cv.test.ade_k1, cv.test.fde_k1
         );
     }
     if c.inference.is_some() {
@@ -235,9 +252,10 @@ fn quant_card_v2_rows(c: &QuantCard) -> String {
     s
 }
 
-fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
-    let (f, x) = (&c.test_f32, &c.test_fixed);
-    let exps: Vec<String> = crate::network::NETWORK_NAMES
+/// The exponents of every layer of `q`'s networks, one entry per network
+/// (`encoder_past: 6→15, 15→10`).
+fn exponents(q: &QModel) -> Vec<String> {
+    crate::network::NETWORK_NAMES
         .iter()
         .zip(q.nets.in_blob_order())
         .filter(|(_, n)| !n.is_empty())
@@ -250,86 +268,99 @@ fn quant_card_md(c: &QuantCard, q: &QModel) -> String {
                     .join(", ")
             )
         })
-        .collect();
-    format!(
-        "# Model card: `{name}` (fixed point)\n\n\
-Post-training quantization of `weights/{src}` to the `Int16Q15` blob kind (`weights/FORMAT.md`): int16 weights with a \
-power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit accumulators, integer table sine \
-(`q15-table`, saturated to ±32767, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::Predictor` runs such a blob on its fixed-point engine, `Engine<Q15>`).\n\n\
-| | |\n|---|---|\n\
-| blob | `weights/{name}.gpec`, {bytes} bytes (f32 source: {sbytes} bytes), CRC-32 `{crc:#010x}` |\n\
-| source | `{src}`, CRC-32 `{scrc:#010x}`, numbers with sine `{ssine}` |\n\
-| parameters | {params} |\n\
-| calibration | {cal} SDD training windows, margin {margin} |\n\
-| exponents (in→out per layer) | {exps} |\n\
-| fixed-point engine scratch at minimum width (`Engine<Q15, W>` rows, `16·W`) | {scratch} bytes |\n\
-| networks | {nets} |\n\
-| produced by | `gpecnet quantize --blob weights/{src} --out weights/{name}.gpec{flag}` |\n\n\
-## SDD test set ({n} windows, pixels), both through `gpecnet-core`\n\n\
-Latent seed of window `i` = {seed} + i.\n\n\
-| metric | f32 source | fixed point | difference |\n|---|---|---|---|\n\
-| minADE, best of K = {k} | {fa:.3} | {xa:.3} | {da:+.3} |\n\
-| minFDE, best of K = {k} | {ff:.3} | {xf:.3} | {df:+.3} |\n\
-| ADE, K = 1 | {fa1:.3} | {xa1:.3} | {da1:+.3} |\n\
-| FDE, K = 1 | {ff1:.3} | {xf1:.3} | {df1:+.3} |\n\
-{dist}\n\
-## Data licence\n\n\
-Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
-        name = c.name,
-        src = c.source,
-        nets = if q.nets.predictor.is_empty() {
+        .collect()
+}
+
+/// The human-readable card of a fixed-point blob: `exps` from [`exponents`];
+/// `endpoint_only` when the trajectory predictor was left out.
+fn quant_card_md(c: &QuantCard, exps: &[String], endpoint_only: bool) -> String {
+    let (f, x) = (&c.test_f32, &c.test_fixed);
+    let (name, src, k) = (&c.name, &c.source, c.k);
+    let (nets, flag) = if endpoint_only {
+        (
             "encoder_past + decoder only (endpoint-only: the trajectory predictor is left out; \
 endpoints are the product, e.g. for a drone's path planner; ADE below uses the straight line \
-from the last observation to each endpoint, FDE is unaffected)"
-        } else {
-            "encoder_past, decoder, encoder_dest, predictor"
-        },
-        flag = if q.nets.predictor.is_empty() { " --endpoint-only" } else { "" },
-        bytes = c.blob_bytes,
-        sbytes = c.source_bytes,
-        crc = c.blob_crc,
-        scrc = c.source_crc,
-        ssine = c.source_sine,
-        params = c.parameters,
-        cal = c.calibration_windows,
-        margin = MARGIN,
-        exps = exps.join("; "),
-        scratch = c.scratch_bytes,
-        n = x.n,
-        seed = c.base_seed,
-        k = c.k,
-        fa = f.min_ade,
-        xa = x.min_ade,
-        da = x.min_ade - f.min_ade,
-        ff = f.min_fde,
-        xf = x.min_fde,
-        df = x.min_fde - f.min_fde,
-        fa1 = f.ade_k1,
-        xa1 = x.ade_k1,
-        da1 = x.ade_k1 - f.ade_k1,
-        ff1 = f.fde_k1,
-        xf1 = x.fde_k1,
-        df1 = x.fde_k1 - f.fde_k1,
-        dist = quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, c.k)
-            + &quant_card_v2_rows(c),
+from the last observation to each endpoint, FDE is unaffected)",
+            " --endpoint-only",
+        )
+    } else {
+        ("encoder_past, decoder, encoder_dest, predictor", "")
+    };
+    CardMd::new(
+        &format!("`{name}` (fixed point)"),
+        &format!(
+            "Post-training quantization of `weights/{src}` to the `Int16Q15` blob kind (`weights/FORMAT.md`): int16 weights with a \
+power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit accumulators, integer table sine \
+(`q15-table`, saturated to ±32767, max error 3.1e-5). Inference inside the networks is pure integer (`gpecnet_core::Predictor` runs such a blob on its fixed-point engine, `Engine<Q15>`)."
+        ),
     )
+    .fact(
+        "blob",
+        format!(
+            "`weights/{name}.gpec`, {} bytes (f32 source: {} bytes), CRC-32 `{:#010x}`",
+            c.blob_bytes, c.source_bytes, c.blob_crc
+        ),
+    )
+    .fact(
+        "source",
+        format!(
+            "`{src}`, CRC-32 `{:#010x}`, numbers with sine `{}`",
+            c.source_crc, c.source_sine
+        ),
+    )
+    .fact("parameters", c.parameters)
+    .fact(
+        "calibration",
+        format!("{} SDD training windows, margin {MARGIN}", c.calibration_windows),
+    )
+    .fact("exponents (in→out per layer)", exps.join("; "))
+    .fact(
+        "fixed-point engine scratch at minimum width (`Engine<Q15, W>` rows, `16·W`)",
+        format!("{} bytes", c.scratch_bytes),
+    )
+    .fact("networks", nets)
+    .fact(
+        "produced by",
+        format!("`gpecnet quantize --blob weights/{src} --out weights/{name}.gpec{flag}`"),
+    )
+    .section(
+        &format!(
+            "SDD test set ({} windows, pixels), both through `gpecnet-core`",
+            x.n
+        ),
+        &format!("Latent seed of window `i` = {} + i.\n\n", c.base_seed),
+    )
+    .table(&["metric", "f32 source", "fixed point", "difference"])
+    .text(&diff_row(&format!("minADE, best of K = {k}"), f.min_ade, x.min_ade, dec3))
+    .text(&diff_row(&format!("minFDE, best of K = {k}"), f.min_fde, x.min_fde, dec3))
+    .text(&diff_row("ADE, K = 1", f.ade_k1, x.ade_k1, dec3))
+    .text(&diff_row("FDE, K = 1", f.fde_k1, x.fde_k1, dec3))
+    .text(&quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, k))
+    .text(&quant_card_v2_rows(c))
+    .section(
+        "Data licence",
+        "Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
+    )
+    .finish()
 }
 
 /// The fixed-point model card's table rows for the distribution metrics of the f32 source
 /// (`f`) and the fixed-point blob (`x`); each row ends in a newline, after the "FDE, K = 1" row.
 pub fn quant_card_dist_rows(f: &DistMetrics, x: &DistMetrics, k: usize) -> String {
-    format!(
-        "| KDE NLL of the true endpoint, K = {k} (nats, px) | {fn_:.3} | {xn:.3} | {dn:+.3} |\n\
-| true endpoint within 20 px of a sample, K = {k} | {f20:.2} % | {x20:.2} % | {d20:+.2} % |\n\
-| true endpoint within 40 px of a sample, K = {k} | {f40:.2} % | {x40:.2} % | {d40:+.2} % |\n",
-        fn_ = f.kde_nll,
-        xn = x.kde_nll,
-        dn = x.kde_nll - f.kde_nll,
-        f20 = 100.0 * f.hit20,
-        x20 = 100.0 * x.hit20,
-        d20 = 100.0 * (x.hit20 - f.hit20),
-        f40 = 100.0 * f.hit40,
-        x40 = 100.0 * x.hit40,
-        d40 = 100.0 * (x.hit40 - f.hit40),
+    diff_row(
+        &format!("KDE NLL of the true endpoint, K = {k} (nats, px)"),
+        f.kde_nll,
+        x.kde_nll,
+        dec3,
+    ) + &diff_row(
+        &format!("true endpoint within 20 px of a sample, K = {k}"),
+        f.hit20,
+        x.hit20,
+        pct2,
+    ) + &diff_row(
+        &format!("true endpoint within 40 px of a sample, K = {k}"),
+        f.hit40,
+        x.hit40,
+        pct2,
     )
 }
