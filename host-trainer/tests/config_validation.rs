@@ -106,34 +106,22 @@ fn out_of_range_values_are_rejected_at_load_time() {
 
 #[test]
 fn the_binary_refuses_before_any_work() {
-    let dir = temp_dir("cfg");
-    tiny_data(&dir);
+    let run = TinyRun::new("cfg");
     for (i, (from, to, words)) in BAD.iter().enumerate().take(12) {
-        let cfg = dir.join(format!("bad{i}.toml"));
+        let cfg = run.dir.join(format!("bad{i}.toml"));
         std::fs::write(&cfg, bad_config(from, to)).unwrap();
-        let out = dir.join(format!("run{i}"));
-        let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap()]);
+        let out = run.dir.join(format!("run{i}"));
+        let (ok, text) = train(&run.dir, &out, &["--config", cfg.to_str().unwrap()]);
         assert!(!ok, "{to:?} accepted: {text}");
         assert!(text.contains(words[0]), "{to:?}: {text}");
         assert!(!out.exists(), "{to:?}: the run folder was created");
     }
     // --epochs 0 on a new run and on a resume.
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run-epochs");
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--config", cfg.to_str().unwrap(), "--epochs", "0"],
-    );
+    let (ok, text) = run.train(&["--epochs", "0"]);
     assert!(!ok && text.contains("num_epochs = 0"), "{text}");
-    assert!(!out.exists());
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--config", cfg.to_str().unwrap(), "--epochs", "1"],
-    );
+    assert!(!run.out.exists());
+    let (ok, text) = run.train(&["--epochs", "1"]);
     assert!(ok, "{text}");
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "0"]);
+    let (ok, text) = train(&run.dir, &run.out, &["--resume", "--epochs", "0"]);
     assert!(!ok && text.contains("--epochs = 0"), "{text}");
-    let _ = std::fs::remove_dir_all(dir);
 }

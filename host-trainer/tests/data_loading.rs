@@ -1,5 +1,7 @@
 //! Data loading on the real benchmark files (shared/data) and on malformed temp files.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -169,17 +171,7 @@ fn val_split_by_scene() {
 }
 
 fn hand_window() -> Window {
-    let mut w = Window {
-        scene: "hand".into(),
-        ped_id: 7.0,
-        frames: [0; WINDOW],
-        pos: [[0.0; 2]; WINDOW],
-    };
-    for t in 0..WINDOW {
-        w.frames[t] = 12 * t as i64;
-        w.pos[t] = [100.0 + 2.0 * t as f32, 50.0 - t as f32];
-    }
-    w
+    common::line_window("hand", 7.0, [100.0, 50.0], [2.0, -1.0])
 }
 
 #[test]
@@ -248,6 +240,20 @@ fn assert_names(e: &DataError, line: usize) {
     assert!(msg.contains(&format!("bad.txt:{line}:")), "{msg}");
 }
 
+/// The error of loading `lines`, checked to name bad.txt and the 1-based `line`.
+fn load_error(lines: &[String], line: usize) -> DataError {
+    let e = load_bad_sdd(lines).1.unwrap_err();
+    assert_names(&e, line);
+    e
+}
+
+/// The error of ped 1's 20 good rows with row `at` (0-based) replaced by `row`.
+fn bad_row(at: usize, row: &str) -> DataError {
+    let mut l = good_rows("1", 0);
+    l[at] = row.into();
+    load_error(&l, at + 1)
+}
+
 #[test]
 fn good_temp_file_loads() {
     let mut l = good_rows("3", 0);
@@ -262,60 +268,38 @@ fn good_temp_file_loads() {
 
 #[test]
 fn bad_column_count() {
-    let mut l = good_rows("1", 0);
-    l[2] = "24 1 5.0".into();
-    let (_d, r) = load_bad_sdd(&l);
-    let e = r.unwrap_err();
-    assert!(
-        matches!(
-            e,
-            DataError::ColumnCount {
-                found: 3,
-                expected: 4,
-                ..
-            }
-        ),
-        "{e:?}"
+    let e = bad_row(2, "24 1 5.0");
+    let ok = matches!(
+        e,
+        DataError::ColumnCount {
+            found: 3,
+            expected: 4,
+            ..
+        }
     );
-    assert_names(&e, 3);
+    assert!(ok, "{e:?}");
 }
 
 #[test]
 fn text_in_number() {
-    let mut l = good_rows("1", 0);
-    l[4] = "48 1 abc 5.0".into();
-    let (_d, r) = load_bad_sdd(&l);
-    let e = r.unwrap_err();
-    assert!(
-        matches!(&e, DataError::BadNumber { column: 3, text, .. } if text == "abc"),
-        "{e:?}"
-    );
-    assert_names(&e, 5);
+    let e = bad_row(4, "48 1 abc 5.0");
+    let ok = matches!(&e, DataError::BadNumber { column: 3, text, .. } if text == "abc");
+    assert!(ok, "{e:?}");
     assert!(e.to_string().contains("abc"));
 }
 
 #[test]
 fn fractional_frame() {
-    let mut l = good_rows("1", 0);
-    l[1] = "12.5 1 5.0 5.0".into();
-    let (_d, r) = load_bad_sdd(&l);
-    let e = r.unwrap_err();
+    let e = bad_row(1, "12.5 1 5.0 5.0");
     assert!(matches!(e, DataError::BadNumber { column: 1, .. }), "{e:?}");
-    assert_names(&e, 2);
 }
 
 #[test]
 fn nan_and_inf() {
-    for (bad, col) in [("NaN", 4), ("inf", 4), ("1e39", 4)] {
-        let mut l = good_rows("1", 0);
-        l[6] = format!("72 1 5.0 {bad}");
-        let (_d, r) = load_bad_sdd(&l);
-        let e = r.unwrap_err();
-        assert!(
-            matches!(e, DataError::NonFinite { column, .. } if column == col),
-            "{bad}: {e:?}"
-        );
-        assert_names(&e, 7);
+    for bad in ["NaN", "inf", "1e39"] {
+        let e = bad_row(6, &format!("72 1 5.0 {bad}"));
+        let ok = matches!(e, DataError::NonFinite { column: 4, .. });
+        assert!(ok, "{bad}: {e:?}");
     }
 }
 
@@ -325,34 +309,24 @@ fn nineteen_row_ped() {
     let mut second = good_rows("2", 0);
     second.pop();
     l.extend(second);
-    let (_d, r) = load_bad_sdd(&l);
-    let e = r.unwrap_err();
-    assert!(
-        matches!(e, DataError::TrajectoryLength { rows: 19, last_line: 39, ped_id, .. } if ped_id == 2.0),
-        "{e:?}"
-    );
-    assert_names(&e, 21);
+    let e = load_error(&l, 21);
+    let ok = matches!(e, DataError::TrajectoryLength { rows: 19, last_line: 39, ped_id, .. } if ped_id == 2.0);
+    assert!(ok, "{e:?}");
 }
 
 #[test]
 fn wrong_frame_step() {
-    let mut l = good_rows("1", 0);
-    l[5] = "61 1 5.0 5.0".into();
-    let (_d, r) = load_bad_sdd(&l);
-    let e = r.unwrap_err();
-    assert!(
-        matches!(
-            e,
-            DataError::FrameStep {
-                found: 13,
-                prev_frame: 48,
-                frame: 61,
-                ..
-            }
-        ),
-        "{e:?}"
+    let e = bad_row(5, "61 1 5.0 5.0");
+    let ok = matches!(
+        e,
+        DataError::FrameStep {
+            found: 13,
+            prev_frame: 48,
+            frame: 61,
+            ..
+        }
     );
-    assert_names(&e, 6);
+    assert!(ok, "{e:?}");
 }
 
 #[test]

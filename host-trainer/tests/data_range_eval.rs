@@ -15,6 +15,21 @@ fn blob() -> PathBuf {
 }
 
 /// An SDD file whose 3rd trajectory's 5th row has x = `x`: returns (text, 1-based line).
+/// `gpecnet eval` of the shipped blob on the data under `data`, drawing to `svg`.
+fn eval_shipped(data: &Path, svg: &Path, extra: &[&str]) -> (bool, String) {
+    let blob = blob();
+    let args = [
+        "eval",
+        "--blob",
+        s(&blob),
+        "--data",
+        s(data),
+        "--draw",
+        s(svg),
+    ];
+    run_with(&args, extra)
+}
+
 fn file_with_x(x: &str) -> (String, usize) {
     let text = sdd_file(4, 0.0);
     let line = 2 * 20 + 5;
@@ -90,23 +105,7 @@ fn evaluating_no_window_is_an_error_not_nan() {
     std::fs::write(dir.join("sdd/test/empty.txt"), "").unwrap();
     let svg = dir.join("p.svg");
     for json in [false, true] {
-        let mut args = vec![
-            "eval",
-            "--blob",
-            blob().to_str().unwrap(),
-            "--data",
-            dir.to_str().unwrap(),
-            "--draw",
-            svg.to_str().unwrap(),
-        ]
-        .into_iter()
-        .map(String::from)
-        .collect::<Vec<_>>();
-        if json {
-            args.push("--json".into());
-        }
-        let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-        let (ok, text) = run(&args);
+        let (ok, text) = eval_shipped(&dir, &svg, if json { &["--json"] } else { &[] });
         assert!(!ok, "{text}");
         assert!(text.contains("no window"), "{text}");
         assert!(!text.contains("NaN"), "{text}");
@@ -115,15 +114,7 @@ fn evaluating_no_window_is_an_error_not_nan() {
     // A test file with an absurd coordinate: file:line, exit status != 0.
     let (text, line) = file_with_x("1e30");
     std::fs::write(dir.join("sdd/test/empty.txt"), text).unwrap();
-    let (ok, text) = run(&[
-        "eval",
-        "--blob",
-        blob().to_str().unwrap(),
-        "--data",
-        dir.to_str().unwrap(),
-        "--draw",
-        svg.to_str().unwrap(),
-    ]);
+    let (ok, text) = eval_shipped(&dir, &svg, &[]);
     assert!(!ok, "{text}");
     assert!(
         text.contains(&format!("empty.txt:{line}: column 3")),

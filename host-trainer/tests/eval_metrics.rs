@@ -1,21 +1,13 @@
 //! Metric definitions on hand-made predictions, and the constant-velocity baselines on the
 //! real test sets. Run with `-- --nocapture` to see the baseline numbers.
 
+mod common;
+
 use gpecnet_trainer::data::*;
 use gpecnet_trainer::eval::*;
 
 fn line_window() -> Window {
-    let mut w = Window {
-        scene: "hand".into(),
-        ped_id: 1.0,
-        frames: [0; WINDOW],
-        pos: [[0.0; 2]; WINDOW],
-    };
-    for t in 0..WINDOW {
-        w.frames[t] = 12 * t as i64;
-        w.pos[t] = [10.0 + 3.0 * t as f32, 20.0 - 0.5 * t as f32];
-    }
-    w
+    common::line_window("hand", 1.0, [10.0, 20.0], [3.0, -0.5])
 }
 
 fn offset(w: &Window, dx: f32, dy: f32) -> [[f32; 2]; FUTURE] {

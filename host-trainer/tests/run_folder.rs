@@ -22,14 +22,12 @@ fn write_lock(out: &Path, pid: u32) {
 
 #[test]
 fn a_locked_folder_is_refused_and_a_dead_lock_taken_over() {
-    let dir = temp_dir("lock");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
+    let r = TinyRun::new("lock");
+    let out = &r.out;
 
     // A lock held by a live process (this test) on this host: refused, nothing written.
-    write_lock(&out, std::process::id());
-    let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap()]);
+    write_lock(out, std::process::id());
+    let (ok, text) = r.train(&[]);
     assert!(!ok, "{text}");
     assert!(text.contains("in use by another gpecnet run"), "{text}");
     assert!(
@@ -43,28 +41,25 @@ fn a_locked_folder_is_refused_and_a_dead_lock_taken_over() {
     );
 
     // A lock of a dead process on this host: taken over with a warning, removed at exit.
-    write_lock(&out, dead_pid());
-    let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap()]);
+    write_lock(out, dead_pid());
+    let (ok, text) = r.train(&[]);
     assert!(ok, "{text}");
     assert!(text.contains("taking over the stale run lock"), "{text}");
     assert!(out.join(checkpoint::CHECKPOINT_FILE).exists());
     assert!(!out.join(LOCK_FILE).exists(), "lock not removed at exit");
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn two_concurrent_runs_into_one_folder() {
-    let dir = temp_dir("concurrent");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
+    let r = TinyRun::new("concurrent");
+    let (dir, cfg, out) = (&r.dir, &r.cfg, &r.out);
     let mut first = gpecnet()
         .args(["train", "--quiet", "--data"])
-        .arg(&dir)
+        .arg(dir)
         .arg("--out")
-        .arg(&out)
+        .arg(out)
         .arg("--config")
-        .arg(&cfg)
+        .arg(cfg)
         .args(["--epochs", "100000"])
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -77,36 +72,33 @@ fn two_concurrent_runs_into_one_folder() {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
-    let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap(), "--force"]);
+    let (ok, text) = r.train(&["--force"]);
     assert!(!ok, "second run into a busy folder succeeded: {text}");
     assert!(text.contains("in use by another gpecnet run"), "{text}");
-    let (ok, text) = train(&dir, &out, &["--resume"]);
+    let (ok, text) = r.resume(&[]);
     assert!(!ok, "resume into a busy folder succeeded: {text}");
     assert!(text.contains("in use"), "{text}");
 
     // Kill the first run: its lock is stale (dead pid) and --resume takes it over.
     first.kill().unwrap();
     first.wait().unwrap();
-    let done = checkpoint::load(&out).unwrap().epochs_done;
+    let done = checkpoint::load(out).unwrap().epochs_done;
     let epochs = (done + 1).to_string();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", &epochs]);
+    let (ok, text) = r.resume(&["--epochs", &epochs]);
     assert!(ok, "{text}");
-    assert_eq!(checkpoint::load(&out).unwrap().epochs_done, done + 1);
+    assert_eq!(checkpoint::load(out).unwrap().epochs_done, done + 1);
     assert!(!out.join(LOCK_FILE).exists());
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn a_non_empty_folder_is_not_overwritten_without_force() {
-    let dir = temp_dir("nonempty");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
-    std::fs::create_dir_all(&out).unwrap();
+    let r = TinyRun::new("nonempty");
+    let (dir, cfg, out) = (&r.dir, &r.cfg, &r.out);
+    std::fs::create_dir_all(out).unwrap();
     std::fs::write(out.join("config.toml"), "my notes").unwrap();
     std::fs::write(out.join("metrics.csv"), "precious").unwrap();
 
-    let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap()]);
+    let (ok, text) = r.train(&[]);
     assert!(!ok, "{text}");
     assert!(
         text.contains("is not empty") && text.contains("--force"),
@@ -139,10 +131,10 @@ fn a_non_empty_folder_is_not_overwritten_without_force() {
         Vec::<String>::new()
     );
     assert!(!fresh.join(LOCK_FILE).exists());
-    let (ok, text) = train(&dir, &fresh, &["--config", cfg.to_str().unwrap()]);
+    let (ok, text) = train(dir, &fresh, &["--config", cfg.to_str().unwrap()]);
     assert!(ok, "{text}");
 
-    let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap(), "--force"]);
+    let (ok, text) = r.train(&["--force"]);
     assert!(ok, "{text}");
     assert!(out.join(checkpoint::CHECKPOINT_FILE).exists());
     assert_ne!(
@@ -151,37 +143,18 @@ fn a_non_empty_folder_is_not_overwritten_without_force() {
     );
 
     // A folder with a checkpoint is never restarted, --force or not.
-    let (ok, text) = train(&dir, &out, &["--config", cfg.to_str().unwrap(), "--force"]);
+    let (ok, text) = r.train(&["--force"]);
     assert!(!ok, "{text}");
     assert!(text.contains("--resume"), "{text}");
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn resume_refuses_a_different_config() {
-    let dir = temp_dir("resume-config");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--config", cfg.to_str().unwrap(), "--epochs", "1"],
-    );
-    assert!(ok, "{text}");
+    let r = TinyRun::trained("resume-config", 1);
+    let (dir, cfg, out) = (&r.dir, &r.cfg, &r.out);
 
     // --config equal to the run's (num_epochs aside) is accepted.
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &[
-            "--resume",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--epochs",
-            "1",
-        ],
-    );
+    let (ok, text) = r.resume(&["--config", cfg.to_str().unwrap(), "--epochs", "1"]);
     assert!(ok, "{text}");
 
     // A different --config: refused, naming the key.
@@ -191,11 +164,7 @@ fn resume_refuses_a_different_config() {
         tiny_config("").replace("learning_rate = 1e-3", "learning_rate = 2e-3"),
     )
     .unwrap();
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--resume", "--config", other.to_str().unwrap()],
-    );
+    let (ok, text) = r.resume(&["--config", other.to_str().unwrap()]);
     assert!(!ok, "{text}");
     assert!(text.contains("learning_rate: 0.001 -> 0.002"), "{text}");
 
@@ -203,34 +172,25 @@ fn resume_refuses_a_different_config() {
     let mut toml = std::fs::read_to_string(out.join("config.toml")).unwrap();
     toml = toml.replace("seed = 5", "seed = 6");
     std::fs::write(out.join("config.toml"), toml).unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume"]);
+    let (ok, text) = r.resume(&[]);
     assert!(!ok, "{text}");
     assert!(
         text.contains("seed: 5 -> 6") && text.contains("config.toml"),
         "{text}"
     );
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn resume_refuses_different_data() {
-    let dir = temp_dir("resume-data");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--config", cfg.to_str().unwrap(), "--epochs", "1"],
-    );
-    assert!(ok, "{text}");
+    let r = TinyRun::trained("resume-data", 1);
+    let (dir, out) = (&r.dir, &r.out);
     assert!(out.join("data-fingerprint.json").exists());
 
     // A training scene goes missing.
     let c = dir.join("sdd/train/c.txt");
     let saved = std::fs::read(&c).unwrap();
     std::fs::remove_file(&c).unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "2"]);
+    let (ok, text) = r.resume(&["--epochs", "2"]);
     assert!(!ok, "{text}");
     assert!(text.contains("training scenes missing now: c"), "{text}");
 
@@ -241,37 +201,28 @@ fn resume_refuses_different_data() {
     cols[2] = format!("{}", cols[2].parse::<f32>().unwrap() + 1.0);
     let changed = format!("{}\n{rest}", cols.join(" "));
     std::fs::write(&c, changed).unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "2"]);
+    let (ok, text) = r.resume(&["--epochs", "2"]);
     assert!(!ok, "{text}");
     assert!(text.contains("different window contents"), "{text}");
 
     // The original data: resumes.
     std::fs::write(&c, saved).unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "2"]);
+    let (ok, text) = r.resume(&["--epochs", "2"]);
     assert!(ok, "{text}");
-    assert_eq!(checkpoint::load(&out).unwrap().epochs_done, 2);
-    let _ = std::fs::remove_dir_all(dir);
+    assert_eq!(checkpoint::load(out).unwrap().epochs_done, 2);
 }
 
 #[test]
 fn stale_temp_files_are_removed_and_named_when_a_write_fails() {
-    let dir = temp_dir("tmpfiles");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--config", cfg.to_str().unwrap(), "--epochs", "1"],
-    );
-    assert!(ok, "{text}");
+    let r = TinyRun::trained("tmpfiles", 1);
+    let out = &r.out;
 
     // Leftovers of a killed run (another pid).
     let stale = out.join(format!(".checkpoint.bin.tmp.{}", dead_pid()));
     std::fs::write(&stale, vec![0u8; 4096]).unwrap();
     let stale_csv = out.join(format!(".metrics.csv.tmp.{}", dead_pid()));
     std::fs::write(&stale_csv, "x").unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "2"]);
+    let (ok, text) = r.resume(&["--epochs", "2"]);
     assert!(ok, "{text}");
     assert!(text.contains("removed stale temp file"), "{text}");
     assert!(!stale.exists() && !stale_csv.exists());
@@ -282,29 +233,20 @@ fn stale_temp_files_are_removed_and_named_when_a_write_fails() {
     std::fs::write(&leftover, vec![0u8; 100]).unwrap();
     let blocker = out.join(format!(".checkpoint.bin.tmp.{}", std::process::id()));
     std::fs::create_dir(&blocker).unwrap();
-    let ckpt = checkpoint::load(&out).unwrap();
-    let e = checkpoint::save(&out, &ckpt).unwrap_err().to_string();
+    let ckpt = checkpoint::load(out).unwrap();
+    let e = checkpoint::save(out, &ckpt).unwrap_err().to_string();
     assert!(
         e.contains(".checkpoint.bin.tmp.999999999 (100 bytes)"),
         "{e}"
     );
     assert!(e.contains("interrupted writes"), "{e}");
     std::fs::remove_dir(&blocker).unwrap();
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn a_corrupt_checkpoint_falls_back_to_the_previous_one() {
-    let dir = temp_dir("fallback");
-    tiny_data(&dir);
-    let cfg = write_config(&dir, "");
-    let out = dir.join("run");
-    let (ok, text) = train(
-        &dir,
-        &out,
-        &["--config", cfg.to_str().unwrap(), "--epochs", "2"],
-    );
-    assert!(ok, "{text}");
+    let r = TinyRun::trained("fallback", 2);
+    let out = &r.out;
     let prev = checkpoint::load(&out.join(checkpoint::PREV_FILE)).unwrap();
     assert_eq!(prev.epochs_done, 1);
 
@@ -314,24 +256,23 @@ fn a_corrupt_checkpoint_falls_back_to_the_previous_one() {
     let n = bytes.len();
     bytes[n / 2] ^= 0x10;
     std::fs::write(&path, &bytes).unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "2"]);
+    let (ok, text) = r.resume(&["--epochs", "2"]);
     assert!(ok, "{text}");
     assert!(
         text.contains("corrupt") && text.contains("checkpoint.prev.bin"),
         "{text}"
     );
     assert!(text.contains("(epoch 1)"), "{text}");
-    assert_eq!(checkpoint::load(&out).unwrap().epochs_done, 2);
+    assert_eq!(checkpoint::load(out).unwrap().epochs_done, 2);
     assert!(out.join(checkpoint::CORRUPT_FILE).exists());
 
     // Both unusable: an error naming both.
     std::fs::write(&path, b"junk").unwrap();
     std::fs::write(out.join(checkpoint::PREV_FILE), b"junk").unwrap();
-    let (ok, text) = train(&dir, &out, &["--resume", "--epochs", "3"]);
+    let (ok, text) = r.resume(&["--epochs", "3"]);
     assert!(!ok, "{text}");
     assert!(
         text.contains("no usable checkpoint") && text.contains("previous"),
         "{text}"
     );
-    let _ = std::fs::remove_dir_all(dir);
 }

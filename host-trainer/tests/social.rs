@@ -2,9 +2,12 @@
 //! never split groups, the pooling arithmetic against a hand computation, a 2-epoch run with
 //! exact resume, and the export refusal.
 
+mod common;
+
 use std::path::PathBuf;
 
 use candle_core::{Device, Tensor};
+use common::tiny_train_config;
 use gpecnet_trainer::checkpoint;
 use gpecnet_trainer::config::TrainConfig;
 use gpecnet_trainer::data::{self, Window, PAST};
@@ -135,19 +138,8 @@ fn grouping_follows_pecnet_rules_on_one_sdd_file() {
 
 fn tiny_social() -> TrainConfig {
     TrainConfig {
-        enc_past_size: vec![16, 8],
-        enc_dest_size: vec![8, 16],
-        enc_latent_size: vec![8, 16],
-        dec_size: vec![16, 8],
-        predictor_hidden_size: vec![16, 8],
-        fdim: 8,
-        zdim: 4,
         num_epochs: 2,
         batch_size: 512,
-        learning_rate: 1e-3,
-        k: 5,
-        seed: 11,
-        threads: 2,
         activation: Act::Relu,
         social_pooling: true,
         nonlocal_pools: 3,
@@ -155,7 +147,7 @@ fn tiny_social() -> TrainConfig {
         non_local_theta_size: vec![16],
         non_local_phi_size: vec![16],
         non_local_g_size: vec![16],
-        ..TrainConfig::default()
+        ..tiny_train_config()
     }
 }
 

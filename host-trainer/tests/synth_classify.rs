@@ -10,6 +10,11 @@ fn from_fn(f: impl Fn(usize) -> [f32; 2]) -> T {
     std::array::from_fn(f)
 }
 
+/// Four plateaus of five steps each at `(xs[i], ys[i])`.
+fn plateaus(xs: [f32; 4], ys: [f32; 4]) -> T {
+    from_fn(|k| [xs[k / 5], ys[k / 5]])
+}
+
 #[test]
 fn stationary_is_type_1() {
     assert_eq!(classify(&[[100.0, 100.0]; 20]), TrajType::T1);
@@ -41,23 +46,13 @@ fn jitter_shifted_by_one_jump_is_2f() {
 
 #[test]
 fn small_drift_shifted_by_one_jump_is_3f() {
-    let t = from_fn(|k| match k / 5 {
-        0 => [100.0, 100.0],
-        1 => [130.0, 100.0],
-        2 => [430.0, 100.0],
-        _ => [460.0, 100.0],
-    });
+    let t = plateaus([100.0, 130.0, 430.0, 460.0], [100.0; 4]);
     assert_eq!(classify(&t), TrajType::T3F);
 }
 
 #[test]
 fn few_points_in_a_100px_box_is_type_3() {
-    let t = from_fn(|k| match k / 5 {
-        0 => [100.0, 100.0],
-        1 => [120.0, 100.0],
-        2 => [140.0, 110.0],
-        _ => [160.0, 100.0],
-    });
+    let t = plateaus([100.0, 120.0, 140.0, 160.0], [100.0, 100.0, 110.0, 100.0]);
     assert_eq!(classify(&t), TrajType::T3);
 }
 

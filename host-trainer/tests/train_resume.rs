@@ -7,30 +7,18 @@
 //!
 //! All tests pin `threads = 2`, so the process-wide thread setting is the same for all of them.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::tiny_train_config;
 use gpecnet_trainer::checkpoint::{self, CheckpointError};
 use gpecnet_trainer::config::TrainConfig;
 use gpecnet_trainer::data;
 use gpecnet_trainer::train::{train_new, train_resume, TrainOptions};
 
 fn tiny_config() -> TrainConfig {
-    TrainConfig {
-        enc_past_size: vec![16, 8],
-        enc_dest_size: vec![8, 16],
-        enc_latent_size: vec![8, 16],
-        dec_size: vec![16, 8],
-        predictor_hidden_size: vec![16, 8],
-        fdim: 8,
-        zdim: 4,
-        num_epochs: 3,
-        batch_size: 1024,
-        learning_rate: 1e-3,
-        k: 5,
-        seed: 11,
-        threads: 2,
-        ..TrainConfig::default()
-    }
+    tiny_train_config()
 }
 
 fn run_dir(name: &str) -> PathBuf {

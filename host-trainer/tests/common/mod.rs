@@ -64,6 +64,95 @@ pub fn write_config(dir: &Path, extra: &str) -> PathBuf {
     p
 }
 
+/// A temp folder with [`tiny_data`], [`write_config`]`(dir, "")` and the run folder
+/// `dir/run` (not created); the folder is removed on drop.
+pub struct TinyRun {
+    /// The temp folder (the data root).
+    pub dir: PathBuf,
+    /// The tiny config file.
+    pub cfg: PathBuf,
+    /// The run folder.
+    pub out: PathBuf,
+}
+
+impl TinyRun {
+    /// A fresh one named `name`.
+    pub fn new(name: &str) -> Self {
+        let dir = temp_dir(name);
+        tiny_data(&dir);
+        let cfg = write_config(&dir, "");
+        let out = dir.join("run");
+        Self { dir, cfg, out }
+    }
+
+    /// A fresh one named `name`, trained for `epochs` (which must succeed).
+    pub fn trained(name: &str, epochs: u32) -> Self {
+        let run = Self::new(name);
+        let (ok, text) = run.train(&["--epochs", &epochs.to_string()]);
+        assert!(ok, "{text}");
+        run
+    }
+
+    /// `gpecnet train --quiet --data <dir> --out <out> --resume ...`.
+    pub fn resume(&self, extra: &[&str]) -> (bool, String) {
+        train(&self.dir, &self.out, &[&["--resume"], extra].concat())
+    }
+
+    /// `gpecnet train --quiet --data <dir> --out <out> --config <cfg> ...`.
+    pub fn train(&self, extra: &[&str]) -> (bool, String) {
+        train(
+            &self.dir,
+            &self.out,
+            &[&["--config", s(&self.cfg)], extra].concat(),
+        )
+    }
+}
+
+impl Drop for TinyRun {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// The tiny model the in-process training tests use (two threads, seed 11): 3 epochs of
+/// batches of 1024; override fields with struct update syntax.
+pub fn tiny_train_config() -> gpecnet_trainer::config::TrainConfig {
+    gpecnet_trainer::config::TrainConfig {
+        enc_past_size: vec![16, 8],
+        enc_dest_size: vec![8, 16],
+        enc_latent_size: vec![8, 16],
+        dec_size: vec![16, 8],
+        predictor_hidden_size: vec![16, 8],
+        fdim: 8,
+        zdim: 4,
+        num_epochs: 3,
+        batch_size: 1024,
+        learning_rate: 1e-3,
+        k: 5,
+        seed: 11,
+        threads: 2,
+        ..Default::default()
+    }
+}
+
+/// A window of pedestrian `ped_id` in `scene` walking a straight line: position
+/// `start + t · step` at frame `12 t`.
+pub fn line_window(
+    scene: &str,
+    ped_id: f64,
+    start: [f32; 2],
+    step: [f32; 2],
+) -> gpecnet_trainer::data::Window {
+    gpecnet_trainer::data::Window {
+        scene: scene.into(),
+        ped_id,
+        frames: std::array::from_fn(|t| 12 * t as i64),
+        pos: std::array::from_fn(|t| {
+            [start[0] + step[0] * t as f32, start[1] + step[1] * t as f32]
+        }),
+    }
+}
+
 /// The `gpecnet` binary.
 pub fn gpecnet() -> Command {
     Command::new(env!("CARGO_BIN_EXE_gpecnet"))
@@ -80,18 +169,22 @@ pub fn run(args: &[&str]) -> (bool, String) {
     (o.status.success(), text)
 }
 
+/// `p` as UTF-8 (test paths are).
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Run `gpecnet` with `args`, then `extra`; (success, stdout + stderr).
+pub fn run_with(args: &[&str], extra: &[&str]) -> (bool, String) {
+    run(&[args, extra].concat())
+}
+
 /// `gpecnet train --quiet --data <data> --out <out> ...`.
 pub fn train(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
-    let mut args = vec![
-        "train",
-        "--quiet",
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    run(&args)
+    run_with(
+        &["train", "--quiet", "--data", s(data), "--out", s(out)],
+        extra,
+    )
 }
 
 /// The pid of a process that has exited (and been reaped): provably dead.
