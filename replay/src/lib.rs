@@ -113,6 +113,14 @@ pub struct Summary {
 }
 
 impl Summary {
+    /// Counts an error and reports it as [`Line::Error`].
+    fn error<'a>(&mut self, out: &mut dyn FnMut(Line<'a>), model: &'a str, what: &'static str) {
+        self.errors += 1;
+        out(Line::Error { model, what });
+    }
+}
+
+impl Summary {
     /// At least one case ran, and every case of every model matched.
     pub fn ok(&self) -> bool {
         self.models > 0 && self.cases > 0 && self.mismatches == 0 && self.errors == 0
@@ -254,11 +262,7 @@ pub fn verify_all<const W: usize>(
         let (model, set) = match m.open() {
             Ok(pair) => pair,
             Err(what) => {
-                s.errors += 1;
-                out(Line::Error {
-                    model: m.name,
-                    what,
-                });
+                s.error(out, m.name, what);
                 continue;
             }
         };
@@ -293,19 +297,11 @@ pub fn verify_all<const W: usize>(
                 });
             }
             Err(()) => {
-                s.errors += 1;
-                out(Line::Error {
-                    model: m.name,
-                    what: "prediction failed",
-                });
+                s.error(out, m.name, "prediction failed");
             }
         };
         if let Err(what) = cases_named::<W>(&model, &set, sine, &mut emit) {
-            s.errors += 1;
-            out(Line::Error {
-                model: m.name,
-                what,
-            });
+            s.error(out, m.name, what);
             continue;
         }
         // The other compiled-in sines of an f32 blob (a fixed-point blob has one path).
@@ -322,11 +318,7 @@ pub fn verify_all<const W: usize>(
                         });
                     }
                     Err(()) => {
-                        s.errors += 1;
-                        out(Line::Error {
-                            model: m.name,
-                            what: "prediction failed (xcheck)",
-                        });
+                        s.error(out, m.name, "prediction failed (xcheck)");
                     }
                 };
                 let _ = cases_named::<W>(&model, &set, other, &mut emit);
