@@ -102,20 +102,30 @@ struct OnnxArgs {
     /// The ONNX file to write.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+    /// Only the endpoint path: inputs x, z; output d (no point head, no trajectory predictor).
+    #[arg(long)]
+    endpoint_only: bool,
 }
 
 fn cmd_onnx(a: OnnxArgs) -> Result<()> {
-    let s = gpecnet_trainer::onnx::export_onnx(&a.blob, &a.out)?;
-    println!(
+    use std::io::Write;
+    let s = gpecnet_trainer::onnx::export_onnx(&a.blob, &a.out, a.endpoint_only)?;
+    let mut o = std::io::stdout().lock();
+    writeln!(
+        o,
         "wrote {} ({} bytes, {} parameters, opset {}) from model {}",
         a.out.display(),
         s.bytes,
         s.parameters,
         gpecnet_trainer::onnx::OPSET,
         s.name
-    );
-    println!("inputs:\n{}", gpecnet_trainer::onnx::describe(&s.inputs));
-    println!("outputs:\n{}", gpecnet_trainer::onnx::describe(&s.outputs));
+    )?;
+    writeln!(o, "inputs:\n{}", gpecnet_trainer::onnx::describe(&s.inputs))?;
+    writeln!(
+        o,
+        "outputs:\n{}",
+        gpecnet_trainer::onnx::describe(&s.outputs)
+    )?;
     Ok(())
 }
 

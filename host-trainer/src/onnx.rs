@@ -455,8 +455,13 @@ impl Builder {
     }
 }
 
-/// The graph of `model` (an f32 model read from a blob): see the module docs.
-pub fn model_proto(model: &RefModel, blob_crc: u32) -> Result<(ModelProto, OnnxSummary)> {
+/// The graph of `model` (an f32 model read from a blob): see the module docs. With
+/// `endpoint_only`, only `x`, `z` → `d` (no point head, no trajectory predictor).
+pub fn model_proto(
+    model: &RefModel,
+    blob_crc: u32,
+    endpoint_only: bool,
+) -> Result<(ModelProto, OnnxSummary)> {
     let c = &model.config;
     let n = &model.nets;
     if n.encoder_past.is_empty() || n.decoder.is_empty() {
@@ -515,7 +520,7 @@ pub fn model_proto(model: &RefModel, blob_crc: u32) -> Result<(ModelProto, OnnxS
     if !single {
         b.chain("decoder", &n.decoder, 1, &h, "d");
     }
-    if !n.point_head.is_empty() {
+    if !n.point_head.is_empty() && !endpoint_only {
         let w = n.point_head.last().map_or(0, |l| l.out_dim);
         outputs.push(Port {
             name: "point",
@@ -527,7 +532,7 @@ pub fn model_proto(model: &RefModel, blob_crc: u32) -> Result<(ModelProto, OnnxS
         }
         b.chain("point_head", &n.point_head, 0, "x", "point");
     }
-    if !n.predictor.is_empty() {
+    if !n.predictor.is_empty() && !endpoint_only {
         if n.encoder_dest.is_empty() {
             bail!("{}: predictor without encoder_dest", model.name);
         }
@@ -618,8 +623,8 @@ pub fn model_proto(model: &RefModel, blob_crc: u32) -> Result<(ModelProto, OnnxS
 }
 
 /// The ONNX bytes of a blob (validated by `gpecnet-core`'s reader; fixed-point blobs are
-/// refused, see the module docs).
-pub fn blob_to_onnx(blob: &[u8]) -> Result<(Vec<u8>, OnnxSummary)> {
+/// refused, see the module docs); `endpoint_only` as in [`model_proto`].
+pub fn blob_to_onnx(blob: &[u8], endpoint_only: bool) -> Result<(Vec<u8>, OnnxSummary)> {
     let m = gpecnet_core::Model::from_blob(blob)
         .map_err(|e| anyhow::anyhow!("not a valid blob: {e}"))?;
     if m.numeric() != gpecnet_core::NumericKind::F32 {
@@ -630,15 +635,16 @@ pub fn blob_to_onnx(blob: &[u8]) -> Result<(Vec<u8>, OnnxSummary)> {
     }
     let crc = m.crc();
     let model = crate::export::read_blob(blob)?;
-    let (proto, summary) = model_proto(&model, crc)?;
+    let (proto, summary) = model_proto(&model, crc, endpoint_only)?;
     Ok((proto.encode_to_vec(), summary))
 }
 
-/// `gpecnet onnx`: reads the blob at `blob`, writes the ONNX model to `out` (atomically).
-pub fn export_onnx(blob: &Path, out: &Path) -> Result<OnnxSummary> {
+/// `gpecnet onnx`: reads the blob at `blob`, writes the ONNX model to `out` (atomically);
+/// `endpoint_only` as in [`model_proto`].
+pub fn export_onnx(blob: &Path, out: &Path, endpoint_only: bool) -> Result<OnnxSummary> {
     let bytes = std::fs::read(blob).with_context(|| format!("reading {}", blob.display()))?;
-    let (onnx, summary) =
-        blob_to_onnx(&bytes).with_context(|| format!("exporting {}", blob.display()))?;
+    let (onnx, summary) = blob_to_onnx(&bytes, endpoint_only)
+        .with_context(|| format!("exporting {}", blob.display()))?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -681,7 +687,7 @@ mod tests {
 
     fn decode(name: &str) -> (ModelProto, RefModel) {
         let b = blob(name);
-        let (bytes, summary) = blob_to_onnx(&b).unwrap();
+        let (bytes, summary) = blob_to_onnx(&b, false).unwrap();
         assert_eq!(summary.bytes, bytes.len());
         (
             ModelProto::decode(bytes.as_slice()).unwrap(),
@@ -804,17 +810,38 @@ mod tests {
     }
 
     #[test]
+    fn endpoint_only_has_x_z_and_d() {
+        let (bytes, s) = blob_to_onnx(&blob("sdd-tiny-v2"), true).unwrap();
+        let g = ModelProto::decode(bytes.as_slice()).unwrap().graph.unwrap();
+        let names = |v: &[ValueInfoProto]| v.iter().map(|p| p.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&g.input), ["x", "z"]);
+        assert_eq!(names(&g.output), ["d"]);
+        assert_eq!(s.inputs.len(), 2);
+        assert!(g
+            .initializer
+            .iter()
+            .all(|t| t.name.starts_with("encoder_past.") || t.name.starts_with("decoder.")));
+    }
+
+    #[test]
     fn refuses_fixed_point_and_garbage_without_panicking() {
-        let e = blob_to_onnx(&blob("sdd-small-q")).unwrap_err().to_string();
+        let e = blob_to_onnx(&blob("sdd-small-q"), false)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("fixed-point"), "{e}");
-        assert!(blob_to_onnx(b"not a blob").is_err());
+        assert!(blob_to_onnx(b"not a blob", false).is_err());
         let mut b = blob("sdd-tiny");
         let n = b.len();
         b[n / 2] ^= 0x40;
-        assert!(blob_to_onnx(&b).is_err());
-        assert!(blob_to_onnx(&[]).is_err());
+        assert!(blob_to_onnx(&b, false).is_err());
+        assert!(blob_to_onnx(&[], true).is_err());
         let dir = tempfile::tempdir().unwrap();
-        assert!(export_onnx(&dir.path().join("missing.gpec"), &dir.path().join("m.onnx")).is_err());
+        assert!(export_onnx(
+            &dir.path().join("missing.gpec"),
+            &dir.path().join("m.onnx"),
+            false
+        )
+        .is_err());
     }
 
     /// A tensor of the tiny interpreter below: shape and row-major f64 values.
