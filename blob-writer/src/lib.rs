@@ -340,6 +340,9 @@ pub fn golden_bytes(info: &GoldenInfo<'_>, cases: &[GoldenCase]) -> Result<Vec<u
     Ok(out)
 }
 
+/// One layer's dims and raw tensors (weights, bias, shifts), for comparing two blobs.
+type LayerTensors = (usize, usize, Vec<u8>, Vec<u8>, Vec<u8>);
+
 /// Re-writes any readable blob (format version 1, 2 or 3) in the newest format with the same
 /// name, hyper-parameters, extensions and tensors, byte for byte: what `gpec-rewrite` runs
 /// over `weights/`. Writing a version-3 blob again gives the same bytes (the padding is
@@ -387,7 +390,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         what: "rewritten blob",
         reason: e.to_string(),
     })?;
-    let tensors = |m: &gpecnet_core::Model<'_>| -> Vec<(usize, usize, Vec<u8>, Vec<u8>, Vec<u8>)> {
+    let tensors = |m: &gpecnet_core::Model<'_>| -> Vec<LayerTensors> {
         [
             m.encoder_past(),
             m.decoder(),
