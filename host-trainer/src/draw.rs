@@ -142,16 +142,14 @@ pub(crate) mod svg {
             inset: (f32, f32, f32),
             min_span: f32,
         ) -> Self {
-            let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-            for q in points {
-                x0 = x0.min(q[0]);
-                y0 = y0.min(q[1]);
-                x1 = x1.max(q[0]);
-                y1 = y1.max(q[1]);
-            }
-            if points.is_empty() {
-                (x0, y0, x1, y1) = (0.0, 0.0, 1.0, 1.0);
-            }
+            let [x0, y0, x1, y1] = if points.is_empty() {
+                [0.0, 0.0, 1.0, 1.0]
+            } else {
+                let far = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+                points.iter().fold(far, |[a, b, c, d], q| {
+                    [a.min(q[0]), b.min(q[1]), c.max(q[0]), d.max(q[1])]
+                })
+            };
             let span = (x1 - x0).max(y1 - y0).max(min_span);
             Self {
                 ox: origin.0,

@@ -9,6 +9,24 @@ const COLORS: [&str; 6] = [
     "#1d3557", "#e76f51", "#2a9d8f", "#e9c46a", "#6a4c93", "#888888",
 ];
 
+/// A `size` (width, height) chart titled `title`: the document header and the axes frame of
+/// the plot area (70 px left, 40 px top, 20 px right, 50 px bottom) for the data ranges `xr`,
+/// `yr` with `labels` (x, y). Returns the SVG so far and the plot area `(x0, y0, x1, y1)`.
+fn chart(
+    size: (f32, f32),
+    title: &str,
+    xr: (f64, f64),
+    yr: (f64, f64),
+    labels: (&str, &str),
+) -> (String, (f32, f32, f32, f32)) {
+    let (w, h) = size;
+    let area = (70.0, 40.0, w - 20.0, h - 50.0);
+    let mut s = String::new();
+    header(&mut s, w, h, title);
+    axes(&mut s, area, xr, yr, labels.0, labels.1);
+    (s, area)
+}
+
 /// Axes frame with tick labels: plot area `(x0, y0, x1, y1)` in pixels for data ranges.
 #[allow(clippy::too_many_arguments)]
 fn axes(
@@ -100,8 +118,6 @@ pub fn histogram_svg(
 ) -> String {
     let bins = bins.max(1);
     let max = if max > 0.0 { max } else { 1.0 };
-    let (w, h) = (720.0f32, 420.0f32);
-    let area = (70.0, 40.0, w - 20.0, h - 50.0);
     let mut hists = Vec::new();
     let mut ymax = 0.0f64;
     for (_, vals) in series {
@@ -121,15 +137,12 @@ pub fn histogram_svg(
         hists.push((f, over));
     }
     let ymax = if ymax > 0.0 { ymax * 1.05 } else { 1.0 };
-    let mut s = String::new();
-    header(&mut s, w, h, title);
-    axes(
-        &mut s,
-        area,
+    let (mut s, area) = chart(
+        (720.0, 420.0),
+        title,
         (0.0, max),
         (0.0, ymax),
-        xlabel,
-        "fraction of trajectories",
+        (xlabel, "fraction of trajectories"),
     );
     let bw = (area.2 - area.0) / bins as f32;
     for (k, (f, _)) in hists.iter().enumerate() {
@@ -170,17 +183,13 @@ pub fn bars_svg(
     labels: &[String],
     series: &[(&str, Vec<f64>)],
 ) -> String {
-    let (w, h) = (760.0f32, 420.0f32);
-    let area = (70.0, 40.0, w - 20.0, h - 50.0);
     let ymax = series
         .iter()
         .flat_map(|(_, v)| v.iter().copied())
         .fold(0.0f64, f64::max)
         .max(1e-9)
         * 1.05;
-    let mut s = String::new();
-    header(&mut s, w, h, title);
-    axes(&mut s, area, (0.0, 0.0), (0.0, ymax), "", ylabel);
+    let (mut s, area) = chart((760.0, 420.0), title, (0.0, 0.0), (0.0, ymax), ("", ylabel));
     let n = labels.len().max(1);
     let gw = (area.2 - area.0) / n as f32;
     let sub = gw * 0.8 / series.len().max(1) as f32;
@@ -219,8 +228,6 @@ pub fn lines_svg(
     x: &[f64],
     series: &[(&str, Vec<f64>)],
 ) -> String {
-    let (w, h) = (720.0f32, 420.0f32);
-    let area = (70.0, 40.0, w - 20.0, h - 50.0);
     let xr = (
         x.first().copied().unwrap_or(0.0),
         x.last()
@@ -240,9 +247,7 @@ pub fn lines_svg(
     if hi - lo < 1e-12 {
         hi = lo + 1.0;
     }
-    let mut s = String::new();
-    header(&mut s, w, h, title);
-    axes(&mut s, area, xr, (lo, hi), xlabel, ylabel);
+    let (mut s, area) = chart((720.0, 420.0), title, xr, (lo, hi), (xlabel, ylabel));
     for (k, (_, v)) in series.iter().enumerate() {
         let pts: Vec<String> = x
             .iter()
