@@ -42,7 +42,7 @@ pub enum NumericKind {
     F32,
     /// Fixed point (`crate::fixed`): int16 weights with a power-of-two scale
     /// per output channel, int32 biases, Q-format 16-bit activations, pure
-    /// integer inference. Layers are [`LayerWireQ`] instead of [`LayerWire`].
+    /// integer inference. Layers are [`LayerWireQ`](super::LayerWireQ) instead of [`LayerWire`](super::LayerWire).
     Int16Q15,
 }
 

@@ -27,11 +27,11 @@
 //! ```
 
 //!
-//! The reader is split by job: [`header`] (magic, version, CRC, the values
-//! before the networks), [`layer`] (the wire layers and the validated
-//! [`Layer`] view of one layer's tensors), [`model`] ([`Network`], [`Model`]
-//! and the body parser), [`validate`] (shape, finiteness and fixed-point
-//! scale rules) and [`error`] ([`BlobError`], [`NetworkId`]).
+//! The reader is split by job: `header.rs` (magic, version, CRC, the values
+//! before the networks), `layer.rs` (the wire layers and the validated
+//! [`Layer`] view of one layer's tensors), `model.rs` ([`Network`], [`Model`]
+//! and the body parser), `validate.rs` (shape, finiteness and fixed-point
+//! scale rules) and `error.rs` ([`BlobError`], [`NetworkId`]).
 
 mod error;
 mod header;
