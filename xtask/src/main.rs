@@ -62,8 +62,9 @@ enum Cmd {
     FwFaults(FwArgs),
     /// Host side of the firmware: the golden replay's tests (gpecnet-replay) and the host tools built.
     FwTest,
-    /// Flash/RAM/stack/instruction count per model and numeric path on the STM32F405 (TCG plugin).
-    Profile(FwArgs),
+    /// Flash/RAM/stack/instruction count per model and numeric path on the STM32F405 (TCG plugin),
+    /// and where the instructions go per function (the dense layers' share, instructions per MAC).
+    Profile(ProfileArgs),
     /// gpecnet-ffi on a Cortex-M4F: the C golden replay (arm-none-eabi-gcc, newlib) in QEMU.
     FfiArm,
     /// Decode a raw defmt stream (stdin) with ELF's table; used by firmware/qemu-run.sh.
@@ -95,6 +96,20 @@ struct FwArgs {
         value_name = "CARGO ARGS"
     )]
     rest: Vec<String>,
+}
+
+/// Options of `profile`.
+#[derive(Args)]
+struct ProfileArgs {
+    /// Only one numeric path: `q15` (fixed-point blobs, q15-table) or `f32` (f32 blobs: libm,
+    /// fast-f32, micromath); both by default.
+    #[arg(long, value_parser = ["q15", "f32"])]
+    path: Option<String>,
+    /// Write the images, logs and profile.md to DIR instead of target/fw-profile/.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    fw: FwArgs,
 }
 
 impl FwArgs {
@@ -169,7 +184,10 @@ fn main() {
         Cmd::Qemu(a) => replay::qemu(&a.opts()),
         Cmd::FwFaults(a) => firmware::fw_faults(&a.opts()),
         Cmd::FwTest => firmware::fw_test(),
-        Cmd::Profile(a) => profile::profile(&a.opts()),
+        Cmd::Profile(a) => {
+            let only_fixed = a.path.as_deref().map(|p| p == "q15");
+            profile::profile(&a.fw.opts(), only_fixed, a.out.as_deref())
+        }
         Cmd::FfiArm => ffi::arm_example(),
         Cmd::DefmtDecode { elf } => defmt::decode_stdin(&elf),
     };

@@ -232,23 +232,26 @@ pub(crate) fn run_with_plugin(
     }
 }
 
-pub(crate) fn profile(o: &Opts) -> i32 {
+/// `cargo xtask profile`: `only_fixed` `Some(true)` profiles the fixed-point blobs only
+/// (`--path q15`), `Some(false)` the f32 ones (`--path f32`); `out` replaces target/fw-profile/.
+pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) -> i32 {
     require(true);
     let dir = weights_dir(o);
     let models = require_models(&dir);
     let so = plugin();
-    let out_dir = root().join("target/fw-profile");
-    std::fs::create_dir_all(&out_dir).unwrap();
+    let out_dir = out.map_or_else(|| root().join("target/fw-profile"), Path::to_path_buf);
+    std::fs::create_dir_all(&out_dir)
+        .unwrap_or_else(|e| die(&format!("{}: {e}", out_dir.display())));
     let mut rows = Vec::new();
     let mut failed = false;
     for m in &models {
         let blob_path = dir.join(format!("{m}.gpec"));
         let blob_len = std::fs::metadata(&blob_path).map_or(0, |md| md.len() as u32);
-        let paths: &[&str] = if blob_is_fixed(&blob_path) {
-            &[FIXED_PATH]
-        } else {
-            SINES
-        };
+        let fixed = blob_is_fixed(&blob_path);
+        if only_fixed.is_some_and(|f| f != fixed) {
+            continue;
+        }
+        let paths: &[&str] = if fixed { &[FIXED_PATH] } else { SINES };
         for &sine in paths {
             let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
             let elf = build_profile_image(o, &mcu::M4F, m, sine, &["micromath"], &elf_copy);
@@ -358,23 +361,25 @@ pub(crate) fn profile(o: &Opts) -> i32 {
             ]
         }),
     );
-    let _ = writeln!(t, "\nWhere the instructions go (top functions in the window; full lists in target/fw-profile/<model>-<path>.hot.txt):\n");
-    for r in &rows {
-        let total: u64 = r.hot.iter().map(|h| h.1).sum();
-        let top: Vec<String> = r
-            .hot
-            .iter()
-            .take(5)
-            .map(|(n, c)| {
-                format!(
-                    "{:.1}% `{}`",
-                    100.0 * *c as f64 / total.max(1) as f64,
-                    short_name(n)
-                )
-            })
-            .collect();
-        let _ = writeln!(t, "- {} / {}: {}", r.model, r.sine, top.join(", "));
-    }
+    let _ = writeln!(
+        t,
+        "\nWhere the instructions go: the top functions in the window (full lists in {}/<model>-<path>.hot.txt); \
+         dense = the dense-layer functions, which do all of the call's MACs:\n",
+        out_dir.display()
+    );
+    md_table(
+        &mut t,
+        &[
+            "model",
+            "path",
+            "function",
+            "instructions",
+            "share",
+            "dense",
+            "insns/MAC",
+        ],
+        rows.iter().flat_map(function_rows),
+    );
     for r in rows.iter().filter(|r| r.sine == FIXED_PATH) {
         // A format-2 model with a point head is held to issue 10's budget for the whole call.
         let with_point = blob_has_point_head(&dir.join(format!("{}.gpec", r.model)));
@@ -419,6 +424,47 @@ pub(crate) fn profile(o: &Opts) -> i32 {
     std::fs::write(&md, &t).unwrap();
     eprintln!("xtask: wrote {}", md.display());
     failed as i32
+}
+
+/// Whether a profiled function is part of the dense layers (the portable loops, the DSP
+/// kernels, the partial sums): the functions that do the MACs.
+pub(crate) fn is_dense(function: &str) -> bool {
+    let f = short_name(function);
+    f.contains("dense") || f.contains("partial") || function.contains("kernels::")
+}
+
+/// The per-function rows of one profile: a summary row of the dense layers (their share of
+/// the window's instructions, their instructions per MAC), then the top 8 functions.
+fn function_rows(r: &ProfRow) -> Vec<Vec<String>> {
+    let total: u64 = r.hot.iter().map(|h| h.1).sum();
+    let share = |n: u64| format!("{:.1}%", 100.0 * n as f64 / total.max(1) as f64);
+    let dense: u64 = r.hot.iter().filter(|h| is_dense(&h.0)).map(|h| h.1).sum();
+    let mut out = vec![vec![
+        r.model.clone(),
+        r.sine.clone(),
+        "**all dense layers**".into(),
+        dense.to_string(),
+        share(dense),
+        "yes".into(),
+        per_mac(Some(dense), r.macs),
+    ]];
+    out.extend(r.hot.iter().take(8).map(|(name, n)| {
+        let d = is_dense(name);
+        vec![
+            r.model.clone(),
+            r.sine.clone(),
+            format!("`{}`", short_name(name)),
+            n.to_string(),
+            share(*n),
+            if d { "yes" } else { "" }.into(),
+            if d {
+                per_mac(Some(*n), r.macs)
+            } else {
+                "-".into()
+            },
+        ]
+    }));
+    out
 }
 
 /// `a::b::<T>::f` -> `b::f`-ish: the last two path segments, generics dropped.
@@ -468,6 +514,55 @@ pub(crate) fn per_mac(insns: Option<u64>, macs: Option<u64>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn dense_functions_are_recognised() {
+        assert!(is_dense("gpecnet_core::fixed::dense_q"));
+        assert!(is_dense(
+            "<gpecnet_core::float::Float<S> as gpecnet_core::engine::Backend>::partial"
+        ));
+        assert!(is_dense("gpecnet_core::kernels::smlald_rows"));
+        assert!(!is_dense("gpecnet_core::sine::sin_q15"));
+        assert!(!is_dense(
+            "gpecnet_core::engine::Engine<B,_>::predict_point"
+        ));
+    }
+
+    #[test]
+    fn function_rows_give_dense_share_and_insns_per_mac() {
+        let r = ProfRow {
+            model: "m".into(),
+            sine: "q15-table".into(),
+            blob: 0,
+            exec_code: None,
+            hot: vec![
+                ("gpecnet_core::fixed::dense_q".into(), 600),
+                ("gpecnet_core::sine::sin_q15".into(), 300),
+                (
+                    "gpecnet_core::fixed::<impl Backend for Q15>::partial".into(),
+                    100,
+                ),
+            ],
+            flash: 0,
+            text: 0,
+            rodata: 0,
+            ram: 0,
+            stack_total: None,
+            stack_predict: None,
+            predictor: None,
+            insns: Some(1000),
+            macs: Some(350),
+            hash: "-".into(),
+        };
+        let rows = function_rows(&r);
+        assert_eq!(rows.len(), 4);
+        assert_eq!(rows[0][3..], ["700", "70.0%", "yes", "2.00"]);
+        assert_eq!(
+            rows[1][2..],
+            ["`fixed::dense_q`", "600", "60.0%", "yes", "1.71"]
+        );
+        assert_eq!(rows[2][5..], ["", "-"]);
+    }
 
     #[test]
     fn md_table_writes_header_separator_and_rows() {
