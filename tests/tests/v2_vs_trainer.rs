@@ -73,7 +73,7 @@ fn heading_frame_point_head_and_tts_match_in_fixed_point() {
     let m = with_v2_features(base(), 3, &[64, 64], 60, 9);
     let q = quantize_with_data(&m, &train, 20, 8, "v2-q").unwrap();
     let blob = blob_bytes(&q).unwrap();
-    assert_eq!(blob[4], 2);
+    assert_eq!(blob[4], 3);
     let core = Model::from_blob(&blob).unwrap();
     assert!(core.has_point_head());
     let (mc, pc) = evaluate_core_fixed(&blob, &test, 20, 0).unwrap();
