@@ -537,29 +537,57 @@ fn latent_with(
 /// `x[i]` shared by 4 rows).
 const ROWS: usize = 4;
 
-/// `acc[r][l] += q_r,i · x[i][l]` (exact: `i32` product, `i64` sum) for
-/// the rows `r` of `g` (stride `n` bytes, at most `R`), every input `i`
-/// and every lane `l` (innermost, so that LLVM vectorises across lanes).
+/// `a[l] += q · x[l]` for every lane (exact: `i32` product, `i64` sum).
 #[inline(always)]
-fn rows_lanes<const R: usize, const L: usize>(
-    g: &[u8],
-    n: usize,
-    x: &[[i16; L]],
-    acc: &mut [[i64; L]; R],
-) {
-    let rows: [&[u8]; R] = core::array::from_fn(|r| {
-        let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
-        row.get(..2 * x.len()).unwrap_or(row)
-    });
-    for (i, xi) in x.iter().enumerate() {
-        let q: [i32; R] =
-            core::array::from_fn(|r| w16(rows[r].get(2 * i..2 * i + 2).unwrap_or(&[])));
-        for (a, &qr) in acc.iter_mut().zip(&q) {
-            for (al, &xl) in a.iter_mut().zip(xi) {
-                *al += i64::from(qr * i32::from(xl));
-            }
-        }
+fn axpy<const L: usize>(a: &mut [i64; L], q: i32, x: &[i16; L]) {
+    for (al, &xl) in a.iter_mut().zip(x) {
+        *al += i64::from(q * i32::from(xl));
     }
+}
+
+/// `acc[l] += Σ_i q_i · x[i][l]` over the shorter of `row` (i16 LE) and
+/// `x`, every lane `l` (innermost, so that LLVM vectorises across lanes).
+#[inline(always)]
+fn row_lanes<const L: usize>(row: &[u8], x: &[[i16; L]], acc: &mut [i64; L]) {
+    let mut a = *acc;
+    for (xi, q) in x.iter().zip(row.chunks_exact(2)) {
+        axpy(&mut a, w16(q), xi);
+    }
+    *acc = a;
+}
+
+/// [`row_lanes`] for the [`ROWS`] rows of `g` (stride `n` bytes) at once,
+/// each `x[i]` loaded once for the four (rows shorter than `x`, never for
+/// a validated layer, one by one).
+#[inline(always)]
+fn rows_lanes<const L: usize>(g: &[u8], n: usize, x: &[[i16; L]], acc: &mut [[i64; L]; ROWS]) {
+    let len = 2 * x.len();
+    let rows: [&[u8]; ROWS] = core::array::from_fn(|r| {
+        g.get(r * n..(r + 1) * n)
+            .and_then(|row| row.get(..len))
+            .unwrap_or(&[])
+    });
+    let [r0, r1, r2, r3] = rows;
+    if rows.iter().any(|r| r.len() != len) {
+        for (r, a) in acc.iter_mut().enumerate() {
+            let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
+            row_lanes(row, x, a);
+        }
+        return;
+    }
+    let [mut a0, mut a1, mut a2, mut a3] = *acc;
+    let q = r0
+        .chunks_exact(2)
+        .zip(r1.chunks_exact(2))
+        .zip(r2.chunks_exact(2))
+        .zip(r3.chunks_exact(2));
+    for (xi, (((q0, q1), q2), q3)) in x.iter().zip(q) {
+        axpy(&mut a0, w16(q0), xi);
+        axpy(&mut a1, w16(q1), xi);
+        axpy(&mut a2, w16(q2), xi);
+        axpy(&mut a3, w16(q3), xi);
+    }
+    *acc = [a0, a1, a2, a3];
 }
 
 /// [`Backend::dense_lanes`] for Q15: the exact `i64` sums of
@@ -583,7 +611,7 @@ fn dense_lanes<const L: usize>(
         let g = w.get(j * n..).unwrap_or(&[]);
         let mut acc: [[i64; L]; ROWS] =
             core::array::from_fn(|r| [i64::from(layer.bias_q(j + r)); L]);
-        rows_lanes::<ROWS, L>(g, n, x, &mut acc);
+        rows_lanes::<L>(g, n, x, &mut acc);
         for (r, (o, a)) in o.iter_mut().zip(&acc).enumerate() {
             finish::<L>(act, a, layer.shift(j + r), used, o);
         }
@@ -592,7 +620,7 @@ fn dense_lanes<const L: usize>(
     for o in blocks.into_remainder() {
         let g = w.get(j * n..).unwrap_or(&[]);
         let mut acc = [[i64::from(layer.bias_q(j)); L]];
-        rows_lanes::<1, L>(g, n, x, &mut acc);
+        row_lanes::<L>(g.get(..n).unwrap_or(g), x, &mut acc[0]);
         finish::<L>(act, &acc[0], layer.shift(j), used, o);
         j += 1;
     }

@@ -123,42 +123,60 @@ fn w32(c: &[u8]) -> f32 {
 /// add latency (on x86-64's 16 SSE registers with `L = 8`).
 const ROWS: usize = 4;
 
-/// `acc[r][l] += W[r][i] · x[i][l]` for `i` in order, the rows `r` of `g`
-/// (stride `n` bytes, at most `R`) and every lane `l`: each lane's sum is
-/// [`row_sum`]'s, left to right with separate multiply and add; the loop
-/// over lanes is innermost so that LLVM vectorises across lanes.
+/// `a[l] += q · x[l]` for every lane (one rounding for the product, one
+/// for the sum).
 #[inline(always)]
-fn rows_lanes<const R: usize, const L: usize>(
-    g: &[u8],
-    n: usize,
-    x: &[[f32; L]],
-    acc: &mut [[f32; L]; R],
-) {
-    let rows: [&[u8]; R] = core::array::from_fn(|r| {
-        let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
-        row.get(..4 * x.len()).unwrap_or(row)
+fn axpy<const L: usize>(a: &mut [f32; L], q: f32, x: &[f32; L]) {
+    for (al, &xl) in a.iter_mut().zip(x) {
+        *al += q * xl;
+    }
+}
+
+/// `acc[l] += W[i] · x[i][l]` for `i` in order over the shorter of `row`
+/// (f32 LE bytes) and `x`, every lane `l`: each lane's sum is
+/// [`row_sum`]'s, left to right with separate multiply and add.
+#[inline(always)]
+fn row_lanes<const L: usize>(row: &[u8], x: &[[f32; L]], acc: &mut [f32; L]) {
+    let mut a = *acc;
+    for (xi, q) in x.iter().zip(row.chunks_exact(4)) {
+        axpy(&mut a, w32(q), xi);
+    }
+    *acc = a;
+}
+
+/// [`row_lanes`] for the [`ROWS`] rows of `g` (stride `n` bytes) at once:
+/// each `x[i]` loaded once for the four, and `4·L` independent sums (in
+/// registers) hide the add latency. Rows shorter than `x` (never for a
+/// validated layer) go one by one.
+#[inline(always)]
+fn rows_lanes<const L: usize>(g: &[u8], n: usize, x: &[[f32; L]], acc: &mut [[f32; L]; ROWS]) {
+    let len = 4 * x.len();
+    let rows: [&[u8]; ROWS] = core::array::from_fn(|r| {
+        g.get(r * n..(r + 1) * n)
+            .and_then(|row| row.get(..len))
+            .unwrap_or(&[])
     });
-    // The columns every row has (all of them for a validated layer; a short
-    // row stops where `row_sum` would).
-    let m = rows.iter().map(|r| r.len() / 4).min().unwrap_or(0);
-    for (i, xi) in x.iter().take(m).enumerate() {
-        let q: [f32; R] =
-            core::array::from_fn(|r| w32(rows[r].get(4 * i..4 * i + 4).unwrap_or(&[])));
-        for (a, &qr) in acc.iter_mut().zip(&q) {
-            for (al, &xl) in a.iter_mut().zip(xi) {
-                *al += qr * xl;
-            }
+    let [r0, r1, r2, r3] = rows;
+    if rows.iter().any(|r| r.len() != len) {
+        for (r, a) in acc.iter_mut().enumerate() {
+            let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
+            row_lanes(row, x, a);
         }
+        return;
     }
-    // Rows longer than the shortest one (never for a validated layer).
-    for (r, a) in acc.iter_mut().enumerate() {
-        for (i, xi) in x.iter().enumerate().take(rows[r].len() / 4).skip(m) {
-            let q = w32(rows[r].get(4 * i..4 * i + 4).unwrap_or(&[]));
-            for (al, &xl) in a.iter_mut().zip(xi) {
-                *al += q * xl;
-            }
-        }
+    let [mut a0, mut a1, mut a2, mut a3] = *acc;
+    let q = r0
+        .chunks_exact(4)
+        .zip(r1.chunks_exact(4))
+        .zip(r2.chunks_exact(4))
+        .zip(r3.chunks_exact(4));
+    for (xi, (((q0, q1), q2), q3)) in x.iter().zip(q) {
+        axpy(&mut a0, w32(q0), xi);
+        axpy(&mut a1, w32(q1), xi);
+        axpy(&mut a2, w32(q2), xi);
+        axpy(&mut a3, w32(q3), xi);
     }
+    *acc = [a0, a1, a2, a3];
 }
 
 /// [`Backend::dense_lanes`] for f32: [`ROWS`] rows at a time
@@ -181,7 +199,7 @@ fn dense_lanes<S: Sine, const L: usize>(
     for o in &mut blocks {
         let g = w.get(j * n..).unwrap_or(&[]);
         let mut acc: [[f32; L]; ROWS] = core::array::from_fn(|r| [layer.bias(j + r); L]);
-        rows_lanes::<ROWS, L>(g, n, x, &mut acc);
+        rows_lanes::<L>(g, n, x, &mut acc);
         for (o, a) in o.iter_mut().zip(&acc) {
             finish::<S, L>(act, a, used, o);
         }
@@ -190,7 +208,7 @@ fn dense_lanes<S: Sine, const L: usize>(
     for o in blocks.into_remainder() {
         let g = w.get(j * n..).unwrap_or(&[]);
         let mut acc = [[layer.bias(j); L]];
-        rows_lanes::<1, L>(g, n, x, &mut acc);
+        row_lanes::<L>(g.get(..n).unwrap_or(g), x, &mut acc[0]);
         finish::<S, L>(act, &acc[0], used, o);
         j += 1;
     }

@@ -117,88 +117,101 @@ fn libm_sinf_medium(x: f32) -> f32 {
     const KC3: f64 = f64::from_bits(0x3ef99342e0ee5069); // 0.0000243904487962774090654
     const KC0: f64 = f64::from_bits(0xbfdffffffd0c5e81); // -0.499999997251031003120
     const KC1: f64 = f64::from_bits(0x3fa55553e1053a42); // 0.0416666233237390631894
+                                                         // Thresholds on |x| (libm compares the bits of |x|; for finite x the
+                                                         // order of the bits is the order of the values).
+    const T_PIO4: f64 = f32::from_bits(0x3f49_0fda) as f64;
+    const T_3PIO4: f64 = f32::from_bits(0x4016_cbe3) as f64;
+    const T_5PIO4: f64 = f32::from_bits(0x407b_53d1) as f64;
+    const T_7PIO4: f64 = f32::from_bits(0x40af_eddf) as f64;
+    const T_9PIO4: f64 = f32::from_bits(0x40e2_31d5) as f64;
+    const TINY: f32 = f32::from_bits(0x3980_0000);
     let x64 = x as f64;
-    let ix = x.to_bits() & 0x7fff_ffff;
-    let neg = (x.to_bits() >> 31) != 0;
-    // Medium reduction (`rem_pio2f`).
-    let f_n = (x64 * INV_PIO2 + TOINT) - TOINT;
-    let n = f_n as i32;
+    let ax = if x64 < 0.0 { -x64 } else { x64 };
+    let neg = x64 < 0.0;
+    // Medium reduction (`rem_pio2f`): n = rint(x·2/π) sits in the low bits
+    // of `tmp` (|n| < 2^28), `f_n` = n exactly.
+    let tmp = x64 * INV_PIO2 + TOINT;
+    let f_n = tmp - TOINT;
+    let nb = tmp.to_bits();
     let y_med = x64 - f_n * PIO2_1 - f_n * PIO2_1T;
-    let y_med = if n & 2 != 0 && n & 1 == 0 {
-        -y_med
-    } else {
-        y_med
-    };
-    // The small multiples of π/2.
-    let (p1, m1) = (x64 + S1_PIO2, x64 - S1_PIO2);
-    let (p2, m2) = (-(x64 + S2_PIO2), -(x64 - S2_PIO2));
-    let (p3, m3) = (x64 + S3_PIO2, x64 - S3_PIO2);
-    let (p4, m4) = (x64 + S4_PIO2, x64 - S4_PIO2);
-    let y1 = if neg { p1 } else { m1 };
-    let y2 = if neg { p2 } else { m2 };
-    let y3 = if neg { p3 } else { m3 };
-    let y4 = if neg { p4 } else { m4 };
+    // Quadrant 2 (`k_sinf(-y)`): n & 3 == 2.
+    let q2 = mask(nb & 3 == 2);
+    let y_med = f64::from_bits(y_med.to_bits() ^ (q2 & SIGN));
+    // The small multiples of π/2, sign-dependent.
+    let mn = mask(neg);
+    let y1 = pick(mn, x64 + S1_PIO2, x64 - S1_PIO2);
+    let y2 = pick(mn, -(x64 + S2_PIO2), -(x64 - S2_PIO2));
+    let y3 = pick(mn, x64 + S3_PIO2, x64 - S3_PIO2);
+    let y4 = pick(mn, x64 + S4_PIO2, x64 - S4_PIO2);
     let (c1, c2, c3, c4, c5) = (
-        ix <= 0x3f49_0fda,
-        ix <= 0x4016_cbe3,
-        ix <= 0x407b_53d1,
-        ix <= 0x40af_eddf,
-        ix <= 0x40e2_31d5,
+        mask(ax <= T_PIO4),
+        mask(ax <= T_3PIO4),
+        mask(ax <= T_5PIO4),
+        mask(ax <= T_7PIO4),
+        mask(ax <= T_9PIO4),
     );
-    let y = if c1 {
-        x64
-    } else if c2 {
-        y1
-    } else if c3 {
-        y2
-    } else if c4 {
-        y3
-    } else if c5 {
-        y4
-    } else {
-        y_med
-    };
-    let use_cos = if c1 {
-        false
-    } else if c2 {
-        true
-    } else if c3 {
-        false
-    } else if c4 {
-        true
-    } else if c5 {
-        false
-    } else {
-        n & 1 != 0
-    };
-    let negate = if c1 {
-        false
-    } else if c2 {
-        neg
-    } else if c3 {
-        false
-    } else if c4 {
-        !neg
-    } else if c5 {
-        false
-    } else {
-        n & 3 == 3
-    };
-    // k_sinf and k_cosf (libm's `k_sinf.rs`, `k_cosf.rs`).
+    // Innermost case first: the first true threshold wins.
+    let y = pick(
+        c1,
+        x64,
+        pick(c2, y1, pick(c3, y2, pick(c4, y3, pick(c5, y4, y_med)))),
+    );
+    let odd = mask(nb & 1 == 1);
+    let q3 = mask(nb & 3 == 3);
+    let all = u64::MAX;
+    let use_cos = pick_bits(
+        c1,
+        0,
+        pick_bits(
+            c2,
+            all,
+            pick_bits(c3, 0, pick_bits(c4, all, pick_bits(c5, 0, odd))),
+        ),
+    );
+    let negate = pick_bits(
+        c1,
+        0,
+        pick_bits(
+            c2,
+            mn,
+            pick_bits(c3, 0, pick_bits(c4, !mn, pick_bits(c5, 0, q3))),
+        ),
+    );
+    // k_sinf and k_cosf (libm's `k_sinf.rs`, `k_cosf.rs`), both, in f64.
     let z = y * y;
     let w = z * z;
     let r = KS3 + z * KS4;
     let s = z * y;
-    let sin = ((y + s * (KS1 + z * KS2)) + s * w * r) as f32;
+    let sin = (y + s * (KS1 + z * KS2)) + s * w * r;
     let rc = KC2 + z * KC3;
-    let cos = (((1.0 + z * KC0) + w * KC1) + (w * z) * rc) as f32;
-    let v = if use_cos { cos } else { sin };
-    let v = if negate { -v } else { v };
-    if ix < 0x3980_0000 {
-        x
-    } else {
-        v
-    }
+    let cos = ((1.0 + z * KC0) + w * KC1) + (w * z) * rc;
+    // Selecting and negating before the rounding to f32 gives the same bits
+    // (rounding to nearest is symmetric).
+    let v = pick(use_cos, cos, sin);
+    let v = f64::from_bits(v.to_bits() ^ (negate & SIGN)) as f32;
+    let tiny = ((x.abs() < TINY) as u32).wrapping_neg();
+    f32::from_bits((x.to_bits() & tiny) | (v.to_bits() & !tiny))
+}
+
+/// The sign bit of an f64.
+const SIGN: u64 = 1 << 63;
+
+/// All ones for `true`, 0 for `false`.
+#[inline(always)]
+fn mask(c: bool) -> u64 {
+    (c as u64).wrapping_neg()
+}
+
+/// `a` where `m` is all ones, `b` where it is 0 (bitwise).
+#[inline(always)]
+fn pick_bits(m: u64, a: u64, b: u64) -> u64 {
+    (a & m) | (b & !m)
+}
+
+/// [`pick_bits`] on f64s.
+#[inline(always)]
+fn pick(m: u64, a: f64, b: f64) -> f64 {
+    f64::from_bits(pick_bits(m, a.to_bits(), b.to_bits()))
 }
 
 /// Single-precision sine with a fixed evaluation order.
