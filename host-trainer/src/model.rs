@@ -17,10 +17,12 @@
 //! with `act = sin(w0 * .)` (SIREN, G-PECNet) or ReLU (PECNet). All weights are initialised
 //! from the crate's seeded [`Rng`]; no candle randomness is used.
 //!
-//! The sine activation is one fused candle op ([`SineOp`]): its forward computes candle's
-//! `x.affine(w0, 0).sin()` and its backward candle's gradient of that pair, element by element
-//! in the very same f32 operations, so training is bit-identical to the unfused graph, but in
-//! one pass without the intermediate tensors, split over the run's threads ([`for_each_job`]).
+//! Each dense layer is one fused candle op ([`Linear`]: candle's own matmul, then the bias) and
+//! the sine activation another ([`SineOp`]: candle's `x.affine(w0, 0).sin()` in one pass). Their
+//! forward and backward passes perform the very f32 operations of the unfused candle graph, so
+//! training is bit-identical to it, but without its intermediate tensors and zero-filled
+//! gradient accumulators, and the elementwise work is split over the run's threads
+//! ([`for_each_job`]).
 
 use candle_core::{CpuStorage, CustomOp1, CustomOp2, DType, Device, Layout, Shape, Tensor, Var};
 
@@ -117,7 +119,7 @@ impl Mlp {
         };
         let last = self.layers.len() - 1;
         for (i, l) in self.layers.iter().enumerate() {
-            h = add_bias(&h.matmul(&l.weight.as_tensor().t()?)?, l.bias.as_tensor())?;
+            h = linear(&h, l.weight.as_tensor(), l.bias.as_tensor())?;
             if i < last {
                 h = match self.activation {
                     Act::Sine => sine(&h, self.w0)?,
@@ -237,6 +239,100 @@ fn map_elements<F: Fn(std::ops::Range<usize>, &mut [f32]) + Sync>(
         .map(|(i, o)| (i * chunk..i * chunk + o.len(), o));
     for_each_job(jobs, |(range, o)| fill(range, o));
     out
+}
+
+/// `x Wᵀ + b` for `x` `[rows, in]`, `W` `[out, in]`, `b` `[out]`, as one differentiable op
+/// ([`Linear`]); the same bits as candle's `x.matmul(&w.t()).broadcast_add(b)` and its
+/// gradients. Empty or other shapes fall back to that graph.
+pub fn linear(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
+    let f32s = [x, w, b].iter().all(|t| t.dtype() == DType::F32);
+    match (x.dims(), w.dims(), b.dims()) {
+        (&[m, k], &[n, k2], &[n2]) if f32s && k == k2 && n == n2 && m * n * k > 0 => {
+            x.apply_op3(w, b, Linear)
+        }
+        _ => add_bias(&x.matmul(&w.t()?)?, b),
+    }
+}
+
+/// A dense layer `y = x Wᵀ + b` as one node of the graph. Forward: candle's own CPU matmul on
+/// the same layouts `x.matmul(&w.t())` passes it, then `y[i][j] + b[j]`. Backward, with
+/// `G = 0 + dy` (candle's zero-filled accumulator of the matmul output):
+/// `dx = G.matmul(&w.t().t())`, `dW = (x.t().matmul(&G)).t()`, `db` as [`BiasAdd`]'s — the
+/// operations and operands candle's matmul, transpose and broadcast-add nodes use, so the bits
+/// are the same, without three of their zero-filled accumulators and copies.
+#[derive(Clone, Copy, Debug)]
+pub struct Linear;
+
+impl candle_core::CustomOp3 for Linear {
+    fn name(&self) -> &'static str {
+        "gpecnet-linear"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> candle_core::Result<(CpuStorage, Shape)> {
+        use candle_core::backend::BackendStorage;
+        let (m, k) = l1.shape().dims2()?;
+        let (n, k2) = l2.shape().dims2()?;
+        let b = f32_slice(s3, l3)?;
+        if k != k2 || b.len() != n || n == 0 {
+            candle_core::bail!("linear: [{m}, {k}] x [{n}, {k2}]ᵀ + [{}]", b.len());
+        }
+        let y = s1.matmul(s2, (1, m, n, k), l1, &l2.transpose(0, 1)?)?;
+        let CpuStorage::F32(mut y) = y else {
+            candle_core::bail!("linear: f32 only");
+        };
+        if y.len() != m * n {
+            candle_core::bail!("linear: matmul returned {} values for [{m}, {n}]", y.len());
+        }
+        let chunk = chunk_len(y.len()).div_ceil(n) * n;
+        for_each_job(y.chunks_mut(chunk), |y| {
+            for y in y.chunks_mut(n) {
+                for (y, &b) in y.iter_mut().zip(b) {
+                    *y += b;
+                }
+            }
+        });
+        Ok((CpuStorage::F32(y), Shape::from((m, n))))
+    }
+
+    fn bwd(
+        &self,
+        x: &Tensor,
+        w: &Tensor,
+        b: &Tensor,
+        _res: &Tensor,
+        grad: &Tensor,
+    ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
+        // `0 + dy` is `dy` itself unless `dy` holds a -0.0 (or is strided).
+        let g = if grad.is_contiguous() && !has_negative_zero(grad)? {
+            grad.clone()
+        } else {
+            grad.affine(1.0, 0.0)?
+        };
+        let dx = g.matmul(&w.t()?.t()?)?;
+        let dw = x.t()?.matmul(&g)?.t()?;
+        let db = g.apply_op1_no_bwd(&ColumnSum(b.elem_count()))?;
+        Ok((Some(dx), Some(dw), Some(db)))
+    }
+}
+
+/// Whether a contiguous f32 tensor holds a negative zero.
+fn has_negative_zero(t: &Tensor) -> candle_core::Result<bool> {
+    let (storage, layout) = t.storage_and_layout();
+    match &*storage {
+        candle_core::Storage::Cpu(cpu) => {
+            let v = f32_slice(cpu, layout)?;
+            Ok(v.iter().any(|v| v.to_bits() == 0x8000_0000))
+        }
+        _ => candle_core::bail!("linear: CPU tensors only"),
+    }
 }
 
 /// `h + b` for `h` `[rows, out]` and a bias `b` `[out]`, as one differentiable op
@@ -971,6 +1067,59 @@ mod tests {
                 );
                 assert_eq!(bits(a), bits(b), "{rows}x{cols}");
             }
+        }
+    }
+
+    #[test]
+    fn fused_linear_is_bit_identical_to_candles_matmul_and_broadcast_add() {
+        let mut rng = Rng::new(12);
+        let dev = Device::Cpu;
+        let mut vec =
+            |n: usize, r: f32| -> Vec<f32> { (0..n).map(|_| rng.uniform(-r, r)).collect() };
+        // x feeds two layers and the second layer is used twice (like `encoder_dest`): the
+        // gradients of shared tensors are accumulated from several nodes.
+        let (m, k, n) = (300, 33, 130);
+        let x = Var::from_vec(vec(m * k, 2.0), (m, k), &dev).unwrap();
+        let w1 = Var::from_vec(vec(n * k, 0.5), (n, k), &dev).unwrap();
+        let b1 = Var::from_vec(vec(n, 0.5), n, &dev).unwrap();
+        let w2 = Var::from_vec(vec(n * k, 0.5), (n, k), &dev).unwrap();
+        let b2 = Var::from_vec(vec(n, 0.5), n, &dev).unwrap();
+        let mut g = vec(m * n, 3.0);
+        g[..3].copy_from_slice(&[-0.0, 0.0, -0.0]);
+        let g = Tensor::from_vec(g, (m, n), &dev).unwrap();
+        let loss = |fused: bool| {
+            let lin = |x: &Tensor, w: &Var, b: &Var| {
+                if fused {
+                    linear(x, w.as_tensor(), b.as_tensor()).unwrap()
+                } else {
+                    x.matmul(&w.as_tensor().t().unwrap())
+                        .unwrap()
+                        .broadcast_add(b.as_tensor())
+                        .unwrap()
+                }
+            };
+            let y1 = lin(x.as_tensor(), &w1, &b1);
+            let y2 = lin(x.as_tensor(), &w2, &b2);
+            let y3 = lin(&x.as_tensor().affine(0.5, 0.0).unwrap(), &w2, &b2);
+            let y = ((y1 + y2).unwrap() + y3).unwrap();
+            ((&y * &g).unwrap().sum_all().unwrap(), y)
+        };
+        let (lf, yf) = loss(true);
+        let (lp, yp) = loss(false);
+        assert_eq!(bits(&yf), bits(&yp), "forward");
+        let (gf, gp) = (lf.backward().unwrap(), lp.backward().unwrap());
+        for (name, v) in [
+            ("x", &x),
+            ("w1", &w1),
+            ("b1", &b1),
+            ("w2", &w2),
+            ("b2", &b2),
+        ] {
+            let (a, b) = (
+                gf.get(v.as_tensor()).unwrap(),
+                gp.get(v.as_tensor()).unwrap(),
+            );
+            assert_eq!(bits(a), bits(b), "gradient of {name}");
         }
     }
 
