@@ -50,14 +50,16 @@
 //!
 //! [`Batch`]`<B, W, L>` holds three `W × L` activation matrices (f32:
 //! `12·W·L` bytes, 96 KiB for `W = 1024, L = 8`; Q15: `6·W·L` bytes), `L`
-//! frames, last points and samplers (about 40 bytes each) and the model
-//! view. Too big for a small MCU's stack: on a host, box it
+//! frames, last points and samplers (about 40 bytes each), the model view
+//! and a scalar [`crate::Engine`] (`20·W` bytes; one track's calls of at
+//! most `L / 4` samples run on it, where lanes would compute mostly
+//! padding). Too big for a small MCU's stack: on a host, box it
 //! (`Box::new(BatchPredictor::new(model)?)`). It never allocates; the
 //! per-window samples of a test-time-sampling model go to an `N`-sample
 //! buffer on the stack (`8·N` bytes), as in the scalar path.
 
 use crate::blob::{Layer, Model, NumericKind, MAX_PAST};
-use crate::engine::{in_exp, out_exp, Backend};
+use crate::engine::{in_exp, out_exp, Backend, Engine};
 use crate::fixed::Q15;
 use crate::float::Float;
 use crate::frame::Frame;
@@ -143,6 +145,9 @@ pub struct Batch<'a, B: Backend, const W: usize, const L: usize> {
     frames: [Frame; L],
     lasts: [[f32; 2]; L],
     gauss: [Gaussian; L],
+    /// The scalar engine, for one track's calls of at most `L / 4` samples
+    /// (where lanes would mostly compute on padding).
+    scalar: Engine<'a, B, W>,
 }
 
 impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
@@ -171,6 +176,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             frames: [Frame::raw(); L],
             lasts: [[0.0; 2]; L],
             gauss: core::array::from_fn(|_| Gaussian::new(0)),
+            scalar: Engine::new(model)?,
         })
     }
 
@@ -422,6 +428,9 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
+        if few::<L>(out.len()) {
+            return self.scalar.predict_samples(past, seed, out);
+        }
         self.predict_samples_many(&[Query { past, seed }], out.len(), out)
             .map_err(|e| e.error)
     }
@@ -453,6 +462,9 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         seed: u64,
         out: &mut [Trajectory],
     ) -> Result<(), PredictError> {
+        if few::<L>(out.len()) {
+            return self.scalar.predict_trajectories(past, seed, out);
+        }
         self.predict_trajectories_many(&[Query { past, seed }], out.len(), out)
             .map_err(|e| e.error)
     }
@@ -491,6 +503,9 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
         let k = out.len();
+        if few::<L>(crate::sampling::samples_needed(self.model.extensions(), k)) {
+            return self.scalar.predict_endpoint_set::<N>(past, seed, out);
+        }
         self.predict_endpoint_sets::<N>(&[Query { past, seed }], k, out)
             .map_err(|e| e.error)
     }
@@ -604,6 +619,12 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         }
         Ok(())
     }
+}
+
+/// Whether one track's `n` samples are few enough (at most `L / 4`) for
+/// the scalar engine to be faster than mostly empty lanes (same bits).
+fn few<const L: usize>(n: usize) -> bool {
+    n <= L / 4
 }
 
 /// `out_len == n·k` with `k > 0`, else [`PredictError::BadSampleCount`].

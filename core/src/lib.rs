@@ -50,6 +50,9 @@
 //!   detections into the 8-step histories a prediction needs.
 //! - [`Engine`] with [`float::Float`] or [`fixed::Q15`]: one backend only,
 //!   when the kind is known at build time (less flash).
+//! - On a host: [`batch::BatchPredictor`] (the same bits as [`Predictor`],
+//!   several times faster: samples and tracks side by side, one weight read
+//!   per `L` samples; ~100 KiB, box it).
 //! - Limits: [`frame::MAX_COORDINATE`], [`Model::input_limit`],
 //!   [`Model::scratch_width`], [`blob::MAX_PAST`], [`blob::MAX_FUTURE`],
 //!   [`sampling::samples_needed`].
@@ -58,6 +61,8 @@
 //! - [`blob`]: the weight-blob reader (format: `weights/FORMAT.md`) and [`Model`].
 //! - [`predictor`]: [`Predictor`], run-time dispatch over the one engine.
 //! - [`engine`]: the computation, step by step, generic over a numeric backend.
+//! - [`batch`]: the same computation for `L` samples (of one or many tracks)
+//!   side by side, bit-identical, for hosts.
 //! - [`float`], [`fixed`]: the f32 and the integer (Q15) backends.
 //! - [`frame`]: input guards and the coordinate frame the networks see.
 //! - [`sampling`]: the blob's endpoint protocol (plain or test-time sampling).
