@@ -689,14 +689,35 @@ pub struct GpecnetGoldenCase {
     pub point_xy: [[f32; 2]; GPECNET_MAX_FUTURE],
 }
 
-/// The validated golden file at `golden`/`len`.
+/// The body of the golden-file functions: checks the pointers, validates the golden file at
+/// `golden`/`len` and writes what `f` makes of it to `*out`, or returns the status code of
+/// the first failure.
 ///
 /// # Safety
-/// `golden` is non-null and valid for reads of `len` bytes during `'a`.
-unsafe fn golden_set<'a>(golden: *const u8, len: usize) -> Result<GoldenSet<'a>, i32> {
-    // SAFETY: the caller's contract.
-    let bytes = unsafe { core::slice::from_raw_parts(golden, len) };
-    GoldenSet::parse(bytes).map_err(blob_status)
+/// `golden` is NULL or valid for reads of `len` bytes; `out` is NULL or valid for a write.
+unsafe fn golden_out<T>(
+    golden: *const u8,
+    len: usize,
+    out: *mut T,
+    f: impl FnOnce(&GoldenSet<'_>) -> Result<T, i32>,
+) -> i32 {
+    guard(|| {
+        if golden.is_null() || out.is_null() {
+            return GPECNET_E_NULL_POINTER;
+        }
+        // SAFETY: non-null, readable for `len` bytes (caller's contract).
+        let bytes = unsafe { core::slice::from_raw_parts(golden, len) };
+        let value = match GoldenSet::parse(bytes)
+            .map_err(blob_status)
+            .and_then(|s| f(&s))
+        {
+            Ok(v) => v,
+            Err(e) => return e,
+        };
+        // SAFETY: non-null, writable (caller's contract).
+        unsafe { out.write_unaligned(value) };
+        GPECNET_OK
+    })
 }
 
 /// Validates a golden file (magic, version, CRC, every case's shape) and fills `*out`.
@@ -710,17 +731,9 @@ pub unsafe extern "C" fn gpecnet_golden_info(
     len: usize,
     out: *mut GpecnetGoldenInfo,
 ) -> i32 {
-    guard(|| {
-        if golden.is_null() || out.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
-        // SAFETY: the caller's contract.
-        let set = match unsafe { golden_set(golden, len) } {
-            Ok(s) => s,
-            Err(e) => return e,
-        };
+    let fill = |set: &GoldenSet<'_>| {
         let i = set.info();
-        let info = GpecnetGoldenInfo {
+        Ok(GpecnetGoldenInfo {
             model_crc: i.model_crc,
             n_cases: i.n_cases,
             past_len: i.past_len.into(),
@@ -728,11 +741,10 @@ pub unsafe extern "C" fn gpecnet_golden_info(
             k: i.k.into(),
             model_name: c_name(i.model_name),
             sine: c_name(i.sine),
-        };
-        // SAFETY: non-null, writable (caller's contract).
-        unsafe { out.write_unaligned(info) };
-        GPECNET_OK
-    })
+        })
+    };
+    // SAFETY: the caller's contract is `golden_out`'s.
+    unsafe { golden_out(golden, len, out, fill) }
 }
 
 /// Decodes case `index` of a golden file into `*out` (validating the file
@@ -750,20 +762,12 @@ pub unsafe extern "C" fn gpecnet_golden_case(
     index: u32,
     out: *mut GpecnetGoldenCase,
 ) -> i32 {
-    guard(|| {
-        if golden.is_null() || out.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
-        // SAFETY: the caller's contract.
-        let set = match unsafe { golden_set(golden, len) } {
-            Ok(s) => s,
-            Err(e) => return e,
-        };
+    let fill = |set: &GoldenSet<'_>| {
         let Some(case) = set.cases().nth(index as usize) else {
-            return GPECNET_E_BAD_LENGTH;
+            return Err(GPECNET_E_BAD_LENGTH);
         };
         if case.k() > GPECNET_GOLDEN_MAX_K || case.point_len() > GPECNET_MAX_FUTURE {
-            return GPECNET_E_CAPACITY_EXCEEDED;
+            return Err(GPECNET_E_CAPACITY_EXCEEDED);
         }
         let mut c = GpecnetGoldenCase {
             seed: case.seed,
@@ -786,10 +790,10 @@ pub unsafe extern "C" fn gpecnet_golden_case(
                 None => break,
             }
         }
-        // SAFETY: non-null, writable (caller's contract).
-        unsafe { out.write_unaligned(c) };
-        GPECNET_OK
-    })
+        Ok(c)
+    };
+    // SAFETY: the caller's contract is `golden_out`'s.
+    unsafe { golden_out(golden, len, out, fill) }
 }
 
 // ---------------------------------------------------------------- bare metal
