@@ -23,16 +23,10 @@ use gpecnet_core::tracks::{Observation, TrackTable, HISTORY};
 use gpecnet_core::{LibmSine, Model, PredictError, Predictor};
 use heapless::Vec;
 
-/// 8-byte aligned storage: a format-3 blob's tensors start at multiples of 4
-/// from its first byte, so at an aligned address the Cortex-M4/M7 kernels can
-/// use word loads (`include_bytes!` alone has alignment 1; any address works,
-/// only slower).
-#[repr(C, align(8))]
-struct Aligned<T>(T);
-static ALIGNED: Aligned<[u8; include_bytes!("../../weights/sdd-tiny-v2-qe.gpec").len()]> =
-    Aligned(*include_bytes!("../../weights/sdd-tiny-v2-qe.gpec"));
-/// The shipped MCU model, linked into flash and read in place.
-static BLOB: &[u8] = &ALIGNED.0;
+/// `BLOB`: the shipped MCU model, linked into flash 8-byte aligned and read in place.
+mod common;
+use common::BLOB;
+
 /// Scratch width: at least `Model::scratch_width()` of the blob (64 for it).
 const W: usize = 64;
 /// Tracks the table holds.

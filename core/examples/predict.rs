@@ -10,16 +10,9 @@
 use gpecnet_core::sampling::samples_needed;
 use gpecnet_core::{Error, LibmSine, Model, Predictor};
 
-/// 8-byte aligned storage: a format-3 blob's tensors start at multiples of 4
-/// from its first byte, so at an aligned address the Cortex-M4/M7 kernels can
-/// use word loads (`include_bytes!` alone has alignment 1; any address works,
-/// only slower).
-#[repr(C, align(8))]
-struct Aligned<T>(T);
-static ALIGNED: Aligned<[u8; include_bytes!("../../weights/sdd-tiny-v2-qe.gpec").len()]> =
-    Aligned(*include_bytes!("../../weights/sdd-tiny-v2-qe.gpec"));
-/// The default blob, linked in and read in place: on a microcontroller it stays in flash.
-static BLOB: &[u8] = &ALIGNED.0;
+/// The default blob `BLOB`: the shipped MCU model, linked in 8-byte aligned and read in place.
+mod common;
+use common::BLOB;
 
 /// Scratch width: at least `Model::scratch_width()` (the widest layer) of any
 /// blob this example may be given; 1024 covers the paper-size model.
