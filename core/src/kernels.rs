@@ -64,29 +64,30 @@ pub(crate) fn dot2_q15(
     }
     let (mut a0l, mut a0h) = (a0 as u32, (a0 >> 32) as u32);
     let (mut a1l, mut a1h) = (a1 as u32, (a1 >> 32) as u32);
-    let p0 = g.as_ptr().wrapping_add(lo);
-    if (p0 as usize | n) & 3 == 0 {
-        // Both rows' columns start word aligned (a format-3 blob at an
-        // aligned address, an even `in_dim`, an even `lo / 2`): per 4
-        // inputs one `LDRD` of activations, one `LDRD` of two weight pairs
-        // per row, four `SMLALD` = 7 instructions for 8 MACs.
-        //
-        // SAFETY: reads `x[..k]` (k ≤ x.len()) with `LDRD` at 4-byte aligned
-        // addresses (`x` is 4-byte aligned, checked above, and advances by
-        // 8), and bytes `[lo, lo + 2k)` and `[n + lo, n + lo + 2k)` of `g`
-        // (inside `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) with
-        // `LDRD` at `p0` and `p1 = p0 + n`, both 4-byte aligned (`p0` and
-        // `n` checked just above), each advancing by 8. `LDRD` needs word
-        // alignment only (Armv7-M), which holds. No writes to memory, no
-        // stack; the flags are clobbered (asm! assumes so without
-        // `preserves_flags`); every register written is a declared operand.
-        unsafe {
-            asm!(
-                "add {p1}, {p1}, {p0}",
-                // m = number of 4-input blocks (≥ 1); 4 blocks per iteration first.
-                "subs {m}, {m}, #4",
-                "blt 3f",
-                "2:",
+    // SAFETY: reads `x[..k]` (k ≤ x.len()) with `LDRD` at 4-byte aligned
+    // addresses (`x` is 4-byte aligned, checked above, and advances by 8),
+    // and bytes `[lo, lo + 2k)` and `[n + lo, n + lo + 2k)` of `g` (inside
+    // `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) through `p0 = g +
+    // lo` and `p1 = p0 + n`, each advancing over its own row. When both are
+    // 4-byte aligned (tested in the block: `(p0 | p1) & 3 == 0`) the
+    // weights are read with `LDRD`, which needs word alignment only
+    // (Armv7-M), so it holds; otherwise with `LDR`, which the Cortex-M4/M7
+    // allow unaligned on normal memory (flash and SRAM; `CCR.UNALIGN_TRP` is
+    // 0 out of reset and the firmware never sets it). No writes to memory,
+    // no stack; the flags are clobbered (asm! assumes so without
+    // `preserves_flags`); every register written is a declared operand.
+    unsafe {
+        asm!(
+            "add {p1}, {p1}, {p0}",
+            "orr {w0}, {p0}, {p1}",
+            "tst {w0}, #3",
+            "bne 6f",
+            // Aligned rows: per 4 inputs one LDRD of activations, one LDRD of
+            // two weight pairs per row, four SMLALD (7 instructions, 8 MACs);
+            // m = number of 4-input blocks (≥ 1), 4 blocks per iteration first.
+            "subs {m}, {m}, #4",
+            "blt 3f",
+            "2:",
                 "ldrd {x0}, {x1}, [{xp}], #8",
                 "ldrd {w0}, {w1}, [{p0}], #8",
                 "smlald {a0}, {a1}, {w0}, {x0}",
@@ -115,13 +116,12 @@ pub(crate) fn dot2_q15(
                 "ldrd {w0}, {w1}, [{p1}], #8",
                 "smlald {b0}, {b1}, {w0}, {x0}",
                 "smlald {b0}, {b1}, {w1}, {x1}",
-                "subs {m}, {m}, #4",
-                "bge 2b",
-                "3:",
-                // 0..=3 blocks left.
-                "adds {m}, {m}, #4",
-                "beq 5f",
-                "4:",
+            "subs {m}, {m}, #4",
+            "bge 2b",
+            "3:",
+            "adds {m}, {m}, #4",
+            "beq 9f",
+            "4:",
                 "ldrd {x0}, {x1}, [{xp}], #8",
                 "ldrd {w0}, {w1}, [{p0}], #8",
                 "smlald {a0}, {a1}, {w0}, {x0}",
@@ -129,110 +129,83 @@ pub(crate) fn dot2_q15(
                 "ldrd {w0}, {w1}, [{p1}], #8",
                 "smlald {b0}, {b1}, {w0}, {x0}",
                 "smlald {b0}, {b1}, {w1}, {x1}",
-                "subs {m}, {m}, #1",
-                "bne 4b",
-                "5:",
-                m = inout(reg) k / 4 => _,
-                xp = inout(reg) x.as_ptr() => _,
-                p0 = inout(reg) p0 => _,
-                // p1 = p0 + n, formed in n's register.
-                p1 = inout(reg) n => _,
-                x0 = out(reg) _,
-                x1 = out(reg) _,
-                w0 = out(reg) _,
-                w1 = out(reg) _,
-                a0 = inout(reg) a0l,
-                a1 = inout(reg) a0h,
-                b0 = inout(reg) a1l,
-                b1 = inout(reg) a1h,
-                options(nostack, readonly),
-            );
-        }
-    } else {
-        // SAFETY: reads `x[..k]` (k ≤ x.len()) with `LDRD` at 4-byte aligned
-        // addresses (`x` is 4-byte aligned, checked above, and advances by 8),
-        // and bytes `[lo, lo + 2k)` and `[n + lo, n + lo + 2k)` of `g` (both
-        // inside `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) with
-        // `LDR` at `p` and `p + n`, `p` walking row 0 from `g + lo`. `LDR` may be unaligned: the
-        // Cortex-M4/M7 allow it on normal memory (flash and SRAM;
-        // `CCR.UNALIGN_TRP` is 0 out of reset and the firmware never sets it).
-        // No writes to memory, no stack; the flags are clobbered (asm! assumes
-        // so without `preserves_flags`); all registers written are declared.
-        unsafe {
-            asm!(
-                // m = number of 4-input blocks (≥ 1); 4 blocks per iteration first.
-                "subs {m}, {m}, #4",
-                "blt 3f",
-                "2:",
+            "subs {m}, {m}, #1",
+            "bne 4b",
+            "b 9f",
+            // Rows at any alignment: two LDR per row (9 instructions, 8 MACs).
+            "6:",
+            "subs {m}, {m}, #4",
+            "blt 7f",
+            "5:",
                 "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x0}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x0}",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x1}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x1}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x0}",
+                "smlald {b0}, {b1}, {w1}, {x0}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x1}",
+                "smlald {b0}, {b1}, {w1}, {x1}",
                 "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x0}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x0}",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x1}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x1}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x0}",
+                "smlald {b0}, {b1}, {w1}, {x0}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x1}",
+                "smlald {b0}, {b1}, {w1}, {x1}",
                 "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x0}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x0}",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x1}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x1}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x0}",
+                "smlald {b0}, {b1}, {w1}, {x0}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x1}",
+                "smlald {b0}, {b1}, {w1}, {x1}",
                 "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x0}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x0}",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x1}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x1}",
-                "subs {m}, {m}, #4",
-                "bge 2b",
-                "3:",
-                // 0..=3 blocks left.
-                "adds {m}, {m}, #4",
-                "beq 5f",
-                "4:",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x0}",
+                "smlald {b0}, {b1}, {w1}, {x0}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x1}",
+                "smlald {b0}, {b1}, {w1}, {x1}",
+            "subs {m}, {m}, #4",
+            "bge 5b",
+            "7:",
+            "adds {m}, {m}, #4",
+            "beq 9f",
+            "8:",
                 "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x0}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x0}",
-                "ldr {w}, [{p}, {d}]",
-                "smlald {b0}, {b1}, {w}, {x1}",
-                "ldr {w}, [{p}], #4",
-                "smlald {a0}, {a1}, {w}, {x1}",
-                "subs {m}, {m}, #1",
-                "bne 4b",
-                "5:",
-                m = inout(reg) k / 4 => _,
-                xp = inout(reg) x.as_ptr() => _,
-                p = inout(reg) p0 => _,
-                d = in(reg) n,
-                x0 = out(reg) _,
-                x1 = out(reg) _,
-                w = out(reg) _,
-                a0 = inout(reg) a0l,
-                a1 = inout(reg) a0h,
-                b0 = inout(reg) a1l,
-                b1 = inout(reg) a1h,
-                options(nostack, readonly),
-            );
-        }
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x0}",
+                "smlald {b0}, {b1}, {w1}, {x0}",
+                "ldr {w0}, [{p0}], #4",
+                "ldr {w1}, [{p1}], #4",
+                "smlald {a0}, {a1}, {w0}, {x1}",
+                "smlald {b0}, {b1}, {w1}, {x1}",
+            "subs {m}, {m}, #1",
+            "bne 8b",
+            "9:",
+            m = inout(reg) k / 4 => _,
+            xp = inout(reg) x.as_ptr() => _,
+            p0 = inout(reg) g.as_ptr().wrapping_add(lo) => _,
+            // p1 = p0 + n, formed in n's register.
+            p1 = inout(reg) n => _,
+            x0 = out(reg) _,
+            x1 = out(reg) _,
+            w0 = out(reg) _,
+            w1 = out(reg) _,
+            a0 = inout(reg) a0l,
+            a1 = inout(reg) a0h,
+            b0 = inout(reg) a1l,
+            b1 = inout(reg) a1h,
+            options(nostack, readonly),
+        );
     }
     (
         (u64::from(a0l) | (u64::from(a0h) << 32)) as i64,
