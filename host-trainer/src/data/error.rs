@@ -185,35 +185,29 @@ pub enum DataError {
 impl DataError {
     /// The file (or directory) the error is about.
     pub fn path(&self) -> &Path {
-        match self {
-            DataError::Missing { path, .. }
-            | DataError::NoFiles { path }
-            | DataError::Io { path, .. }
-            | DataError::Encoding { path, .. }
-            | DataError::ColumnCount { path, .. }
-            | DataError::BadNumber { path, .. }
-            | DataError::NonFinite { path, .. }
-            | DataError::OutOfRange { path, .. }
-            | DataError::TrajectoryLength { path, .. }
-            | DataError::FrameStep { path, .. }
-            | DataError::DuplicateRow { path, .. }
-            | DataError::BadScale { path, .. } => path,
-        }
+        self.location().0
     }
 
     /// The 1-based line number, for errors about file content.
     pub fn line(&self) -> Option<usize> {
+        self.location().1
+    }
+
+    /// The file (or directory) and, for errors about file content, the 1-based line.
+    fn location(&self) -> (&Path, Option<usize>) {
         match self {
-            DataError::Encoding { line, .. }
-            | DataError::ColumnCount { line, .. }
-            | DataError::BadNumber { line, .. }
-            | DataError::NonFinite { line, .. }
-            | DataError::OutOfRange { line, .. }
-            | DataError::TrajectoryLength { line, .. }
-            | DataError::FrameStep { line, .. }
-            | DataError::DuplicateRow { line, .. }
-            | DataError::BadScale { line, .. } => Some(*line),
-            DataError::Missing { .. } | DataError::NoFiles { .. } | DataError::Io { .. } => None,
+            DataError::Missing { path, .. }
+            | DataError::NoFiles { path }
+            | DataError::Io { path, .. } => (path, None),
+            DataError::Encoding { path, line }
+            | DataError::ColumnCount { path, line, .. }
+            | DataError::BadNumber { path, line, .. }
+            | DataError::NonFinite { path, line, .. }
+            | DataError::OutOfRange { path, line, .. }
+            | DataError::TrajectoryLength { path, line, .. }
+            | DataError::FrameStep { path, line, .. }
+            | DataError::DuplicateRow { path, line, .. }
+            | DataError::BadScale { path, line, .. } => (path, Some(*line)),
         }
     }
 }

@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::rows::{id_key, scene_name, sorted_txt_files};
+use super::rows::{id_key, load_split, scene_name};
 use super::*;
 
 /// The ETH/UCY splits (Social-GAN leave-one-scene-out).
@@ -101,14 +101,11 @@ pub fn load_eth_ucy(root: &Path, scene: &str, split: EthUcySplit) -> Result<Data
         split.dir_name(),
         ETH_UCY_SCENES.join(", ")
     );
-    let files = sorted_txt_files(&dir, &what)?;
-    let mut windows = Vec::new();
-    for f in &files {
-        windows.extend(parse_eth_ucy_file(f)?);
-    }
-    Ok(Dataset {
-        name: format!("eth_ucy/{scene}/{}", split.dir_name()),
-        unit: Unit::Metres,
-        windows,
-    })
+    load_split(
+        &dir,
+        &what,
+        parse_eth_ucy_file,
+        format!("eth_ucy/{scene}/{}", split.dir_name()),
+        Unit::Metres,
+    )
 }

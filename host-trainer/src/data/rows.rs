@@ -166,6 +166,26 @@ pub(super) fn sorted_txt_files(dir: &Path, what: &str) -> Result<Vec<PathBuf>, D
     Ok(files)
 }
 
+/// One split of a benchmark: every `*.txt` file of `dir` ([`sorted_txt_files`]; `what` names
+/// the directory in a "missing" error) cut into windows by `parse`, in file order.
+pub(super) fn load_split(
+    dir: &Path,
+    what: &str,
+    parse: fn(&Path) -> Result<Vec<Window>, DataError>,
+    name: String,
+    unit: Unit,
+) -> Result<Dataset, DataError> {
+    let mut windows = Vec::new();
+    for f in &sorted_txt_files(dir, what)? {
+        windows.extend(parse(f)?);
+    }
+    Ok(Dataset {
+        name,
+        unit,
+        windows,
+    })
+}
+
 pub(super) fn scene_name(path: &Path) -> String {
     path.file_stem()
         .map(|s| s.to_string_lossy().into_owned())

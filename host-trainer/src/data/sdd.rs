@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::rows::{id_key, scene_name, sorted_txt_files};
+use super::rows::{id_key, load_split, scene_name};
 use super::*;
 
 /// The SDD splits shipped in `shared/data/sdd/`.
@@ -103,14 +103,11 @@ pub fn parse_sdd_file(path: &Path) -> Result<Vec<Window>, DataError> {
 /// Counts: train 30 scenes / 8494 windows, train_extra 1 / 491, test 17 / 2829.
 pub fn load_sdd(root: &Path, split: SddSplit) -> Result<Dataset, DataError> {
     let dir = root.join("sdd").join(split.dir_name());
-    let files = sorted_txt_files(&dir, &format!("SDD {} directory", split.dir_name()))?;
-    let mut windows = Vec::new();
-    for f in &files {
-        windows.extend(parse_sdd_file(f)?);
-    }
-    Ok(Dataset {
-        name: format!("sdd/{}", split.dir_name()),
-        unit: Unit::Pixels,
-        windows,
-    })
+    load_split(
+        &dir,
+        &format!("SDD {} directory", split.dir_name()),
+        parse_sdd_file,
+        format!("sdd/{}", split.dir_name()),
+        Unit::Pixels,
+    )
 }
