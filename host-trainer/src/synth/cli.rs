@@ -121,6 +121,12 @@ fn type_table(rows: &[(&str, [usize; 10])]) -> String {
     s
 }
 
+/// Each count's share of the total (all zeros when the total is 0).
+fn fractions(counts: &[usize]) -> Vec<f64> {
+    let n: usize = counts.iter().sum();
+    counts.iter().map(|&c| c as f64 / n.max(1) as f64).collect()
+}
+
 fn windows_of(ds: &Dataset) -> impl Iterator<Item = &[[f32; 2]]> {
     ds.windows.iter().map(|w| &w.pos[..])
 }
@@ -146,13 +152,8 @@ pub fn run_classify(data: &Path, out: &Path) -> Result<String> {
         let _ = writeln!(rep, "| {u} | {} | {} |", ht[u], he[u]);
     }
     let labels: Vec<String> = (1..ht.len()).map(|u| u.to_string()).collect();
-    let frac = |h: &[usize]| {
-        let n: usize = h.iter().sum();
-        h[1..]
-            .iter()
-            .map(|&c| c as f64 / n.max(1) as f64)
-            .collect::<Vec<_>>()
-    };
+    // Index 0 (no points) counts in the total but has no bar.
+    let frac = |h: &[usize]| fractions(h)[1..].to_vec();
     write(
         out,
         "unique_points.svg",
@@ -167,12 +168,6 @@ pub fn run_classify(data: &Path, out: &Path) -> Result<String> {
         .iter()
         .map(|t| t.label().to_string())
         .collect();
-    let tf = |c: &[usize; 10]| {
-        let n: usize = c.iter().sum();
-        c.iter()
-            .map(|&k| k as f64 / n.max(1) as f64)
-            .collect::<Vec<_>>()
-    };
     write(
         out,
         "types.svg",
@@ -180,7 +175,7 @@ pub fn run_classify(data: &Path, out: &Path) -> Result<String> {
             "SDD: trajectory types",
             "fraction",
             &tl,
-            &[(&train.name, tf(&ct)), (&test.name, tf(&ce))],
+            &[(&train.name, fractions(&ct)), (&test.name, fractions(&ce))],
         ),
     )?;
     // Examples: the first 3 trajectories of each type in train.

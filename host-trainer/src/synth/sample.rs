@@ -89,6 +89,17 @@ fn plateaus(levels: &[[f32; 2]]) -> Traj {
     t
 }
 
+/// A plateau track (types 2 and 3): `2 + rng.below(extra)` levels drawn within `spread` px,
+/// then one jump when `jump` (the `F` variants).
+fn plateau_track(rng: &mut Rng, extra: usize, spread: f32, jump: bool) -> Traj {
+    let k = 2 + rng.below(extra);
+    let mut t = plateaus(&jitter_levels(rng, k, spread));
+    if jump {
+        add_jumps(&mut t, 1, rng);
+    }
+    t
+}
+
 fn add_jumps(t: &mut Traj, n: usize, rng: &mut Rng) {
     for _ in 0..n {
         let at = 1 + rng.below(WINDOW - 1);
@@ -110,19 +121,11 @@ fn candidate(ty: TrajType, policy: &Mlp, turn: usize, rng: &mut Rng) -> (Source,
     match ty {
         TrajType::T1 => (Source::Artefact, place(&[[0.0; 2]; WINDOW], rng)),
         TrajType::T2 | TrajType::T2F => {
-            let k = 2 + rng.below(7);
-            let mut t = plateaus(&jitter_levels(rng, k, 5.0));
-            if ty == TrajType::T2F {
-                add_jumps(&mut t, 1, rng);
-            }
+            let t = plateau_track(rng, 7, 5.0, ty == TrajType::T2F);
             (Source::Artefact, place(&t, rng))
         }
         TrajType::T3 | TrajType::T3F => {
-            let k = 2 + rng.below(8);
-            let mut t = plateaus(&jitter_levels(rng, k, 100.0));
-            if ty == TrajType::T3F {
-                add_jumps(&mut t, 1, rng);
-            }
+            let t = plateau_track(rng, 8, 100.0, ty == TrajType::T3F);
             (Source::Artefact, place(&t, rng))
         }
         TrajType::T4 => {
