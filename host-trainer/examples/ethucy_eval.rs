@@ -28,8 +28,8 @@ use gpecnet_trainer::data::{default_data_root, load_eth_ucy, EthUcySplit, ETH_UC
 use gpecnet_trainer::eval::{constant_velocity_n, evaluate_baseline_with, select_cv_n};
 use gpecnet_trainer::export::blob_bytes;
 use gpecnet_trainer::reference::SineKind;
-use gpecnet_trainer::select::select;
-use gpecnet_trainer::ship::model_from_run;
+use gpecnet_trainer::select::{best, select, table};
+use gpecnet_trainer::ship::{model_from_run, ExportSettings};
 
 /// Endpoints per window.
 const K: usize = 20;
@@ -105,32 +105,20 @@ fn run_scene(a: &Args, scene: &str) -> Result<Row> {
         Some(&s) => s,
         None => {
             let (rows, point) = select(&run, &a.data, &SIGMAS, &TTS, K, SineKind::Libm)?;
-            eprintln!("{scene}: validation (through gpecnet-core, K = {K}):");
-            for r in &rows {
-                eprintln!(
-                    "  sigma {} N {:>3}: minADE {:.3} minFDE {:.3}",
-                    r.sigma, r.tts, r.val.min_ade, r.val.min_fde
-                );
-            }
-            if let Some(p) = point {
-                eprintln!("  point forecast: ADE {:.3} FDE {:.3}", p.ade_k1, p.fde_k1);
-            }
-            let best = rows
-                .iter()
-                .min_by(|x, y| {
-                    (x.val.min_fde, x.val.min_ade)
-                        .partial_cmp(&(y.val.min_fde, y.val.min_ade))
-                        .expect("finite metrics")
-                })
-                .context("empty selection grid")?;
+            eprint!("{scene}: {}", table(K, &rows, point.as_ref()));
+            let best = best(&rows).context("empty selection grid")?;
             (best.sigma, best.tts)
         }
     };
     let (cfg, mut model, epoch) = model_from_run(&run, scene)?;
-    model.config.sigma = sigma;
-    model.config.tts_samples = tts;
-    model.config.tts_iters = if tts > 0 { 3 } else { 0 };
-    model.config.tts_init = 0;
+    let settings = ExportSettings {
+        sine: SineKind::Libm,
+        k: K,
+        base_seed: 0,
+        sigma: Some(sigma),
+        tts: Some(tts),
+    };
+    settings.apply(&mut model, K)?;
     let blob = blob_bytes(&model)?;
 
     let test = load_eth_ucy(&a.data, scene, EthUcySplit::Test)?;

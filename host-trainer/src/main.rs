@@ -129,6 +129,17 @@ fn cmd_onnx(a: OnnxArgs) -> Result<()> {
     Ok(())
 }
 
+/// How the test windows are sampled, the same in every command that scores a model on them.
+#[derive(clap::Args, Debug)]
+struct TestSampling {
+    /// Samples per window (best-of-K).
+    #[arg(long, default_value_t = 20)]
+    k: usize,
+    /// Latent seed of test window i is SEED + i.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
 #[derive(clap::Args, Debug)]
 struct QuantizeArgs {
     /// The f32 source blob.
@@ -140,12 +151,8 @@ struct QuantizeArgs {
     /// Data root holding sdd/ (see shared/data/README.md).
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
     data: PathBuf,
-    /// Samples per window.
-    #[arg(long, default_value_t = 20)]
-    k: usize,
-    /// Latent seed of test window i is SEED + i.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    #[command(flatten)]
+    sampling: TestSampling,
     /// Calibrate on every N-th SDD training window.
     #[arg(long, default_value_t = 4)]
     cal_stride: usize,
@@ -159,8 +166,8 @@ fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
         &a.blob,
         &a.out,
         &a.data,
-        a.k,
-        a.seed,
+        a.sampling.k,
+        a.sampling.seed,
         a.cal_stride,
         8,
         a.endpoint_only,
@@ -191,12 +198,8 @@ struct ExportArgs {
     /// Sine of the reported numbers and golden vectors (the device must use the same).
     #[arg(long, value_enum, default_value = "libm")]
     sine: gpecnet_trainer::reference::SineKind,
-    /// Samples per window.
-    #[arg(long, default_value_t = 20)]
-    k: usize,
-    /// Latent seed of test window i is SEED + i.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    #[command(flatten)]
+    sampling: TestSampling,
     /// Latent sigma written into the blob (default: the training config's). Choose it on
     /// validation with `gpecnet select`.
     #[arg(long)]
@@ -218,12 +221,8 @@ struct EvalArgs {
     /// Sine to run (default: the one the blob's golden file names, else libm).
     #[arg(long, value_enum)]
     sine: Option<gpecnet_trainer::reference::SineKind>,
-    /// Samples per window (best-of-K).
-    #[arg(long, default_value_t = 20)]
-    k: usize,
-    /// Latent seed of test window i is SEED + i.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    #[command(flatten)]
+    sampling: TestSampling,
     /// Where to draw predictions (SVG).
     #[arg(long, value_name = "FILE", default_value = "out/predictions.svg")]
     draw: PathBuf,
@@ -245,8 +244,8 @@ struct EvalArgs {
 fn cmd_export(a: ExportArgs) -> Result<()> {
     let settings = gpecnet_trainer::ship::ExportSettings {
         sine: a.sine,
-        k: a.k,
-        base_seed: a.seed,
+        k: a.sampling.k,
+        base_seed: a.sampling.seed,
         sigma: a.sigma,
         tts: a.tts,
     };
@@ -275,13 +274,19 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         &a.blob,
         &a.data,
         a.sine,
-        a.k,
-        a.seed,
+        a.sampling.k,
+        a.sampling.seed,
         Some(&a.draw),
         a.n_draw,
     )?;
     let update = if a.update_card {
-        let u = gpecnet_trainer::ship::update_card_dist(&a.blob, &a.data, &r, a.k, a.seed)?;
+        let u = gpecnet_trainer::ship::update_card_dist(
+            &a.blob,
+            &a.data,
+            &r,
+            a.sampling.k,
+            a.sampling.seed,
+        )?;
         // update_card_dist checked the card's ADE/FDE and wrote (or checked) the rest.
         r.matches_card = Some(true);
         Some(u)
@@ -385,8 +390,8 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         eprintln!("{u}");
     }
     if r.matches_card == Some(false)
-        && a.k == 20
-        && a.seed == 0
+        && a.sampling.k == 20
+        && a.sampling.seed == 0
         && a.sine.is_none()
         && !a.update_card
     {
@@ -431,18 +436,10 @@ fn cmd_select(a: SelectArgs) -> Result<()> {
         println!("{v}");
         return Ok(());
     }
-    println!("validation, through gpecnet-core, K = {}:", a.k);
-    println!("| sigma | N | minADE | minFDE |");
-    println!("|---|---|---|---|");
-    for r in &rows {
-        println!(
-            "| {} | {} | {:.2} | {:.2} |",
-            r.sigma, r.tts, r.val.min_ade, r.val.min_fde
-        );
-    }
-    if let Some(p) = point {
-        println!("point forecast: ADE {:.2} FDE {:.2}", p.ade_k1, p.fde_k1);
-    }
+    print!(
+        "{}",
+        gpecnet_trainer::select::table(a.k, &rows, point.as_ref())
+    );
     Ok(())
 }
 
@@ -711,12 +708,8 @@ struct SweepArgs {
     /// Data root holding sdd/.
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
     data: PathBuf,
-    /// Samples per test window.
-    #[arg(long, default_value_t = 20)]
-    k: usize,
-    /// Latent seed of test window i is SEED + i.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    #[command(flatten)]
+    sampling: TestSampling,
     /// No per-epoch lines.
     #[arg(long)]
     quiet: bool,
@@ -741,8 +734,8 @@ fn cmd_sweep(a: SweepArgs) -> Result<()> {
         pool_seed: a.pool_seed,
         pool_n: a.pool_n,
         out: a.out,
-        k: a.k,
-        base_seed: a.seed,
+        k: a.sampling.k,
+        base_seed: a.sampling.seed,
         quiet: a.quiet,
         command,
     };

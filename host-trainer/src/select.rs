@@ -81,3 +81,31 @@ pub fn select(
     let point = evaluate_point_core(&blob_bytes(&model)?, sine, &val)?.map(|(m, _)| m);
     Ok((rows, point))
 }
+
+/// The setting [`select`]'s rows recommend: lowest validation minFDE, ties by minADE (`None`
+/// for no rows).
+pub fn best(rows: &[SelectRow]) -> Option<&SelectRow> {
+    rows.iter().min_by(|x, y| {
+        (x.val.min_fde.total_cmp(&y.val.min_fde)).then(x.val.min_ade.total_cmp(&y.val.min_ade))
+    })
+}
+
+/// [`select`]'s result as `gpecnet select` prints it: a Markdown table of the rows (K = `k`)
+/// and the point forecast's line; every line ends in a newline.
+pub fn table(k: usize, rows: &[SelectRow], point: Option<&Metrics>) -> String {
+    let mut s = format!("validation, through gpecnet-core, K = {k}:\n");
+    s.push_str("| sigma | N | minADE | minFDE |\n|---|---|---|---|\n");
+    for r in rows {
+        s.push_str(&format!(
+            "| {} | {} | {:.2} | {:.2} |\n",
+            r.sigma, r.tts, r.val.min_ade, r.val.min_fde
+        ));
+    }
+    if let Some(p) = point {
+        s.push_str(&format!(
+            "point forecast: ADE {:.2} FDE {:.2}\n",
+            p.ade_k1, p.fde_k1
+        ));
+    }
+    s
+}
