@@ -65,11 +65,13 @@ impl Sine for LibmSine {
     fn sin(x: f32) -> f32 {
         libm::sinf(x)
     }
-    /// Every lane through [`libm_sinf_medium`] (branch-free, so the lanes
-    /// vectorise) when all of them are below `2^28·π/2` in magnitude (the
-    /// case of every SIREN pre-activation); otherwise `libm::sinf` lane by
-    /// lane. The same bits as `libm::sinf` either way
-    /// (`sine::tests::lanes_equal_libm_*`).
+    /// When every lane is below `2^28·π/2` in magnitude (the case of every
+    /// SIREN pre-activation): `libm::sinf`'s algorithm written without
+    /// branches (each case's reduced argument and both f64 kernels computed,
+    /// the right one selected by bit masks), so the lanes vectorise;
+    /// otherwise `libm::sinf` lane by lane. The same bits as `libm::sinf`
+    /// either way (`sine::tests::lanes_equal_libm_sampled`, and
+    /// `lanes_equal_libm_all` over every f32).
     #[inline]
     fn sin_lanes<const L: usize>(x: &mut [f32; L]) {
         if x.iter().any(|v| v.to_bits() & 0x7fff_ffff >= MEDIUM_LIMIT) {
