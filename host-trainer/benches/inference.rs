@@ -1,13 +1,29 @@
-//! Batch inference on the SDD test set with the shipped `sdd-small` blobs:
-//! through `gpecnet-core` (f32 libm sine, f32 fast sine, fixed point) and the
-//! trainer's reference path. One iteration = 256 test windows × K = 20
-//! trajectories, on all cores.
+//! Inference speed with the shipped blobs.
 //!
-//! `cargo bench -p gpecnet-trainer --bench inference`
+//! - `inference_256_windows_k20`: the trainer's evaluation of 256 SDD test
+//!   windows × K = 20 trajectories with `sdd-small` (`sdd-small-q`), on all
+//!   cores: through `gpecnet-core` (f32 libm sine, f32 fast sine, fixed
+//!   point) and the trainer's reference path.
+//! - `one_pedestrian/<model>/<path>/<K>`: K endpoints of one SDD test window
+//!   (`predict_samples`), one thread, `scalar` = `gpecnet_core::Predictor`,
+//!   `batched` = `gpecnet_core::batch::BatchPredictor` (8 lanes; the same
+//!   bits), for `sdd-small` and `sdd-paper`, K = 1, 20, 200, 1000.
+//! - `test_set_k20/<model>/<path>`: K = 20 endpoints of every SDD test window
+//!   (2829; every 10th, 283, for `sdd-paper`, whose scalar pass over the
+//!   whole set takes a minute), one thread: the scalar predictor window by
+//!   window, or `predict_samples_many` over all of them.
+//!
+//! `cargo bench -p gpecnet-trainer --bench inference` (results:
+//! `docs/host-speed.md`); one group: append its name, e.g. `-- one_pedestrian`.
 
 use std::path::Path;
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use gpecnet_core::batch::{HostBatchPredictor, Query};
+use gpecnet_core::{LibmSine, Model, Predictor};
+use gpecnet_trainer::core_eval::HOST_WIDTH;
 use gpecnet_trainer::core_eval::{evaluate_core, evaluate_reference};
 use gpecnet_trainer::data::{self, load_sdd, SddSplit};
 use gpecnet_trainer::export::read_blob;
@@ -39,5 +55,68 @@ fn bench_inference(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_inference);
+/// Scalar vs batched, one pedestrian and the test set, one thread.
+fn bench_scalar_vs_batched(c: &mut Criterion) {
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights");
+    let test = load_sdd(&data::default_data_root(), SddSplit::Test).expect("SDD test set");
+    let pasts: Vec<[[f32; 2]; 8]> = test.windows.iter().map(|w| w.obs()).collect();
+    for name in ["sdd-small", "sdd-paper"] {
+        let blob = std::fs::read(weights.join(format!("{name}.gpec"))).expect("blob");
+        let model = Model::from_blob(&blob).expect("valid blob");
+        let mut scalar = Box::new(Predictor::<LibmSine, HOST_WIDTH>::new(model).expect("fits"));
+        let mut batched =
+            Box::new(HostBatchPredictor::<LibmSine, HOST_WIDTH>::new(model).expect("fits"));
+        let past = &pasts[0];
+
+        let mut g = c.benchmark_group(format!("one_pedestrian/{name}"));
+        g.sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(2));
+        for k in [1usize, 20, 200, 1000] {
+            let mut out = vec![[0.0f32; 2]; k];
+            g.throughput(Throughput::Elements(k as u64));
+            g.bench_with_input(BenchmarkId::new("scalar", k), &k, |b, _| {
+                b.iter(|| scalar.predict_samples(past, 0, &mut out).expect("ok"))
+            });
+            g.bench_with_input(BenchmarkId::new("batched", k), &k, |b, _| {
+                b.iter(|| batched.predict_samples(past, 0, &mut out).expect("ok"))
+            });
+        }
+        g.finish();
+
+        let step = if name == "sdd-paper" { 10 } else { 1 };
+        let queries: Vec<Query<'_>> = pasts
+            .iter()
+            .step_by(step)
+            .enumerate()
+            .map(|(i, p)| Query {
+                past: p,
+                seed: i as u64,
+            })
+            .collect();
+        let mut out = vec![[0.0f32; 2]; 20 * queries.len()];
+        let mut g = c.benchmark_group(format!("test_set_k20/{name}"));
+        g.sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(2));
+        g.throughput(Throughput::Elements(queries.len() as u64));
+        g.bench_function("scalar", |b| {
+            b.iter(|| {
+                for (q, o) in queries.iter().zip(out.chunks_mut(20)) {
+                    scalar.predict_samples(q.past, q.seed, o).expect("ok");
+                }
+            })
+        });
+        g.bench_function("batched", |b| {
+            b.iter(|| {
+                batched
+                    .predict_samples_many(&queries, 20, &mut out)
+                    .expect("ok")
+            })
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, bench_inference, bench_scalar_vs_batched);
 criterion_main!(benches);
