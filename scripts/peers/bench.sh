@@ -18,6 +18,7 @@
 #   TRAIN_CONFIGS  configs under host-trainer/configs (default "sdd-tiny sdd-small sdd-paper")
 #   TRAIN_THREADS  thread counts for training (default "1 2")
 #   OUT_MD         report path (default docs/peers.md)
+#   SKIP_PREP=1    reuse target/peers (ONNX files, dumps, check results) from an earlier run
 #
 # Python packages: torch from the PyTorch CPU wheel index when reachable, else from PyPI
 # (there it pulls the CUDA runtime wheels too, a few GB; only the CPU is used); onnxruntime,
@@ -39,6 +40,8 @@ OUT_MD=${OUT_MD:-docs/peers.md}
 OUT=target/peers
 PY=$VENV/bin/python
 mkdir -p "$OUT"
+RESULTS=$OUT/results.jsonl
+: > "$RESULTS"
 
 log() { printf '[bench %s] %s\n' "$(date -u +%H:%M:%S)" "$*" >&2; }
 # The 1-minute load average next to the numbers (a shared machine makes them noisy).
@@ -71,17 +74,19 @@ export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 RAYON_NUM_THRE
 # 3. Export, dump the core's inputs/latents/outputs, check agreement.
 CHECKS=()
 for m in $MODELS; do
+    CHECKS+=("$OUT/check-$m.json")
+    if [ "${SKIP_PREP:-0}" = 1 ] && [ -f "$OUT/check-$m.json" ] && [ -f "$OUT/$m-endpoint.onnx" ]; then
+        log "$m: reusing the export, dump and check in $OUT (SKIP_PREP=1)"
+        continue
+    fi
     log "$m: export, dump, check"
     "$GP" onnx --blob "weights/$m.gpec" --out "$OUT/$m.onnx" >/dev/null
     "$GP" onnx --blob "weights/$m.gpec" --out "$OUT/$m-endpoint.onnx" --endpoint-only >/dev/null
     "$PB" dump --blob "weights/$m.gpec" --out "$OUT/$m" >&2
-    (cd scripts/peers && "../../$PY" check.py --onnx "../../$OUT/$m.onnx" --dump "../../$OUT/$m") >&2
-    (cd scripts/peers && "../../$PY" check.py --json --onnx "../../$OUT/$m.onnx" --dump "../../$OUT/$m") > "$OUT/check-$m.json"
-    CHECKS+=("$OUT/check-$m.json")
+    (cd scripts/peers && "../../$PY" check.py --onnx "../../$OUT/$m.onnx" --dump "../../$OUT/$m" \
+        --json-out "../../$OUT/check-$m.json") >&2
 done
 
-RESULTS=$OUT/results.jsonl
-: > "$RESULTS"
 
 # 4. Inference, interleaved: per round, per model: gpecnet, onnxruntime, PyTorch.
 for r in $(seq 1 "$ROUNDS"); do
@@ -102,6 +107,7 @@ done
 
 # 5. Training epochs, interleaved: per round, per config, per thread count: gpecnet, PyTorch.
 for c in $TRAIN_CONFIGS; do
+    [ "${SKIP_PREP:-0}" = 1 ] && [ -f "$OUT/train-$c/manifest.json" ] && continue
     "$PB" train-data --config "host-trainer/configs/$c.toml" --out "$OUT/train-$c" >&2
 done
 for r in $(seq 1 "$TRAIN_ROUNDS"); do

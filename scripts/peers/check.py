@@ -28,6 +28,7 @@ def main():
     ap.add_argument("--dump", required=True)
     ap.add_argument("--tol", type=float, default=0.01, help="max abs difference allowed, px")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--json-out", help="also write the JSON object to this file")
     a = ap.parse_args()
 
     import onnx
@@ -79,6 +80,9 @@ def main():
     worst = max(v for peer in ("onnxruntime", "pytorch") for v in report.get(peer, {}).values())
     report["max_abs_diff_px"] = worst
     report["ok"] = worst <= a.tol
+    if a.json_out:
+        with open(a.json_out, "w") as f:
+            json.dump(report, f)
     if a.json:
         print(json.dumps(report))
     else:

@@ -64,6 +64,8 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--command", default="scripts/peers/bench.sh")
     ap.add_argument("--note", default="", help="extra paragraph under the machine line")
+    ap.add_argument("--readme", help="replace the table between <!-- peers:begin --> and "
+                    "<!-- peers:end --> in this file")
     a = ap.parse_args()
 
     infer = defaultdict(list)  # (model, impl, case) -> [seconds]
@@ -171,7 +173,8 @@ def main():
                 continue
             w(f"| {m} | {label} | {fmt_t(g)} | {fmt_t(gb)} | {fmt_t(o)} | {fmt_t(t)} "
               f"| {ratio(o, g)} | **{ratio(o, gb)}** | {ratio(t, g)} | **{ratio(t, gb)}** |")
-            summary.append((f"{label}, {m}", ratio(o, gb), ratio(t, gb)))
+            summary.append((f"{label}, {m}", f"{ratio(o, gb)} ({ratio(o, g)})",
+                            f"{ratio(t, gb)} ({ratio(t, g)})"))
     w("")
     w("Rounds: " + ", ".join(f"{m} {i} {n}" for (m, i), n in sorted(rounds.items())) + ".")
     if train:
@@ -199,12 +202,32 @@ def main():
         w("")
         w("Epochs per cell: " + ", ".join(
             f"{c} {i} {th}t: {len(v)}" for (c, i, th), v in sorted(train.items())) + ".")
+    notes = __import__("os").path.join(__import__("os").path.dirname(__file__), "notes.md")
+    if __import__("os").path.exists(notes):
+        with open(notes) as f:
+            w("")
+            w(f.read().rstrip())
     with open(a.out, "w") as f:
         f.write("\n".join(lines) + "\n")
-    print("| case | vs onnxruntime | vs PyTorch eager |")
-    print("|---|---|---|")
-    for label, o, t in summary:
-        print(f"| {label} | {o} | {t} |")
+    table = ["| case | vs onnxruntime: batched (scalar) | vs PyTorch eager: batched (scalar) |",
+             "|---|---|---|"]
+    table += [f"| {label} | {o} | {t} |" for label, o, t in summary]
+    print("\n".join(table))
+    if a.readme:
+        with open(a.readme) as f:
+            text = f.read()
+        begin, end = "<!-- peers:begin -->", "<!-- peers:end -->"
+        i, j = text.find(begin), text.find(end)
+        if i < 0 or j < i:
+            print(f"{a.readme}: no {begin} ... {end} block; not changed", file=sys.stderr)
+            return 1
+        block = (f"{begin}\nRatio = peer time / gpecnet time (> 1: gpecnet faster), one thread "
+                 f"each unless stated, medians; gpecnet's batched host path (`gpecnet_core::batch`"
+                 f") first, the scalar `Predictor` in brackets. `{a.command}`, "
+                 f"{cpu()}, {datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d')}"
+                 f"; details, tolerances and why: `docs/peers.md`.\n\n" + "\n".join(table) + "\n")
+        with open(a.readme, "w") as f:
+            f.write(text[:i] + block + text[j:])
     return 0
 
 
