@@ -17,7 +17,7 @@
 #   MODELS         blobs under weights/ (default "sdd-small sdd-paper")
 #   TRAIN_CONFIGS  configs under host-trainer/configs (default "sdd-tiny sdd-small sdd-paper")
 #   TRAIN_THREADS  thread counts for training (default "1 2")
-#   OUT_MD         report path (default docs/peers.md)
+#   OUT_MD         report path (default docs/peers.md; then README.md's peers table too)
 #   SKIP_PREP=1    reuse target/peers (ONNX files, dumps, check results) from an earlier run
 #
 # Python packages: torch from the PyTorch CPU wheel index when reachable, else from PyPI
@@ -120,6 +120,13 @@ for r in $(seq 1 "$TRAIN_ROUNDS"); do
             log "train round $r/$TRAIN_ROUNDS $c, $t thread(s): torch"
             (cd scripts/peers && OMP_NUM_THREADS=$t "../../$PY" train_torch.py --data "../../$OUT/train-$c" \
                 --threads "$t" --epochs "$TRAIN_EPOCHS") >> "$RESULTS"
+            if [ "$t" -gt 1 ]; then
+                # OpenMP workers that sleep instead of spinning: on a loaded machine the default
+                # (spinning) is many times slower at 2 threads than at 1 (docs/peers.md).
+                log "train round $r/$TRAIN_ROUNDS $c, $t thread(s): torch, OMP_WAIT_POLICY=PASSIVE"
+                (cd scripts/peers && OMP_WAIT_POLICY=PASSIVE OMP_NUM_THREADS=$t "../../$PY" train_torch.py \
+                    --data "../../$OUT/train-$c" --threads "$t" --epochs "$TRAIN_EPOCHS" --label torch-passive) >> "$RESULTS"
+            fi
         done
     done
 done
@@ -131,6 +138,9 @@ CMD="scripts/peers/bench.sh"
 [ "$TRAIN_EPOCHS" != 2 ] && CMD="TRAIN_EPOCHS=$TRAIN_EPOCHS $CMD"
 [ "$MODELS" != "sdd-small sdd-paper" ] && CMD="MODELS=\"$MODELS\" $CMD"
 [ "$TRAIN_CONFIGS" != "sdd-tiny sdd-small sdd-paper" ] && CMD="TRAIN_CONFIGS=\"$TRAIN_CONFIGS\" $CMD"
+[ "${SKIP_PREP:-0}" = 1 ] && CMD="SKIP_PREP=1 $CMD"
+README_ARGS=()
+[ "$OUT_MD" = docs/peers.md ] && README_ARGS=(--readme README.md)
 "$PY" scripts/peers/report.py --results "$RESULTS" --checks "${CHECKS[@]}" --out "$OUT_MD" \
-    --command "$CMD" --note "${BENCH_NOTE:-}"
+    --command "$CMD" --note "${BENCH_NOTE:-}" "${README_ARGS[@]}"
 log "wrote $OUT_MD (raw numbers: $RESULTS)"

@@ -187,18 +187,20 @@ def main():
           "(PyTorch's, same lr) and the trainer's own training samples (`peer_bench "
           "train-data`), reading the loss back every batch as the trainer does.")
         w("")
-        w("| config | samples / batch | threads | gpecnet | PyTorch eager | PyTorch / gpecnet |")
-        w("|---|---|---|---|---|---|")
+        w("| config | samples / batch | threads | gpecnet | PyTorch eager | PyTorch / gpecnet "
+          "| PyTorch, `OMP_WAIT_POLICY=PASSIVE` | its ratio |")
+        w("|---|---|---|---|---|---|---|---|")
         for cfg in ("sdd-tiny", "sdd-small", "sdd-paper"):
             for th in (1, 2):
                 g, t = med((cfg, "gpecnet", th), train), med((cfg, "torch", th), train)
+                tp = med((cfg, "torch-passive", th), train)
                 if g is None and t is None:
                     continue
                 nt = n_train.get(cfg, ("?", "?"))
                 w(f"| {cfg} | {nt[0]} / {nt[1]} | {th} | {fmt_t(g)} | {fmt_t(t)} "
-                  f"| **{ratio(t, g)}** |")
+                  f"| **{ratio(t, g)}** | {fmt_t(tp)} | {ratio(tp, g)} |")
                 summary.append((f"training epoch, {cfg}, {th} thread{'s' if th > 1 else ''}",
-                                "–", ratio(t, g)))
+                                "–", ratio(t, g) + (f" (PASSIVE: {ratio(tp, g)})" if tp else "")))
         w("")
         w("Epochs per cell: " + ", ".join(
             f"{c} {i} {th}t: {len(v)}" for (c, i, th), v in sorted(train.items())) + ".")

@@ -100,6 +100,7 @@ def main():
     ap.add_argument("--data", required=True, help="folder written by peer_bench train-data")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--epochs", type=int, default=2, help="timed epochs (after one warm-up)")
+    ap.add_argument("--label", default="torch", help="impl name in the JSON")
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
     torch.manual_seed(1)
@@ -131,7 +132,8 @@ def main():
         epoch()
         times.append(time.perf_counter() - t0)
     print(json.dumps({
-        "impl": "torch",
+        "impl": a.label,
+        "omp_wait_policy": __import__("os").environ.get("OMP_WAIT_POLICY"),
         "version": f"torch {torch.__version__}",
         "config": man["config"],
         "threads": a.threads,
