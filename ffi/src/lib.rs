@@ -306,16 +306,31 @@ pub struct GpecnetPredictor {
     _opaque: [u8; 0],
 }
 
-/// Runs `f`, turning a panic into [`GPECNET_E_PANIC`] where std can catch it.
+/// Runs the body of an entry point: [`GPECNET_OK`] when `f` succeeds, its status code when
+/// it fails, and [`GPECNET_E_PANIC`] for a panic where std can catch it.
 #[inline]
-fn guard(f: impl FnOnce() -> i32) -> i32 {
+fn guard(f: impl FnOnce() -> Result<(), i32>) -> i32 {
+    let status = || match f() {
+        Ok(()) => GPECNET_OK,
+        Err(e) => e,
+    };
     #[cfg(feature = "std")]
     {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or(GPECNET_E_PANIC)
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(status)).unwrap_or(GPECNET_E_PANIC)
     }
     #[cfg(not(feature = "std"))]
     {
-        f()
+        status()
+    }
+}
+
+/// [`GPECNET_E_NULL_POINTER`] when `p` is NULL.
+#[inline]
+fn non_null<T>(p: *const T) -> Result<(), i32> {
+    if p.is_null() {
+        Err(GPECNET_E_NULL_POINTER)
+    } else {
+        Ok(())
     }
 }
 
@@ -365,36 +380,29 @@ pub unsafe extern "C" fn gpecnet_init(
     blob_len: usize,
 ) -> i32 {
     guard(|| {
-        if storage.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
+        non_null(storage)?;
         if (storage as usize) & (GPECNET_PREDICTOR_ALIGN - 1) != 0 {
-            return GPECNET_E_MISALIGNED;
+            return Err(GPECNET_E_MISALIGNED);
         }
         if storage_len < size_of::<State>() {
-            return GPECNET_E_BAD_LENGTH;
+            return Err(GPECNET_E_BAD_LENGTH);
         }
         let s = storage.cast::<State>();
         // SAFETY: non-null, aligned, and at least size_of::<State>() writable
         // bytes (checked above; the caller guarantees storage_len is true).
         unsafe { core::ptr::addr_of_mut!((*s).tag).write(0) };
-        if blob.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
+        non_null(blob)?;
         // SAFETY: the caller guarantees `blob_len` readable bytes that outlive
         // every use of the predictor (the documented lifetime contract), hence 'static.
         let bytes: &'static [u8] = unsafe { core::slice::from_raw_parts(blob, blob_len) };
-        let pred = match Model::from_blob(bytes)
+        let pred = Model::from_blob(bytes)
             .map_err(Error::from)
             .and_then(Inner::new)
-        {
-            Ok(p) => p,
-            Err(e) => return error_status(e),
-        };
+            .map_err(error_status)?;
         // SAFETY: as above; State has no drop glue, so overwriting a previous
         // predictor leaks nothing.
         unsafe { s.write(State { tag: LIVE, pred }) };
-        GPECNET_OK
+        Ok(())
     })
 }
 
@@ -491,20 +499,15 @@ pub unsafe extern "C" fn gpecnet_predict_point(
     out_len: *mut usize,
 ) -> i32 {
     guard(|| {
-        if out_xy.is_null() || out_len.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
+        non_null(out_xy)?;
+        non_null(out_len)?;
         // SAFETY: the caller's contract on `p` and `past_xy`.
-        let (pred, past) = match unsafe { track(p, past_xy, past_len) } {
-            Ok(v) => v,
-            Err(e) => return e,
-        };
-        let t = match pred.predict_point(past.get(..past_len).unwrap_or(&[])) {
-            Ok(t) => t,
-            Err(e) => return predict_status(e),
-        };
+        let (pred, past) = unsafe { track(p, past_xy, past_len) }?;
+        let t = pred
+            .predict_point(past.get(..past_len).unwrap_or(&[]))
+            .map_err(predict_status)?;
         if t.len() > out_cap {
-            return GPECNET_E_BAD_LENGTH;
+            return Err(GPECNET_E_BAD_LENGTH);
         }
         // SAFETY: non-null, room for out_cap >= t.len() points; out_len is
         // non-null and writable (caller's contract).
@@ -512,7 +515,7 @@ pub unsafe extern "C" fn gpecnet_predict_point(
             write_points(out_xy, &t);
             out_len.write_unaligned(t.len());
         }
-        GPECNET_OK
+        Ok(())
     })
 }
 
@@ -536,29 +539,21 @@ pub unsafe extern "C" fn gpecnet_predict_endpoints(
     k: usize,
 ) -> i32 {
     guard(|| {
-        if out_xy.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
+        non_null(out_xy)?;
         // SAFETY: the caller's contract on `p` and `past_xy`.
-        let (pred, past) = match unsafe { track(p, past_xy, past_len) } {
-            Ok(v) => v,
-            Err(e) => return e,
-        };
+        let (pred, past) = unsafe { track(p, past_xy, past_len) }?;
         let mut ends = [[0.0f32; 2]; GPECNET_MAX_SAMPLES];
         // k endpoints never need fewer than k samples: k > the buffer is a capacity error.
-        let Some(out) = ends.get_mut(..k) else {
-            return GPECNET_E_CAPACITY_EXCEEDED;
-        };
-        if let Err(e) = pred.predict_endpoint_set::<GPECNET_MAX_SAMPLES>(
+        let out = ends.get_mut(..k).ok_or(GPECNET_E_CAPACITY_EXCEEDED)?;
+        pred.predict_endpoint_set::<GPECNET_MAX_SAMPLES>(
             past.get(..past_len).unwrap_or(&[]),
             seed,
             out,
-        ) {
-            return predict_status(e);
-        }
+        )
+        .map_err(predict_status)?;
         // SAFETY: non-null, room for k points (caller's contract).
         unsafe { write_points(out_xy, out) };
-        GPECNET_OK
+        Ok(())
     })
 }
 
@@ -599,14 +594,9 @@ pub unsafe extern "C" fn gpecnet_model_info(
     out: *mut GpecnetModelInfo,
 ) -> i32 {
     guard(|| {
-        if out.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
+        non_null(out)?;
         // SAFETY: the caller's contract on `p`.
-        let pred = match unsafe { state(p) } {
-            Ok(s) => s,
-            Err(e) => return e,
-        };
+        let pred = unsafe { state(p) }?;
         let m = pred.model();
         let ext = m.extensions();
         let max_endpoints = match ext.tts_samples {
@@ -630,7 +620,7 @@ pub unsafe extern "C" fn gpecnet_model_info(
         };
         // SAFETY: non-null, writable (caller's contract).
         unsafe { out.write_unaligned(info) };
-        GPECNET_OK
+        Ok(())
     })
 }
 
@@ -702,21 +692,14 @@ unsafe fn golden_out<T>(
     f: impl FnOnce(&GoldenSet<'_>) -> Result<T, i32>,
 ) -> i32 {
     guard(|| {
-        if golden.is_null() || out.is_null() {
-            return GPECNET_E_NULL_POINTER;
-        }
+        non_null(golden)?;
+        non_null(out)?;
         // SAFETY: non-null, readable for `len` bytes (caller's contract).
         let bytes = unsafe { core::slice::from_raw_parts(golden, len) };
-        let value = match GoldenSet::parse(bytes)
-            .map_err(blob_status)
-            .and_then(|s| f(&s))
-        {
-            Ok(v) => v,
-            Err(e) => return e,
-        };
+        let value = f(&GoldenSet::parse(bytes).map_err(blob_status)?)?;
         // SAFETY: non-null, writable (caller's contract).
         unsafe { out.write_unaligned(value) };
-        GPECNET_OK
+        Ok(())
     })
 }
 
@@ -821,6 +804,7 @@ mod tests {
     #[test]
     fn a_panic_is_a_status_code() {
         assert_eq!(guard(|| panic!("injected")), GPECNET_E_PANIC);
-        assert_eq!(guard(|| GPECNET_OK), GPECNET_OK);
+        assert_eq!(guard(|| Ok(())), GPECNET_OK);
+        assert_eq!(guard(|| Err(GPECNET_E_BAD_LENGTH)), GPECNET_E_BAD_LENGTH);
     }
 }
