@@ -16,7 +16,9 @@ else
   echo "no defmt decoder: run through cargo xtask (fw-run, qemu), or: cargo install defmt-print --locked" >&2
   exit 2
 fi
-timeout "${QEMU_TIMEOUT:-120}" qemu-system-arm -machine "${QEMU_MACHINE:-netduinoplus2}" -nographic \
+# Outer safety net only: hangs are caught by the firmware supervisor within
+# 10 s of emulated time; the M0 soft-float replay takes ~1-2 min on a busy box.
+timeout "${QEMU_TIMEOUT:-600}" qemu-system-arm -machine "${QEMU_MACHINE:-netduinoplus2}" -nographic \
   -monitor none -serial null \
   -semihosting-config enable=on,target=native \
   -kernel "$elf" > "$raw"
