@@ -73,7 +73,7 @@ enum Command {
     ///
     /// Inputs (n = windows, k = latent samples per window):
     ///   x [n, 2*past_len]: the observed past as gpecnet-core's frame input,
-    ///     x[2t+c] = (p_t[c] - p_0[c]) * data_scale, rotated into the heading frame first when
+    ///     x(2t+c) = (p_t(c) - p_0(c)) * data_scale, rotated into the heading frame first when
     ///     the blob has heading_steps > 0 (gpecnet_core::frame::Frame::inputs);
     ///   z [n, k, zdim]: the latent samples, already multiplied by sigma (the core draws them
     ///     from gpecnet_core::prng::Gaussian);

@@ -22,7 +22,7 @@
 //! forward and backward passes perform the very f32 operations of the unfused candle graph, so
 //! training is bit-identical to it, but without its intermediate tensors and zero-filled
 //! gradient accumulators, and the elementwise work is split over the run's threads
-//! ([`for_each_job`]).
+//! (`for_each_job`).
 
 use candle_core::{CpuStorage, CustomOp1, CustomOp2, DType, Device, Layout, Shape, Tensor, Var};
 
@@ -435,7 +435,7 @@ pub fn sine(x: &Tensor, w0: f32) -> candle_core::Result<Tensor> {
 /// `dx = ((0 + dy · cos(x · w0 + 0)) · w0) + 0`, exactly the f32 operations candle performs for
 /// `x.affine(w0, 0).sin()` and its two backward steps (including the additions to zero-filled
 /// gradient accumulators), so the results are bit-identical to the unfused graph. Elements are
-/// independent, so the multi-threaded split ([`chunk_len`]) does not change any bit.
+/// independent, so the multi-threaded split (`chunk_len`) does not change any bit.
 #[derive(Clone, Copy, Debug)]
 pub struct SineOp {
     /// The SIREN factor.

@@ -12,7 +12,7 @@
 //!
 //! Every element is updated on its own, in place (the weights through a candle in-place op, the
 //! gradients read where backprop left them), split into chunks over the run's threads
-//! ([`crate::model::chunk_len`]); the split does not change any bit.
+//! (`model::chunk_len`); the split does not change any bit.
 
 use candle_core::backprop::GradStore;
 use candle_core::{CpuStorage, InplaceOp1, Layout, Storage, Tensor, Var};
