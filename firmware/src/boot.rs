@@ -2,18 +2,12 @@
 //! stack, the watchdog, the embassy executor, the boot line, the fault
 //! self-tests, and the final stack report + exit.
 //!
-//! A binary (src/bin/*.rs) is [`firmware_main!`] (the entry point and the
-//! executor) plus one supervisor task that runs its mode and ends in
-//! [`finish`]:
+//! A binary (src/bin/*.rs) is one [`firmware_main!`] line: the entry point,
+//! the executor and one supervisor task that prints the boot line, runs its
+//! mode and ends in [`finish`]:
 //!
 //! ```ignore
-//! gpecnet_firmware::firmware_main!(Supervision::On, supervisor);
-//!
-//! #[embassy_executor::task]
-//! async fn supervisor(_spawner: Spawner) {
-//!     boot::banner();
-//!     boot::finish(golden_run::run())
-//! }
+//! gpecnet_firmware::firmware_main!(Supervision::On, |_spawner| golden_run::run());
 //! ```
 
 use embassy_executor::{Executor, Spawner};
@@ -78,18 +72,27 @@ pub fn finish(ok: bool) -> ! {
     }
 }
 
-/// The entry point of a firmware binary: [`start`] on the guarded stack,
-/// then [`executor`] with `$supervision`, spawning the task `$task(spawner)`.
+/// A whole firmware binary: the entry point ([`start`] on the guarded
+/// stack), [`executor`] with `$supervision`, and the supervisor task it
+/// spawns, which prints the [`banner`], evaluates `$mode` (a `bool`, `true`
+/// when the mode passed; it may `.await` and use the executor's spawner,
+/// bound to `$spawner`) and ends in [`finish`].
 #[macro_export]
 macro_rules! firmware_main {
-    ($supervision:expr, $task:ident) => {
+    ($supervision:expr, |$spawner:ident| $mode:expr) => {
         #[::cortex_m_rt::entry]
         fn main() -> ! {
             $crate::boot::start(tasks)
         }
 
         extern "C" fn tasks() -> ! {
-            $crate::boot::executor($supervision, |s| s.spawn($task(s).unwrap()))
+            $crate::boot::executor($supervision, |s| s.spawn(supervisor(s).unwrap()))
+        }
+
+        #[::embassy_executor::task]
+        async fn supervisor($spawner: ::embassy_executor::Spawner) {
+            $crate::boot::banner();
+            $crate::boot::finish($mode)
         }
     };
 }

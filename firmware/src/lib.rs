@@ -3,8 +3,9 @@
 //! (STM32F405, the default), `microbit` (nRF51822) and `mps2-an500`, and on
 //! real boards with `board`.
 //!
-//! The binaries (src/bin/) are one mode each, thin: an entry point, one
-//! supervisor task, [`boot::finish`]:
+//! The binaries (src/bin/) are one mode each, thin: one
+//! [`firmware_main!`] line (entry point, executor, supervisor task ending in
+//! [`boot::finish`]):
 //!  * `golden` (default-run): every golden case of every embedded model
 //!    through gpecnet-core, bit-compared with the sidecar; one line per case
 //!    ([`golden_run`]);

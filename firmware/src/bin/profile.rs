@@ -5,14 +5,7 @@
 #![no_std]
 #![no_main]
 
-use embassy_executor::Spawner;
-use gpecnet_firmware::boot::{self, Supervision};
+use gpecnet_firmware::boot::Supervision;
 use gpecnet_firmware::{firmware_main, profile};
 
-firmware_main!(Supervision::BoardOnly, supervisor);
-
-#[embassy_executor::task]
-async fn supervisor(_spawner: Spawner) {
-    boot::banner();
-    boot::finish(profile::run())
-}
+firmware_main!(Supervision::BoardOnly, |_spawner| profile::run());
