@@ -752,14 +752,10 @@ impl Model {
         Ok(())
     }
 
-    /// Training forward pass; `eps ~ N(0, 1)` of shape `[B, zdim]` (from the caller's RNG).
-    pub fn forward_train(&self, batch: &Batch, eps: &Tensor) -> candle_core::Result<TrainForward> {
-        self.forward_train_masked(batch, eps, None)
-    }
-
-    /// [`Model::forward_train`] with the social mask `[B, B]` of the batch (required when the
-    /// model has social pooling, ignored otherwise).
-    pub fn forward_train_masked(
+    /// Training forward pass; `eps ~ N(0, 1)` of shape `[B, zdim]` (from the caller's RNG);
+    /// `mask` is the social mask `[B, B]` of the batch (required when the model has social
+    /// pooling, ignored otherwise).
+    pub fn forward_train(
         &self,
         batch: &Batch,
         eps: &Tensor,
@@ -775,8 +771,7 @@ impl Model {
         let std = logvar.affine(0.5, 0.0)?.exp()?;
         let z = (&mu + std.mul(eps)?)?;
         let dest_recon = self.decoder.forward(&Tensor::cat(&[&features, &z], 1)?)?;
-        let pred_future =
-            self.predict_future_masked(&features, &dest_recon, &batch.initial_pos, mask)?;
+        let pred_future = self.predict_future(&features, &dest_recon, &batch.initial_pos, mask)?;
         Ok(TrainForward {
             dest_recon,
             mu,
@@ -785,19 +780,15 @@ impl Model {
         })
     }
 
-    /// PECNet's loss: `MSE(dest, dest_recon) + kld_reg * KLD + adl_reg * MSE(future, pred)`.
-    pub fn loss(&self, batch: &Batch, eps: &Tensor) -> candle_core::Result<Loss> {
-        self.loss_masked(batch, eps, None)
-    }
-
-    /// [`Model::loss`] with the batch's social mask (see [`Model::forward_train_masked`]).
-    pub fn loss_masked(
+    /// PECNet's loss: `MSE(dest, dest_recon) + kld_reg * KLD + adl_reg * MSE(future, pred)`,
+    /// with the batch's social mask (see [`Model::forward_train`]).
+    pub fn loss(
         &self,
         batch: &Batch,
         eps: &Tensor,
         mask: Option<&Tensor>,
     ) -> candle_core::Result<Loss> {
-        let f = self.forward_train_masked(batch, eps, mask)?;
+        let f = self.forward_train(batch, eps, mask)?;
         let rcl = (&batch.dest - &f.dest_recon)?.sqr()?.mean_all()?;
         let adl = (&batch.future - &f.pred_future)?.sqr()?.mean_all()?;
         // -0.5 * sum(1 + logvar - mu^2 - exp(logvar))
@@ -839,19 +830,10 @@ impl Model {
         self.decoder.forward(&Tensor::cat(&[features, z], 1)?)
     }
 
-    /// The 11 intermediate points `[B, 22]` given features, an endpoint and `initial_pos`.
+    /// The 11 intermediate points `[B, 22]` given features, an endpoint and `initial_pos`,
+    /// with social pooling of the predictor's input features over `mask` `[B, B]` when the
+    /// model has it (then `mask` is required; ignored otherwise).
     pub fn predict_future(
-        &self,
-        features: &Tensor,
-        dest: &Tensor,
-        initial_pos: &Tensor,
-    ) -> candle_core::Result<Tensor> {
-        self.predict_future_masked(features, dest, initial_pos, None)
-    }
-
-    /// [`Model::predict_future`] with social pooling of the predictor's input features over
-    /// `mask` `[B, B]` when the model has it (then `mask` is required).
-    pub fn predict_future_masked(
         &self,
         features: &Tensor,
         dest: &Tensor,
@@ -872,19 +854,9 @@ impl Model {
     }
 
     /// Inference: full 12-step futures in model space, `[B, FUTURE, 2]`, for latents `z`
-    /// `[B, zdim]` (PECNet draws `z ~ N(0, sigma^2)`): 11 predicted points + the endpoint.
+    /// `[B, zdim]` (PECNet draws `z ~ N(0, sigma^2)`): 11 predicted points + the endpoint;
+    /// `mask` is the social mask `[B, B]` of the rows (see [`Model::predict_future`]).
     pub fn sample_future(
-        &self,
-        obs: &Tensor,
-        initial_pos: &Tensor,
-        z: &Tensor,
-    ) -> candle_core::Result<Tensor> {
-        self.sample_future_masked(obs, initial_pos, z, None)
-    }
-
-    /// [`Model::sample_future`] with the social mask `[B, B]` of the rows (see
-    /// [`Model::predict_future_masked`]).
-    pub fn sample_future_masked(
         &self,
         obs: &Tensor,
         initial_pos: &Tensor,
@@ -893,7 +865,7 @@ impl Model {
     ) -> candle_core::Result<Tensor> {
         let features = self.encode_past(obs)?;
         let dest = self.decode_dest(&features, z)?;
-        let inter = self.predict_future_masked(&features, &dest, initial_pos, mask)?;
+        let inter = self.predict_future(&features, &dest, initial_pos, mask)?;
         let b = obs.dims()[0];
         Tensor::cat(&[&inter, &dest], 1)?.reshape((b, FUTURE, 2))
     }
@@ -995,6 +967,28 @@ mod tests {
             .collect()
     }
 
+    /// Asserts that `fused` and `plain`, the same values computed from `vars` by a fused op
+    /// and by candle's plain graph, have the same bits, and so do the gradients of every var
+    /// for the loss `Σ out · g`. `what` names the case in a failure.
+    fn assert_same_bits_and_gradients(
+        fused: &Tensor,
+        plain: &Tensor,
+        g: &Tensor,
+        vars: &[(&str, &Var)],
+        what: &str,
+    ) {
+        assert_eq!(bits(fused), bits(plain), "forward, {what}");
+        let grads = |out: &Tensor| (out * g).unwrap().sum_all().unwrap().backward().unwrap();
+        let (gf, gp) = (grads(fused), grads(plain));
+        for (name, v) in vars {
+            let (a, b) = (
+                gf.get(v.as_tensor()).unwrap(),
+                gp.get(v.as_tensor()).unwrap(),
+            );
+            assert_eq!(bits(a), bits(b), "gradient of {name}, {what}");
+        }
+    }
+
     #[test]
     fn fused_sine_is_bit_identical_to_candles_affine_sin() {
         // Large enough to be split into several chunks on any thread count.
@@ -1013,24 +1007,8 @@ mod tests {
                 .unwrap()
                 .sin()
                 .unwrap();
-            assert_eq!(bits(&fused), bits(&plain), "forward, w0 = {w0}");
-            let gf = (&fused * &gt)
-                .unwrap()
-                .sum_all()
-                .unwrap()
-                .backward()
-                .unwrap();
-            let gp = (&plain * &gt)
-                .unwrap()
-                .sum_all()
-                .unwrap()
-                .backward()
-                .unwrap();
-            let (gf, gp) = (
-                gf.get(xv.as_tensor()).unwrap(),
-                gp.get(xv.as_tensor()).unwrap(),
-            );
-            assert_eq!(bits(gf), bits(gp), "backward, w0 = {w0}");
+            let what = format!("w0 = {w0}");
+            assert_same_bits_and_gradients(&fused, &plain, &gt, &[("x", &xv)], &what);
         }
     }
 
@@ -1047,26 +1025,9 @@ mod tests {
             let gt = Tensor::from_vec(g, (rows, cols), &Device::Cpu).unwrap();
             let fused = add_bias(hv.as_tensor(), bv.as_tensor()).unwrap();
             let plain = hv.as_tensor().broadcast_add(bv.as_tensor()).unwrap();
-            assert_eq!(bits(&fused), bits(&plain));
-            let gf = (&fused * &gt)
-                .unwrap()
-                .sum_all()
-                .unwrap()
-                .backward()
-                .unwrap();
-            let gp = (&plain * &gt)
-                .unwrap()
-                .sum_all()
-                .unwrap()
-                .backward()
-                .unwrap();
-            for v in [&hv, &bv] {
-                let (a, b) = (
-                    gf.get(v.as_tensor()).unwrap(),
-                    gp.get(v.as_tensor()).unwrap(),
-                );
-                assert_eq!(bits(a), bits(b), "{rows}x{cols}");
-            }
+            let vars = [("h", &hv), ("b", &bv)];
+            let what = format!("{rows}x{cols}");
+            assert_same_bits_and_gradients(&fused, &plain, &gt, &vars, &what);
         }
     }
 
@@ -1087,7 +1048,7 @@ mod tests {
         let mut g = vec(m * n, 3.0);
         g[..3].copy_from_slice(&[-0.0, 0.0, -0.0]);
         let g = Tensor::from_vec(g, (m, n), &dev).unwrap();
-        let loss = |fused: bool| {
+        let out = |fused: bool| {
             let lin = |x: &Tensor, w: &Var, b: &Var| {
                 if fused {
                     linear(x, w.as_tensor(), b.as_tensor()).unwrap()
@@ -1101,26 +1062,16 @@ mod tests {
             let y1 = lin(x.as_tensor(), &w1, &b1);
             let y2 = lin(x.as_tensor(), &w2, &b2);
             let y3 = lin(&x.as_tensor().affine(0.5, 0.0).unwrap(), &w2, &b2);
-            let y = ((y1 + y2).unwrap() + y3).unwrap();
-            ((&y * &g).unwrap().sum_all().unwrap(), y)
+            ((y1 + y2).unwrap() + y3).unwrap()
         };
-        let (lf, yf) = loss(true);
-        let (lp, yp) = loss(false);
-        assert_eq!(bits(&yf), bits(&yp), "forward");
-        let (gf, gp) = (lf.backward().unwrap(), lp.backward().unwrap());
-        for (name, v) in [
+        let vars = [
             ("x", &x),
             ("w1", &w1),
             ("b1", &b1),
             ("w2", &w2),
             ("b2", &b2),
-        ] {
-            let (a, b) = (
-                gf.get(v.as_tensor()).unwrap(),
-                gp.get(v.as_tensor()).unwrap(),
-            );
-            assert_eq!(bits(a), bits(b), "gradient of {name}");
-        }
+        ];
+        assert_same_bits_and_gradients(&out(true), &out(false), &g, &vars, "linear");
     }
 
     #[test]

@@ -289,7 +289,7 @@ fn social_model_keeps_old_layout_and_refuses_export() {
     let obs = Tensor::zeros((2, 2 * PAST), candle_core::DType::F32, &Device::Cpu).unwrap();
     let init = Tensor::zeros((2, 2), candle_core::DType::F32, &Device::Cpu).unwrap();
     let z = Tensor::zeros((2, 4), candle_core::DType::F32, &Device::Cpu).unwrap();
-    assert!(b.sample_future(&obs, &init, &z).is_err());
+    assert!(b.sample_future(&obs, &init, &z, None).is_err());
 }
 
 fn run_dir(name: &str) -> PathBuf {

@@ -171,7 +171,7 @@ impl Trainer {
             let eps = self.rng.normal_vec(chunk.len() * zdim, 1.0);
             let eps = Tensor::from_vec(eps, (chunk.len(), zdim), &Device::Cpu)?;
             let mask = sizes.map(|s| crate::social::block_mask(&s)).transpose()?;
-            let loss = self.model.loss_masked(&batch, &eps, mask.as_ref())?;
+            let loss = self.model.loss(&batch, &eps, mask.as_ref())?;
             self.adam.backward_step(&loss.total)?;
             let total = loss.total.to_scalar::<f32>()?;
             if !total.is_finite() {

@@ -36,11 +36,7 @@ pub fn validate_point(
         };
         let fut = pred.flatten_all()?.to_vec1::<f32>()?;
         for (i, w) in chunk.iter().enumerate() {
-            let mut t = [[0.0f32; 2]; FUTURE];
-            for (s, p) in t.iter_mut().enumerate() {
-                let b = (i * FUTURE + s) * 2;
-                *p = data::denormalize_point([fut[b], fut[b + 1]], w.pos[0], cfg.data_scale);
-            }
+            let t = raw_future(&fut, i, w, cfg.data_scale);
             acc.add(w, &Prediction::single(t))?;
         }
     }
@@ -85,20 +81,12 @@ pub fn validate_model(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> R
             &Device::Cpu,
         )?;
         let fut = model
-            .sample_future(&obs, &init, &z)?
+            .sample_future(&obs, &init, &z, None)?
             .flatten_all()?
             .to_vec1::<f32>()?;
         for (i, w) in chunk.iter().enumerate() {
             let trajectories = (0..k)
-                .map(|j| {
-                    let base = (i * k + j) * FUTURE * 2;
-                    let mut t = [[0.0f32; 2]; FUTURE];
-                    for (s, p) in t.iter_mut().enumerate() {
-                        let q = [fut[base + 2 * s], fut[base + 2 * s + 1]];
-                        *p = data::denormalize_point(q, w.pos[0], cfg.data_scale);
-                    }
-                    t
-                })
+                .map(|j| raw_future(&fut, i * k + j, w, cfg.data_scale))
                 .collect();
             acc.add(w, &Prediction { trajectories })?;
         }
@@ -149,7 +137,7 @@ fn validate_social(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> Resu
             let z = Tensor::from_vec(z, (n, zdim), &Device::Cpu)?;
             fut.push(
                 model
-                    .sample_future_masked(&obs, &init, &z, Some(&mask))?
+                    .sample_future(&obs, &init, &z, Some(&mask))?
                     .flatten_all()?
                     .to_vec1::<f32>()?,
             );
@@ -158,18 +146,22 @@ fn validate_social(model: &Model, cfg: &TrainConfig, windows: &[Window]) -> Resu
             let w = &windows[wi];
             let trajectories = fut
                 .iter()
-                .map(|f| {
-                    let base = i * FUTURE * 2;
-                    let mut t = [[0.0f32; 2]; FUTURE];
-                    for (s, p) in t.iter_mut().enumerate() {
-                        let q = [f[base + 2 * s], f[base + 2 * s + 1]];
-                        *p = data::denormalize_point(q, w.pos[0], cfg.data_scale);
-                    }
-                    t
-                })
+                .map(|f| raw_future(f, i, w, cfg.data_scale))
                 .collect();
             acc.add(w, &Prediction { trajectories })?;
         }
     }
     Ok(acc.finish())
+}
+
+/// Row `row` of a flattened model-space output `[rows, FUTURE, 2]`, mapped back to raw
+/// units around the first observed position of `w` (`p / data_scale + p0`).
+fn raw_future(flat: &[f32], row: usize, w: &Window, data_scale: f32) -> [[f32; 2]; FUTURE] {
+    let base = row * FUTURE * 2;
+    let mut t = [[0.0f32; 2]; FUTURE];
+    for (s, p) in t.iter_mut().enumerate() {
+        let q = [flat[base + 2 * s], flat[base + 2 * s + 1]];
+        *p = data::denormalize_point(q, w.pos[0], data_scale);
+    }
+    t
 }
