@@ -645,16 +645,19 @@ mod tests {
         (a - b).abs() <= tol * b.abs().max(1.0)
     }
 
+    /// Five spread-out samples, the healthy set of the KDE tests.
+    const SPREAD: [[f32; 2]; 5] = [
+        [0.0, 0.0],
+        [10.0, 2.0],
+        [3.0, -7.0],
+        [-4.0, 5.0],
+        [8.0, 8.0],
+    ];
+
     // Reference values: scipy 1.17 `-gaussian_kde(pts.T).logpdf(gt)[0]`.
     #[test]
     fn kde_nll_matches_scipy() {
-        let a = [
-            [0.0, 0.0],
-            [10.0, 2.0],
-            [3.0, -7.0],
-            [-4.0, 5.0],
-            [8.0, 8.0],
-        ];
+        let a = SPREAD;
         assert!(close(kde_nll(&a, [2.0, 1.0]), 5.921155544059406, 1e-7));
         let b = [
             [100.5, 200.25],
@@ -692,25 +695,13 @@ mod tests {
         assert_eq!(kde_nll(&[], [1.0, 0.0]), 20.0);
         assert_eq!(kde_nll(&[[f32::NAN, 0.0], [1.0, 1.0]], [1.0, 0.0]), 20.0);
         // A far-away truth under a healthy set is floored too.
-        let a = [
-            [0.0, 0.0],
-            [10.0, 2.0],
-            [3.0, -7.0],
-            [-4.0, 5.0],
-            [8.0, 8.0],
-        ];
+        let a = SPREAD;
         assert_eq!(kde_nll(&a, [1e4, 1e4]), 20.0);
     }
 
     #[test]
     fn kde_nll_is_translation_invariant_and_unit_dependent() {
-        let a: [[f32; 2]; 5] = [
-            [0.0, 0.0],
-            [10.0, 2.0],
-            [3.0, -7.0],
-            [-4.0, 5.0],
-            [8.0, 8.0],
-        ];
+        let a = SPREAD;
         let shifted: Vec<[f32; 2]> = a.iter().map(|p| [p[0] + 64.0, p[1] - 32.0]).collect();
         assert!(close(
             kde_nll(&a, [2.0, 1.0]),

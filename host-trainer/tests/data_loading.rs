@@ -247,6 +247,15 @@ fn load_error(lines: &[String], line: usize) -> DataError {
     e
 }
 
+/// Asserts that the error `$e` matches the pattern (and its guard; the error is matched by
+/// reference), and prints the error when it does not.
+macro_rules! assert_error {
+    ($e:expr, $($pattern:tt)+) => {{
+        let e = &$e;
+        assert!(matches!(e, $($pattern)+), "{e:?}");
+    }};
+}
+
 /// The error of ped 1's 20 good rows with row `at` (0-based) replaced by `row`.
 fn bad_row(at: usize, row: &str) -> DataError {
     let mut l = good_rows("1", 0);
@@ -269,7 +278,7 @@ fn good_temp_file_loads() {
 #[test]
 fn bad_column_count() {
     let e = bad_row(2, "24 1 5.0");
-    let ok = matches!(
+    assert_error!(
         e,
         DataError::ColumnCount {
             found: 3,
@@ -277,29 +286,26 @@ fn bad_column_count() {
             ..
         }
     );
-    assert!(ok, "{e:?}");
 }
 
 #[test]
 fn text_in_number() {
     let e = bad_row(4, "48 1 abc 5.0");
-    let ok = matches!(&e, DataError::BadNumber { column: 3, text, .. } if text == "abc");
-    assert!(ok, "{e:?}");
+    assert_error!(e, DataError::BadNumber { column: 3, text, .. } if text == "abc");
     assert!(e.to_string().contains("abc"));
 }
 
 #[test]
 fn fractional_frame() {
     let e = bad_row(1, "12.5 1 5.0 5.0");
-    assert!(matches!(e, DataError::BadNumber { column: 1, .. }), "{e:?}");
+    assert_error!(e, DataError::BadNumber { column: 1, .. });
 }
 
 #[test]
 fn nan_and_inf() {
     for bad in ["NaN", "inf", "1e39"] {
         let e = bad_row(6, &format!("72 1 5.0 {bad}"));
-        let ok = matches!(e, DataError::NonFinite { column: 4, .. });
-        assert!(ok, "{bad}: {e:?}");
+        assert_error!(e, DataError::NonFinite { column: 4, .. });
     }
 }
 
@@ -310,14 +316,14 @@ fn nineteen_row_ped() {
     second.pop();
     l.extend(second);
     let e = load_error(&l, 21);
-    let ok = matches!(e, DataError::TrajectoryLength { rows: 19, last_line: 39, ped_id, .. } if ped_id == 2.0);
-    assert!(ok, "{e:?}");
+    assert_error!(e, DataError::TrajectoryLength { rows: 19, last_line: 39, ped_id, .. }
+        if *ped_id == 2.0);
 }
 
 #[test]
 fn wrong_frame_step() {
     let e = bad_row(5, "61 1 5.0 5.0");
-    let ok = matches!(
+    assert_error!(
         e,
         DataError::FrameStep {
             found: 13,
@@ -326,7 +332,6 @@ fn wrong_frame_step() {
             ..
         }
     );
-    assert!(ok, "{e:?}");
 }
 
 #[test]
@@ -338,7 +343,7 @@ fn non_utf8_line() {
     bytes.extend_from_slice(b"\n0 9 \xff\xfe 1");
     fs::write(d.join("bad.txt"), bytes).unwrap();
     let e = load_sdd(dir.path(), SddSplit::Train).unwrap_err();
-    assert!(matches!(e, DataError::Encoding { line: 21, .. }), "{e:?}");
+    assert_error!(e, DataError::Encoding { line: 21, .. });
 }
 
 #[test]
@@ -359,14 +364,14 @@ fn crlf_and_blank_lines_are_tolerated() {
 fn missing_directory_has_hint() {
     let dir = tempfile::tempdir().unwrap();
     let e = load_sdd(dir.path(), SddSplit::Test).unwrap_err();
-    assert!(matches!(e, DataError::Missing { .. }), "{e:?}");
+    assert_error!(e, DataError::Missing { .. });
     assert!(e.path().ends_with("sdd/test"));
     assert_eq!(e.line(), None);
     let msg = e.to_string();
     assert!(msg.contains("README") && msg.contains("--data"), "{msg}");
 
     let e = load_eth_ucy(dir.path(), "nowhere", EthUcySplit::Val).unwrap_err();
-    assert!(matches!(e, DataError::Missing { .. }), "{e:?}");
+    assert_error!(e, DataError::Missing { .. });
     assert!(e.to_string().contains("zara1"));
 }
 
@@ -375,7 +380,7 @@ fn empty_directory() {
     let dir = tempfile::tempdir().unwrap();
     fs::create_dir_all(dir.path().join("sdd/train")).unwrap();
     let e = load_sdd(dir.path(), SddSplit::Train).unwrap_err();
-    assert!(matches!(e, DataError::NoFiles { .. }), "{e:?}");
+    assert_error!(e, DataError::NoFiles { .. });
 }
 
 #[test]
@@ -390,29 +395,23 @@ fn eth_ucy_duplicate_and_bad_rows() {
     )
     .unwrap();
     let e = load_eth_ucy(dir.path(), "zara1", EthUcySplit::Train).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            DataError::DuplicateRow {
-                line: 3,
-                frame: 10,
-                ..
-            }
-        ),
-        "{e:?}"
+    assert_error!(
+        e,
+        DataError::DuplicateRow {
+            line: 3,
+            frame: 10,
+            ..
+        }
     );
     fs::write(&f, "0\t1.0\t1.0\t1.0\n10\t1.0\t1.0\n").unwrap();
     let e = load_eth_ucy(dir.path(), "zara1", EthUcySplit::Train).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            DataError::ColumnCount {
-                line: 2,
-                found: 3,
-                ..
-            }
-        ),
-        "{e:?}"
+    assert_error!(
+        e,
+        DataError::ColumnCount {
+            line: 2,
+            found: 3,
+            ..
+        }
     );
     assert!(e.path() == Path::new(&f));
 }
