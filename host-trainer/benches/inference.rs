@@ -21,10 +21,10 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use gpecnet_core::batch::{HostBatchPredictor, Query};
+use gpecnet_core::batch::HostBatchPredictor;
 use gpecnet_core::{LibmSine, Model, Predictor};
 use gpecnet_trainer::core_eval::HOST_WIDTH;
-use gpecnet_trainer::core_eval::{evaluate_core, evaluate_reference};
+use gpecnet_trainer::core_eval::{evaluate_core, evaluate_reference, queries};
 use gpecnet_trainer::data::{self, load_sdd, SddSplit};
 use gpecnet_trainer::export::read_blob;
 use gpecnet_trainer::quantize::evaluate_core_fixed;
@@ -85,15 +85,8 @@ fn bench_scalar_vs_batched(c: &mut Criterion) {
         g.finish();
 
         let step = if name == "sdd-paper" { 10 } else { 1 };
-        let queries: Vec<Query<'_>> = pasts
-            .iter()
-            .step_by(step)
-            .enumerate()
-            .map(|(i, p)| Query {
-                past: p,
-                seed: i as u64,
-            })
-            .collect();
+        let picked: Vec<[[f32; 2]; 8]> = pasts.iter().step_by(step).copied().collect();
+        let queries = queries(&picked, |i| i as u64);
         let mut out = vec![[0.0f32; 2]; 20 * queries.len()];
         let mut g = c.benchmark_group(format!("test_set_k20/{name}"));
         g.sample_size(10)

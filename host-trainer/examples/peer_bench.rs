@@ -24,11 +24,12 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Parser, Subcommand};
-use gpecnet_core::batch::{HostBatchPredictor, Query};
+use gpecnet_core::batch::HostBatchPredictor;
 use gpecnet_core::frame::Frame;
 use gpecnet_core::prng::Gaussian;
 use gpecnet_core::{LibmSine, Model, Predictor};
 use gpecnet_trainer::config::TrainConfig;
+use gpecnet_trainer::core_eval::queries;
 use gpecnet_trainer::data::{self, load_sdd, SddSplit, Window};
 use gpecnet_trainer::train::{prepare_data, Trainer};
 use serde_json::json;
@@ -158,9 +159,17 @@ fn read(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("reading {}", path.display()))
 }
 
+/// The scalar predictor of `model` (libm sine, scratch width [`WIDTH`]).
 fn predictor<'a>(model: Model<'a>) -> Result<Box<Predictor<'a, LibmSine, WIDTH>>> {
     Ok(Box::new(
         Predictor::<LibmSine, WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
+    ))
+}
+
+/// The batched predictor of `model`, same sine and scratch width as [`predictor`].
+fn batch_predictor<'a>(model: Model<'a>) -> Result<Box<HostBatchPredictor<'a, LibmSine, WIDTH>>> {
+    Ok(Box::new(
+        HostBatchPredictor::<LibmSine, WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?,
     ))
 }
 
@@ -191,18 +200,10 @@ fn dump(blob: &Path, out: &Path, root: &Path) -> Result<()> {
         (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut ends, mut point, mut traj) = (Vec::new(), Vec::new(), Vec::new());
     let pasts: Vec<_> = windows.iter().map(Window::obs).collect();
-    let queries: Vec<Query<'_>> = pasts
-        .iter()
-        .enumerate()
-        .map(|(i, p)| Query {
-            past: p,
-            seed: i as u64,
-        })
-        .collect();
+    let queries = queries(&pasts, |i| i as u64);
     // The batched path gives the scalar path's bits (core's tests/batch_vs_scalar.rs; `infer`
     // checks it again) and is what makes the sdd-paper dump take seconds, not minutes.
-    let mut bp =
-        Box::new(HostBatchPredictor::<LibmSine, WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?);
+    let mut bp = batch_predictor(model)?;
     let mut all = vec![[0.0f32; 2]; n * SET_K];
     bp.predict_samples_many(&queries, SET_K, &mut all)
         .map_err(|e| anyhow!("{e}"))?;
@@ -309,18 +310,10 @@ fn infer(blob: &Path, root: &Path, min_ms: u64, reps: usize, set_reps: usize) ->
     let model = Model::from_blob(&bytes).map_err(|e| anyhow!("{}: {e}", blob.display()))?;
     let windows = test_windows(root)?;
     let pasts: Vec<_> = windows.iter().map(Window::obs).collect();
-    let queries: Vec<Query<'_>> = pasts
-        .iter()
-        .enumerate()
-        .map(|(i, p)| Query {
-            past: p,
-            seed: i as u64,
-        })
-        .collect();
+    let queries = queries(&pasts, |i| i as u64);
     let kmax = PED_KS[PED_KS.len() - 1];
     let mut p = predictor(model)?;
-    let mut bp =
-        Box::new(HostBatchPredictor::<LibmSine, WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?);
+    let mut bp = batch_predictor(model)?;
     // The batched path must give the scalar path's bits (the core's own tests prove it on every
     // shipped blob and the whole test set; this guards the benchmark against timing a wrong
     // call, on the first CHECK_WINDOWS windows to keep sdd-paper's run short).

@@ -54,6 +54,19 @@ pub fn linear_fill(last: [f32; 2], end: [f32; 2]) -> [[f32; 2]; FUTURE] {
 /// many times over, few enough that two threads share the work evenly.
 pub const BLOCK: usize = 64;
 
+/// One batched-path [`Query`] per past, track `i` with latent seed `seed(i)` (the
+/// evaluation's convention is `base_seed + i`).
+pub fn queries<P: AsRef<[[f32; 2]]>>(pasts: &[P], seed: impl Fn(usize) -> u64) -> Vec<Query<'_>> {
+    pasts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Query {
+            past: p.as_ref(),
+            seed: seed(i),
+        })
+        .collect()
+}
+
 /// `windows` through `gpecnet-core`'s batched predictor (window `i` with
 /// seed `seeds(i)`): per window the blob's endpoint set (test-time
 /// sampling), or `k` trajectories, or `k` straight-line-filled endpoints of
@@ -67,14 +80,7 @@ fn predict_block_with<S: Sine>(
     let mut p =
         Box::new(HostBatchPredictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
     let pasts: Vec<[[f32; 2]; PAST]> = windows.iter().map(Window::obs).collect();
-    let queries: Vec<Query<'_>> = pasts
-        .iter()
-        .enumerate()
-        .map(|(i, past)| Query {
-            past,
-            seed: seeds(i),
-        })
-        .collect();
+    let queries = queries(&pasts, seeds);
     let at = |e: gpecnet_core::batch::QueryError| {
         let w = &windows[e.index.min(windows.len().saturating_sub(1))];
         anyhow!("{}#{}: {}", w.scene, w.ped_id, e.error)
@@ -273,7 +279,7 @@ fn points_core(
         let mut p =
             Box::new(HostBatchPredictor::<S, HOST_WIDTH>::new(*model).map_err(|e| anyhow!("{e}"))?);
         let pasts: Vec<[[f32; 2]; PAST]> = windows.iter().map(Window::obs).collect();
-        let queries: Vec<Query<'_>> = pasts.iter().map(|past| Query { past, seed: 0 }).collect();
+        let queries = queries(&pasts, |_| 0);
         let mut out = vec![Trajectory::new(); queries.len()];
         p.predict_points(&queries, &mut out).map_err(|e| {
             let w = &windows[e.index.min(windows.len().saturating_sub(1))];

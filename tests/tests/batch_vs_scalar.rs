@@ -6,10 +6,11 @@
 //! with the host's 8 lanes and with 3 lanes (every chunk boundary falls
 //! inside a track).
 
-use gpecnet_core::batch::{BatchPredictor, Query};
+use gpecnet_core::batch::BatchPredictor;
 use gpecnet_core::blob::MAX_TTS_SAMPLES;
 use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine, Trajectory};
 use gpecnet_tests::{data_root, shipped_blobs};
+use gpecnet_trainer::core_eval::queries;
 use gpecnet_trainer::data::{load_sdd, SddSplit};
 
 type Past = [[f32; 2]; 8];
@@ -58,14 +59,7 @@ fn check<S: Sine, const L: usize>(name: &str, model: &Model<'_>, pasts: &[Past])
     }
 
     // Many tracks side by side (seed of track t = t, as the evaluation uses).
-    let queries: Vec<Query<'_>> = pasts
-        .iter()
-        .enumerate()
-        .map(|(t, p)| Query {
-            past: p,
-            seed: t as u64,
-        })
-        .collect();
+    let queries = queries(pasts, |t| t as u64);
     for k in [1usize, 13, 20] {
         let n = queries.len() * k;
         let mut b = vec![[0.0f32; 2]; n];
@@ -174,13 +168,8 @@ fn batched_refuses_what_scalar_refuses() {
         assert_eq!(batch.predict_samples(past, 0, &mut o), Err(e));
     }
     // Many tracks: the first failing index, with its error.
-    let qs: Vec<Query<'_>> = [&good, &good, &nan, &good, &far]
-        .iter()
-        .map(|p| Query {
-            past: &p[..],
-            seed: 0,
-        })
-        .collect();
+    let tracks = [good, good, nan, good, far];
+    let qs = queries(&tracks, |_| 0);
     let mut o = vec![[0.0f32; 2]; qs.len() * 2];
     let e = batch.predict_samples_many(&qs, 2, &mut o).unwrap_err();
     assert_eq!(
