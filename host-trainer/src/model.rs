@@ -99,6 +99,19 @@ impl Mlp {
         })
     }
 
+    /// An MLP over the given layers (ReLU or sine with `w0 = 1` after every layer but the last),
+    /// without scales. The layers may hold f64 weights (the synthetic-data RL policy's,
+    /// [`crate::synth::agent`]): [`linear`] and [`add_bias`] then run candle's own ops.
+    pub fn from_layers(layers: Vec<Dense>, activation: Act) -> Self {
+        Self {
+            layers,
+            activation,
+            w0: 1.0,
+            in_scale: 1.0,
+            out_scale: 1.0,
+        }
+    }
+
     /// Sets fixed input/output scales: the network sees `x / in_scale` and
     /// returns `out_scale · y`. They keep SIREN's first layer in its intended
     /// O(1) input range (PECNet's coordinates reach hundreds) and are folded
@@ -243,7 +256,7 @@ fn map_elements<F: Fn(std::ops::Range<usize>, &mut [f32]) + Sync>(
 
 /// `x Wᵀ + b` for `x` `[rows, in]`, `W` `[out, in]`, `b` `[out]`, as one differentiable op
 /// ([`Linear`]); the same bits as candle's `x.matmul(&w.t()).broadcast_add(b)` and its
-/// gradients. Empty or other shapes fall back to that graph.
+/// gradients. Empty or other shapes, and dtypes other than f32, fall back to that graph.
 pub fn linear(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
     let f32s = [x, w, b].iter().all(|t| t.dtype() == DType::F32);
     match (x.dims(), w.dims(), b.dims()) {
@@ -337,10 +350,11 @@ fn has_negative_zero(t: &Tensor) -> candle_core::Result<bool> {
 
 /// `h + b` for `h` `[rows, out]` and a bias `b` `[out]`, as one differentiable op
 /// ([`BiasAdd`]); the same bits as candle's `h.broadcast_add(b)` and its gradients. Other
-/// shapes fall back to `broadcast_add`.
+/// shapes and other dtypes fall back to `broadcast_add`.
 pub fn add_bias(h: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
+    let f32s = h.dtype() == DType::F32 && b.dtype() == DType::F32;
     match (h.dims(), b.dims()) {
-        (&[rows, out], &[bout]) if out == bout && rows * out > 0 => {
+        (&[rows, out], &[bout]) if f32s && out == bout && rows * out > 0 => {
             h.contiguous()?.apply_op2(&b.contiguous()?, BiasAdd)
         }
         _ => h.broadcast_add(b),

@@ -1,7 +1,10 @@
 //! Adam over candle [`Var`]s with PyTorch's semantics (`torch.optim.Adam`, no weight decay,
 //! no amsgrad), and a serialisable state so that a resumed run continues bit-exactly.
 //!
-//! The update is computed on the host in f32, element by element, in exactly torch's order:
+//! One optimizer for the crate: [`Adam<f32>`] (the default) trains the model, [`Adam<f64>`]
+//! the synthetic-data RL policy ([`crate::synth::agent`]). The update is computed on the host
+//! in the parameters' element type `T` ([`AdamFloat`]), element by element, in exactly torch's
+//! order (the scalars below are f64 and rounded to `T` once per step):
 //! ```text
 //! m = b1 * m + (1 - b1) * g
 //! v = b2 * v + (1 - b2) * g * g
@@ -15,10 +18,45 @@
 //! (`model::chunk_len`); the split does not change any bit.
 
 use candle_core::backprop::GradStore;
-use candle_core::{CpuStorage, InplaceOp1, Layout, Storage, Tensor, Var};
+use candle_core::{CpuStorage, InplaceOp1, Layout, Storage, Tensor, Var, WithDType};
 
 use crate::model::{chunk_len, for_each_job};
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
+
+/// An element type [`Adam`] updates: `f32` (the model) or `f64` (the RL policy).
+pub trait AdamFloat: WithDType + Serialize + DeserializeOwned {
+    /// Square root (IEEE, correctly rounded).
+    fn sqrt(self) -> Self;
+    /// The values of a CPU storage of this type, mutably; `None` for another type.
+    fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>>;
+}
+
+impl AdamFloat for f32 {
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+
+    fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>> {
+        match s {
+            CpuStorage::F32(w) => Some(w),
+            _ => None,
+        }
+    }
+}
+
+impl AdamFloat for f64 {
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+
+    fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>> {
+        match s {
+            CpuStorage::F64(w) => Some(w),
+            _ => None,
+        }
+    }
+}
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -47,26 +85,30 @@ impl AdamParams {
 
 /// Optimizer state: step count and both moment estimates (one flat vector per parameter).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct AdamState {
+#[serde(bound = "")]
+pub struct AdamState<T: AdamFloat = f32> {
     /// Number of steps taken.
     pub step: u64,
     /// First moments.
-    pub m: Vec<Vec<f32>>,
+    pub m: Vec<Vec<T>>,
     /// Second moments.
-    pub v: Vec<Vec<f32>>,
+    pub v: Vec<Vec<T>>,
 }
 
-/// Adam bound to a fixed list of parameters.
-pub struct Adam {
+/// Adam bound to a fixed list of parameters whose element type is `T`.
+pub struct Adam<T: AdamFloat = f32> {
     vars: Vec<Var>,
     params: AdamParams,
-    state: AdamState,
+    state: AdamState<T>,
 }
 
-impl Adam {
+impl<T: AdamFloat> Adam<T> {
     /// Fresh optimizer (zero moments) over `vars`.
     pub fn new(vars: Vec<Var>, params: AdamParams) -> Self {
-        let m: Vec<Vec<f32>> = vars.iter().map(|v| vec![0.0; v.elem_count()]).collect();
+        let m: Vec<Vec<T>> = vars
+            .iter()
+            .map(|v| vec![T::zero(); v.elem_count()])
+            .collect();
         let state = AdamState {
             step: 0,
             v: m.clone(),
@@ -83,7 +125,7 @@ impl Adam {
     pub fn from_state(
         vars: Vec<Var>,
         params: AdamParams,
-        state: AdamState,
+        state: AdamState<T>,
     ) -> candle_core::Result<Self> {
         if state.m.len() != vars.len() || state.v.len() != vars.len() {
             candle_core::bail!(
@@ -105,7 +147,7 @@ impl Adam {
     }
 
     /// The state, for checkpoints.
-    pub fn state(&self) -> &AdamState {
+    pub fn state(&self) -> &AdamState<T> {
         &self.state
     }
 
@@ -134,13 +176,13 @@ impl Adam {
         let bc1 = 1.0 - p.beta1.powi(t);
         let bc2_sqrt = (1.0 - p.beta2.powi(t)).sqrt();
         let k = Coefficients {
-            step_size: (p.lr / bc1) as f32,
-            b1: p.beta1 as f32,
-            b2: p.beta2 as f32,
-            one_b1: (1.0 - p.beta1) as f32,
-            one_b2: (1.0 - p.beta2) as f32,
-            bc2_sqrt: bc2_sqrt as f32,
-            eps: p.eps as f32,
+            step_size: T::from_f64(p.lr / bc1),
+            b1: T::from_f64(p.beta1),
+            b2: T::from_f64(p.beta2),
+            one_b1: T::from_f64(1.0 - p.beta1),
+            one_b2: T::from_f64(1.0 - p.beta2),
+            bc2_sqrt: T::from_f64(bc2_sqrt),
+            eps: T::from_f64(p.eps),
         };
         for (i, var) in self.vars.iter().enumerate() {
             let n = var.elem_count();
@@ -153,7 +195,7 @@ impl Adam {
                     let (storage, layout) = g.storage_and_layout();
                     match (&*storage, layout.contiguous_offsets()) {
                         (Storage::Cpu(cpu), Some((a, b))) => {
-                            let g = cpu.as_slice::<f32>()?;
+                            let g = cpu.as_slice::<T>()?;
                             let g = g.get(a..b).filter(|g| g.len() == n).ok_or_else(|| {
                                 candle_core::Error::Msg("Adam: gradient shape mismatch".into())
                             })?;
@@ -161,7 +203,7 @@ impl Adam {
                         }
                         _ => {
                             drop(storage);
-                            let g = g.flatten_all()?.to_vec1::<f32>()?;
+                            let g = g.flatten_all()?.to_vec1::<T>()?;
                             if g.len() != n {
                                 candle_core::bail!("Adam: gradient shape mismatch");
                             }
@@ -169,27 +211,27 @@ impl Adam {
                         }
                     }
                 }
-                None => update_var(var, k, &vec![0.0; n], m, v)?,
+                None => update_var(var, k, &vec![T::zero(); n], m, v)?,
             }
         }
         Ok(())
     }
 }
 
-/// The f32 coefficients of one Adam step.
+/// The coefficients of one Adam step, rounded to the parameters' element type.
 #[derive(Clone, Copy, Debug)]
-struct Coefficients {
-    step_size: f32,
-    b1: f32,
-    b2: f32,
-    one_b1: f32,
-    one_b2: f32,
-    bc2_sqrt: f32,
-    eps: f32,
+struct Coefficients<T> {
+    step_size: T,
+    b1: T,
+    b2: T,
+    one_b1: T,
+    one_b2: T,
+    bc2_sqrt: T,
+    eps: T,
 }
 
 /// One step for the elements of one chunk, in torch's order (see the module docs).
-fn update_chunk(k: Coefficients, w: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32]) {
+fn update_chunk<T: AdamFloat>(k: Coefficients<T>, w: &mut [T], g: &[T], m: &mut [T], v: &mut [T]) {
     for (((w, &g), m), v) in w.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
         *m = k.b1 * *m + k.one_b1 * g;
         *v = k.b2 * *v + k.one_b2 * (g * g);
@@ -199,14 +241,14 @@ fn update_chunk(k: Coefficients, w: &mut [f32], g: &[f32], m: &mut [f32], v: &mu
 }
 
 /// The in-place update of one parameter tensor (a candle [`InplaceOp1`] on its storage).
-struct AdamUpdate<'a> {
-    k: Coefficients,
-    g: &'a [f32],
+struct AdamUpdate<'a, T> {
+    k: Coefficients<T>,
+    g: &'a [T],
     /// First and second moments (a lock only because candle hands the op out by `&self`).
-    mv: std::sync::Mutex<(&'a mut [f32], &'a mut [f32])>,
+    mv: std::sync::Mutex<(&'a mut [T], &'a mut [T])>,
 }
 
-impl InplaceOp1 for AdamUpdate<'_> {
+impl<T: AdamFloat> InplaceOp1 for AdamUpdate<'_, T> {
     fn name(&self) -> &'static str {
         "gpecnet-adam"
     }
@@ -217,8 +259,8 @@ impl InplaceOp1 for AdamUpdate<'_> {
             .lock()
             .map_err(|_| candle_core::Error::Msg("Adam: moment lock poisoned".into()))?;
         let (m, v) = &mut *mv;
-        let CpuStorage::F32(w) = storage else {
-            candle_core::bail!("Adam: parameters must be f32");
+        let Some(w) = T::storage_mut(storage) else {
+            candle_core::bail!("Adam: parameters must be {:?}", T::DTYPE);
         };
         let n = self.g.len();
         let w = match layout.contiguous_offsets() {
@@ -237,12 +279,12 @@ impl InplaceOp1 for AdamUpdate<'_> {
 }
 
 /// Updates `var` in place from its gradient `g` (flat, `var`'s element count).
-fn update_var(
+fn update_var<T: AdamFloat>(
     var: &Var,
-    k: Coefficients,
-    g: &[f32],
-    m: &mut [f32],
-    v: &mut [f32],
+    k: Coefficients<T>,
+    g: &[T],
+    m: &mut [T],
+    v: &mut [T],
 ) -> candle_core::Result<()> {
     let op = AdamUpdate {
         k,
@@ -295,7 +337,7 @@ mod tests {
             .map(|w| Var::from_vec(w.clone(), w.len(), &Device::Cpu).unwrap())
             .collect();
         let params = AdamParams::with_lr(3e-4);
-        let mut opt = Adam::new(vars.clone(), params);
+        let mut opt = Adam::<f32>::new(vars.clone(), params);
         let mut w = init.clone();
         let mut m: Vec<Vec<f32>> = sizes.iter().map(|&n| vec![0.0; n]).collect();
         let mut v = m.clone();
@@ -333,9 +375,43 @@ mod tests {
     }
 
     #[test]
+    fn f64_parameters_take_the_same_steps_in_f64() {
+        // The RL policy's case: f64 weights, moments and arithmetic, torch's order.
+        let x = Var::from_vec(vec![1.0f64, -2.0, 0.5], 3, &Device::Cpu).unwrap();
+        let params = AdamParams::with_lr(0.01);
+        let mut opt = Adam::<f64>::new(vec![x.clone()], params);
+        let (mut w, mut m, mut v) = (vec![1.0f64, -2.0, 0.5], [0.0f64; 3], [0.0f64; 3]);
+        for t in 1..=4 {
+            // loss = Σ c x: the gradient is exactly c.
+            let c = [0.3 * t as f64, -1.7, 2.5 / t as f64];
+            let ct = Tensor::new(&c, &Device::Cpu).unwrap();
+            let loss = (x.as_tensor() * ct).unwrap().sum_all().unwrap();
+            opt.backward_step(&loss).unwrap();
+            let step_size = params.lr / (1.0 - params.beta1.powi(t));
+            let bc2_sqrt = (1.0 - params.beta2.powi(t)).sqrt();
+            for j in 0..3 {
+                let g = c[j];
+                m[j] = params.beta1 * m[j] + (1.0 - params.beta1) * g;
+                v[j] = params.beta2 * v[j] + (1.0 - params.beta2) * (g * g);
+                w[j] -= step_size * (m[j] / (v[j].sqrt() / bc2_sqrt + params.eps));
+            }
+        }
+        assert_eq!(x.as_tensor().to_vec1::<f64>().unwrap(), w);
+        assert_eq!(opt.state().step, 4);
+        assert_eq!(opt.state().m[0], m);
+        assert_eq!(opt.state().v[0], v);
+        let mut wrong = Adam::<f32>::new(vec![x.clone()], params);
+        let loss = x.as_tensor().sum_all().unwrap();
+        assert!(
+            wrong.backward_step(&loss).is_err(),
+            "f64 weights with Adam<f32>"
+        );
+    }
+
+    #[test]
     fn minimises_a_quadratic_and_matches_torch_first_step() {
         let x = Var::from_vec(vec![1.0f32, -2.0], 2, &Device::Cpu).unwrap();
-        let mut opt = Adam::new(vec![x.clone()], AdamParams::with_lr(0.1));
+        let mut opt = Adam::<f32>::new(vec![x.clone()], AdamParams::with_lr(0.1));
         // First Adam step moves each coordinate by ~lr * sign(g).
         let loss = x.as_tensor().sqr().unwrap().sum_all().unwrap();
         opt.backward_step(&loss).unwrap();
