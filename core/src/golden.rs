@@ -124,12 +124,7 @@ pub struct GoldenCase<'a> {
 impl GoldenCase<'_> {
     /// Expected point `t` of the point forecast, if recorded.
     pub fn point_bits(&self, t: usize) -> Option<[u32; 2]> {
-        (8 * t + 8 <= self.point.len()).then(|| {
-            [
-                read_f32(self.point, 2 * t).to_bits(),
-                read_f32(self.point, 2 * t + 1).to_bits(),
-            ]
-        })
+        recorded_pair(self.point, t)
     }
     /// Number of recorded point-forecast points (0 when none).
     pub fn point_len(&self) -> usize {
@@ -141,24 +136,30 @@ impl GoldenCase<'_> {
     }
     /// Expected endpoint `i` as bit patterns.
     pub fn endpoint_bits(&self, i: usize) -> [u32; 2] {
-        [
-            read_f32(self.endpoints, 2 * i).to_bits(),
-            read_f32(self.endpoints, 2 * i + 1).to_bits(),
-        ]
+        pair_bits(self.endpoints, i)
     }
     /// Expected point `t` of sample 0's trajectory, if recorded.
     pub fn trajectory0_bits(&self, t: usize) -> Option<[u32; 2]> {
-        (8 * t + 8 <= self.trajectory0.len()).then(|| {
-            [
-                read_f32(self.trajectory0, 2 * t).to_bits(),
-                read_f32(self.trajectory0, 2 * t + 1).to_bits(),
-            ]
-        })
+        recorded_pair(self.trajectory0, t)
     }
     /// Number of recorded trajectory points (0 when none).
     pub fn trajectory0_len(&self) -> usize {
         self.trajectory0.len() / 8
     }
+}
+
+/// Point `i` of a packed array of `[x, y]` f32 LE pairs as bit patterns
+/// (`[0, 0]` past its end, like [`read_f32`]).
+fn pair_bits(points: &[u8], i: usize) -> [u32; 2] {
+    [
+        read_f32(points, 2 * i).to_bits(),
+        read_f32(points, 2 * i + 1).to_bits(),
+    ]
+}
+
+/// [`pair_bits`] of point `t`, or `None` when the array does not hold it.
+fn recorded_pair(points: &[u8], t: usize) -> Option<[u32; 2]> {
+    (8 * t + 8 <= points.len()).then(|| pair_bits(points, t))
 }
 
 /// A validated golden file.
