@@ -4,9 +4,9 @@
 use super::header::take;
 use super::validate::validate;
 use super::{
-    Activation, BlobError, Extensions, Layer, LayerWire, LayerWireQ, ModelConfig, ModelInfo,
-    NumericKind, Preamble, ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS,
-    MIN_FORMAT_VERSION, TENSOR_ALIGN,
+    Activation, BlobError, Extensions, Layer, ModelConfig, ModelInfo, NumericKind, Preamble,
+    ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS, MIN_FORMAT_VERSION,
+    TENSOR_ALIGN,
 };
 
 /// A validated network: up to [`MAX_LAYERS`] layers whose widths chain.
@@ -149,6 +149,13 @@ impl<'a> Model<'a> {
     /// aligned, the one-word-at-a-time path elsewhere; other targets never
     /// look. Results are the same bits either way.
     pub fn tensors_aligned(&self) -> bool {
+        self.all_layers().all(|l| {
+            (l.weights.as_ptr() as usize | l.bias.as_ptr() as usize).is_multiple_of(TENSOR_ALIGN)
+        })
+    }
+    /// The five networks in blob order (encoder_past, decoder, encoder_dest,
+    /// predictor, point_head; absent ones empty).
+    fn networks(&self) -> [&Network<'a>; 5] {
         [
             &self.encoder_past,
             &self.decoder,
@@ -156,11 +163,10 @@ impl<'a> Model<'a> {
             &self.predictor,
             &self.point_head,
         ]
-        .iter()
-        .flat_map(|n| n.layers())
-        .all(|l| {
-            (l.weights.as_ptr() as usize | l.bias.as_ptr() as usize).is_multiple_of(TENSOR_ALIGN)
-        })
+    }
+    /// Every layer of every network, in blob order.
+    fn all_layers(&self) -> impl Iterator<Item = &Layer<'a>> {
+        self.networks().into_iter().flat_map(Network::layers)
     }
     /// The past-trajectory encoder.
     pub fn encoder_past(&self) -> &Network<'a> {
@@ -196,10 +202,11 @@ impl<'a> Model<'a> {
     }
     /// The widest layer of any network: the scratch width a predictor needs.
     pub fn max_width(&self) -> usize {
-        let m = self.encoder_past.max_width().max(self.decoder.max_width());
-        m.max(self.encoder_dest.max_width())
-            .max(self.predictor.max_width())
-            .max(self.point_head.max_width())
+        self.networks()
+            .into_iter()
+            .map(Network::max_width)
+            .max()
+            .unwrap_or(0)
     }
     /// The scratch width a predictor for this model needs: its widest layer,
     /// and at least `fdim + zdim` (the decoder's input). Choose `W` of
@@ -225,17 +232,7 @@ impl<'a> Model<'a> {
     }
     /// Number of weights and biases.
     pub fn parameter_count(&self) -> usize {
-        [
-            &self.encoder_past,
-            &self.decoder,
-            &self.encoder_dest,
-            &self.predictor,
-            &self.point_head,
-        ]
-        .iter()
-        .flat_map(|n| n.layers())
-        .map(|l| l.macs() + l.out_dim)
-        .sum()
+        self.all_layers().map(|l| l.macs() + l.out_dim).sum()
     }
     /// Multiply-accumulates to predict `k` endpoints (encoder once, the
     /// decoder's feature columns once, its latent columns and the rest `k` times).
@@ -265,38 +262,7 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
             return Err(BlobError::ExceedsCapacity);
         }
         for slot in net.layers.iter_mut().take(n as usize) {
-            *slot = Some(if aligned {
-                take_aligned_layer(&mut cur, body, info.numeric)?
-            } else {
-                match info.numeric {
-                    NumericKind::F32 => {
-                        let w: LayerWire = take(&mut cur)?;
-                        Layer {
-                            in_dim: w.in_dim as usize,
-                            out_dim: w.out_dim as usize,
-                            activation: w.activation,
-                            weights: w.weights,
-                            bias: w.bias,
-                            shifts: &[],
-                            in_exp: 0,
-                            out_exp: 0,
-                        }
-                    }
-                    NumericKind::Int16Q15 => {
-                        let w: LayerWireQ = take(&mut cur)?;
-                        Layer {
-                            in_dim: w.in_dim as usize,
-                            out_dim: w.out_dim as usize,
-                            activation: w.activation,
-                            weights: w.weights,
-                            bias: w.bias,
-                            shifts: w.shifts,
-                            in_exp: w.in_exp,
-                            out_exp: w.out_exp,
-                        }
-                    }
-                }
-            });
+            *slot = Some(take_layer(&mut cur, body, info.numeric, aligned)?);
         }
         net.len = n as usize;
     }
@@ -337,13 +303,25 @@ fn take_aligned<'a>(cur: &mut &'a [u8], body: &'a [u8]) -> Result<&'a [u8], Blob
     Ok(tensor)
 }
 
-/// A version-3 layer: the version-2 fields in the same order, with
-/// [`take_aligned`] padding before the weights and before the bias.
-fn take_aligned_layer<'a>(
+/// One layer of any format version, field by field (postcard writes a
+/// struct as its fields in order, so this reads exactly
+/// [`LayerWire`](super::LayerWire) (f32) or
+/// [`LayerWireQ`](super::LayerWireQ) (fixed point) of versions 1 and 2); version 3
+/// (`aligned`) has [`take_aligned`] padding before the weights and before
+/// the bias.
+fn take_layer<'a>(
     cur: &mut &'a [u8],
     body: &'a [u8],
     numeric: NumericKind,
+    aligned: bool,
 ) -> Result<Layer<'a>, BlobError> {
+    let tensor = |cur: &mut &'a [u8]| {
+        if aligned {
+            take_aligned(cur, body)
+        } else {
+            take(cur)
+        }
+    };
     let in_dim: u16 = take(cur)?;
     let out_dim: u16 = take(cur)?;
     let activation: Activation = take(cur)?;
@@ -351,8 +329,8 @@ fn take_aligned_layer<'a>(
         NumericKind::F32 => (0, 0),
         NumericKind::Int16Q15 => (take::<i8>(cur)?, take::<i8>(cur)?),
     };
-    let weights = take_aligned(cur, body)?;
-    let bias = take_aligned(cur, body)?;
+    let weights = tensor(cur)?;
+    let bias = tensor(cur)?;
     let shifts: &[u8] = match numeric {
         NumericKind::F32 => &[],
         NumericKind::Int16Q15 => take(cur)?,
