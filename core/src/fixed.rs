@@ -81,6 +81,7 @@ use core::ops::RangeInclusive;
 
 use crate::blob::{Activation, Layer, NumericKind};
 use crate::engine::{Backend, Sealed};
+use crate::lanes::LaneArith;
 
 /// The fixed-point backend ([`NumericKind::Int16Q15`] blobs; see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -249,15 +250,7 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     let xs = x.chunks_exact(2);
     let xt = xs.remainder();
     for (xx, q) in xs.zip(c) {
-        let (x0, x1) = match *xx {
-            [a, b] => (i32::from(a), i32::from(b)),
-            _ => (0, 0),
-        };
-        let (q0, q1) = match q.split_first_chunk::<2>() {
-            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
-            None => (0, 0),
-        };
-        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
+        acc += mac2(xx, q);
     }
     if let [v] = *xt {
         acc += i64::from(w16(t) * i32::from(v));
@@ -271,17 +264,25 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
 #[inline(always)]
 fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     for (xx, q) in x.chunks_exact(2).zip(w.chunks_exact(4)) {
-        let (x0, x1) = match *xx {
-            [a, b] => (i32::from(a), i32::from(b)),
-            _ => (0, 0),
-        };
-        let (q0, q1) = match q.split_first_chunk::<2>() {
-            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
-            None => (0, 0),
-        };
-        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
+        acc += mac2(xx, q);
     }
     acc
+}
+
+/// One step of [`dot1`] and [`dot_even`]: `q_0·x_0 + q_1·x_1` for two
+/// inputs `xx` and their four weight bytes `q` (i16 LE), each product
+/// exact in `i32`, their sum in `i64` (added to the row's sum after it).
+#[inline(always)]
+fn mac2(xx: &[i16], q: &[u8]) -> i64 {
+    let (x0, x1) = match *xx {
+        [a, b] => (i32::from(a), i32::from(b)),
+        _ => (0, 0),
+    };
+    let (q0, q1) = match q.split_first_chunk::<2>() {
+        Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
+        None => (0, 0),
+    };
+    i64::from(q0 * x0) + i64::from(q1 * x1)
 }
 
 /// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for the two rows of `g`
@@ -533,115 +534,47 @@ fn latent_with(
     }
 }
 
-/// Rows of a layer that [`dense_lanes`] sums together (each load of
-/// `x[i]` shared by 4 rows).
-const ROWS: usize = 4;
+impl LaneArith for Q15 {
+    type Weight = i32;
+    const WEIGHT_BYTES: usize = 2;
 
-/// `a[l] += q · x[l]` for every lane (exact: `i32` product, `i64` sum).
-#[inline(always)]
-fn axpy<const L: usize>(a: &mut [i64; L], q: i32, x: &[i16; L]) {
-    for (al, &xl) in a.iter_mut().zip(x) {
-        *al += i64::from(q * i32::from(xl));
+    #[inline(always)]
+    fn weight(b: &[u8]) -> i32 {
+        w16(b)
     }
-}
 
-/// `acc[l] += Σ_i q_i · x[i][l]` over the shorter of `row` (i16 LE) and
-/// `x`, every lane `l` (innermost, so that LLVM vectorises across lanes).
-#[inline(always)]
-fn row_lanes<const L: usize>(row: &[u8], x: &[[i16; L]], acc: &mut [i64; L]) {
-    let mut a = *acc;
-    for (xi, q) in x.iter().zip(row.chunks_exact(2)) {
-        axpy(&mut a, w16(q), xi);
-    }
-    *acc = a;
-}
-
-/// [`row_lanes`] for the [`ROWS`] rows of `g` (stride `n` bytes) at once,
-/// each `x[i]` loaded once for the four (rows shorter than `x`, never for
-/// a validated layer, one by one).
-#[inline(always)]
-fn rows_lanes<const L: usize>(g: &[u8], n: usize, x: &[[i16; L]], acc: &mut [[i64; L]; ROWS]) {
-    let len = 2 * x.len();
-    let rows: [&[u8]; ROWS] = core::array::from_fn(|r| {
-        g.get(r * n..(r + 1) * n)
-            .and_then(|row| row.get(..len))
-            .unwrap_or(&[])
-    });
-    let [r0, r1, r2, r3] = rows;
-    if rows.iter().any(|r| r.len() != len) {
-        for (r, a) in acc.iter_mut().enumerate() {
-            let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
-            row_lanes(row, x, a);
+    /// `a[l] += q · x[l]` (exact: `i32` product, `i64` sum).
+    #[inline(always)]
+    fn axpy<const L: usize>(a: &mut [i64; L], q: i32, x: &[i16; L]) {
+        for (al, &xl) in a.iter_mut().zip(x) {
+            *al += i64::from(q * i32::from(xl));
         }
-        return;
     }
-    let [mut a0, mut a1, mut a2, mut a3] = *acc;
-    let q = r0
-        .chunks_exact(2)
-        .zip(r1.chunks_exact(2))
-        .zip(r2.chunks_exact(2))
-        .zip(r3.chunks_exact(2));
-    for (xi, (((q0, q1), q2), q3)) in x.iter().zip(q) {
-        axpy(&mut a0, w16(q0), xi);
-        axpy(&mut a1, w16(q1), xi);
-        axpy(&mut a2, w16(q2), xi);
-        axpy(&mut a3, w16(q3), xi);
-    }
-    *acc = [a0, a1, a2, a3];
-}
 
-/// [`Backend::dense_lanes`] for Q15: the exact `i64` sums of
-/// [`dense_q`] ([`ROWS`] rows at a time, then one at a time), then
-/// [`activate_q`] with the channel's shift, lane by lane.
-#[inline]
-fn dense_lanes<const L: usize>(
-    layer: &Layer<'_>,
-    x: &[[i16; L]],
-    out: &mut [[i16; L]],
-    used: usize,
-) {
-    let n = 2 * layer.in_dim();
-    let (w, _, _) = layer.tensors_q();
-    let act = layer.activation();
-    let out_len = out.len().min(layer.out_dim());
-    let out = &mut out[..out_len];
-    let mut j = 0;
-    let mut blocks = out.chunks_exact_mut(ROWS);
-    for o in &mut blocks {
-        let g = w.get(j * n..).unwrap_or(&[]);
-        let mut acc: [[i64; L]; ROWS] =
-            core::array::from_fn(|r| [i64::from(layer.bias_q(j + r)); L]);
-        rows_lanes::<L>(g, n, x, &mut acc);
-        for (r, (o, a)) in o.iter_mut().zip(&acc).enumerate() {
-            finish::<L>(act, a, layer.shift(j + r), used, o);
+    #[inline(always)]
+    fn bias(layer: &Layer<'_>, j: usize) -> i64 {
+        i64::from(layer.bias_q(j))
+    }
+
+    /// [`activate_q`] with row `j`'s shift: the exact `i64` sums of
+    /// [`dense_q`] give the same outputs.
+    #[inline(always)]
+    fn finish<const L: usize>(
+        layer: &Layer<'_>,
+        act: Activation,
+        j: usize,
+        acc: &[i64; L],
+        used: usize,
+        o: &mut [i16; L],
+    ) {
+        let shift = layer.shift(j);
+        for (l, (o, &a)) in o.iter_mut().zip(acc).enumerate() {
+            *o = if l < used {
+                activate_q(act, a, shift)
+            } else {
+                0
+            };
         }
-        j += ROWS;
-    }
-    for o in blocks.into_remainder() {
-        let g = w.get(j * n..).unwrap_or(&[]);
-        let mut acc = [[i64::from(layer.bias_q(j)); L]];
-        row_lanes::<L>(g.get(..n).unwrap_or(g), x, &mut acc[0]);
-        finish::<L>(act, &acc[0], layer.shift(j), used, o);
-        j += 1;
-    }
-}
-
-/// `o[l] = activate_q(act, acc[l], shift)` for the lanes `l < used`, 0
-/// for the others.
-#[inline(always)]
-fn finish<const L: usize>(
-    act: Activation,
-    acc: &[i64; L],
-    shift: i8,
-    used: usize,
-    o: &mut [i16; L],
-) {
-    for (l, (o, &a)) in o.iter_mut().zip(acc).enumerate() {
-        *o = if l < used {
-            activate_q(act, a, shift)
-        } else {
-            0
-        };
     }
 }
 
@@ -678,7 +611,7 @@ impl Backend for Q15 {
         out: &mut [[i16; L]],
         used: usize,
     ) {
-        dense_lanes::<L>(layer, x, out, used);
+        crate::lanes::dense_lanes::<Self, L>(layer, x, out, used);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[i16], part: &[i64], out: &mut [i16]) {

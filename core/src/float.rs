@@ -15,6 +15,7 @@ use core::marker::PhantomData;
 
 use crate::blob::{Activation, Layer, NumericKind};
 use crate::engine::{Backend, Sealed};
+use crate::lanes::LaneArith;
 use crate::sine::Sine;
 
 /// The f32 backend with sine `S`.
@@ -118,117 +119,51 @@ fn w32(c: &[u8]) -> f32 {
     }
 }
 
-/// Rows of a layer that [`dense_lanes`] sums together: 4 rows share each
-/// load of `x[i]` and give `4·L` independent sums, enough to hide the f32
-/// add latency (on x86-64's 16 SSE registers with `L = 8`).
-const ROWS: usize = 4;
+impl<S: Sine> LaneArith for Float<S> {
+    type Weight = f32;
+    const WEIGHT_BYTES: usize = 4;
 
-/// `a[l] += q · x[l]` for every lane (one rounding for the product, one
-/// for the sum).
-#[inline(always)]
-fn axpy<const L: usize>(a: &mut [f32; L], q: f32, x: &[f32; L]) {
-    for (al, &xl) in a.iter_mut().zip(x) {
-        *al += q * xl;
+    #[inline(always)]
+    fn weight(b: &[u8]) -> f32 {
+        w32(b)
     }
-}
 
-/// `acc[l] += W[i] · x[i][l]` for `i` in order over the shorter of `row`
-/// (f32 LE bytes) and `x`, every lane `l`: each lane's sum is
-/// [`row_sum`]'s, left to right with separate multiply and add.
-#[inline(always)]
-fn row_lanes<const L: usize>(row: &[u8], x: &[[f32; L]], acc: &mut [f32; L]) {
-    let mut a = *acc;
-    for (xi, q) in x.iter().zip(row.chunks_exact(4)) {
-        axpy(&mut a, w32(q), xi);
-    }
-    *acc = a;
-}
-
-/// [`row_lanes`] for the [`ROWS`] rows of `g` (stride `n` bytes) at once:
-/// each `x[i]` loaded once for the four, and `4·L` independent sums (in
-/// registers) hide the add latency. Rows shorter than `x` (never for a
-/// validated layer) go one by one.
-#[inline(always)]
-fn rows_lanes<const L: usize>(g: &[u8], n: usize, x: &[[f32; L]], acc: &mut [[f32; L]; ROWS]) {
-    let len = 4 * x.len();
-    let rows: [&[u8]; ROWS] = core::array::from_fn(|r| {
-        g.get(r * n..(r + 1) * n)
-            .and_then(|row| row.get(..len))
-            .unwrap_or(&[])
-    });
-    let [r0, r1, r2, r3] = rows;
-    if rows.iter().any(|r| r.len() != len) {
-        for (r, a) in acc.iter_mut().enumerate() {
-            let row = g.get(r * n..(r + 1) * n).unwrap_or(&[]);
-            row_lanes(row, x, a);
-        }
-        return;
-    }
-    let [mut a0, mut a1, mut a2, mut a3] = *acc;
-    let q = r0
-        .chunks_exact(4)
-        .zip(r1.chunks_exact(4))
-        .zip(r2.chunks_exact(4))
-        .zip(r3.chunks_exact(4));
-    for (xi, (((q0, q1), q2), q3)) in x.iter().zip(q) {
-        axpy(&mut a0, w32(q0), xi);
-        axpy(&mut a1, w32(q1), xi);
-        axpy(&mut a2, w32(q2), xi);
-        axpy(&mut a3, w32(q3), xi);
-    }
-    *acc = [a0, a1, a2, a3];
-}
-
-/// [`Backend::dense_lanes`] for f32: [`ROWS`] rows at a time
-/// ([`rows_lanes`]), the last `out_dim mod 4` rows one at a time, then the
-/// activation of each lane ([`activate`], the sine lane by lane).
-#[inline]
-fn dense_lanes<S: Sine, const L: usize>(
-    layer: &Layer<'_>,
-    x: &[[f32; L]],
-    out: &mut [[f32; L]],
-    used: usize,
-) {
-    let n = 4 * layer.in_dim();
-    let w = layer.tensors_q().0;
-    let act = layer.activation();
-    let out_len = out.len().min(layer.out_dim());
-    let out = &mut out[..out_len];
-    let mut j = 0;
-    let mut blocks = out.chunks_exact_mut(ROWS);
-    for o in &mut blocks {
-        let g = w.get(j * n..).unwrap_or(&[]);
-        let mut acc: [[f32; L]; ROWS] = core::array::from_fn(|r| [layer.bias(j + r); L]);
-        rows_lanes::<L>(g, n, x, &mut acc);
-        for (o, a) in o.iter_mut().zip(&acc) {
-            finish::<S, L>(act, a, used, o);
-        }
-        j += ROWS;
-    }
-    for o in blocks.into_remainder() {
-        let g = w.get(j * n..).unwrap_or(&[]);
-        let mut acc = [[layer.bias(j); L]];
-        row_lanes::<L>(g.get(..n).unwrap_or(g), x, &mut acc[0]);
-        finish::<S, L>(act, &acc[0], used, o);
-        j += 1;
-    }
-}
-
-/// `o[l] = activate(acc[l])` for the lanes `l < used`, 0 for the others;
-/// the sine through [`Sine::sin_lanes`] (all lanes at once: the same bits
-/// as [`Sine::sin`] lane by lane).
-#[inline(always)]
-fn finish<S: Sine, const L: usize>(act: Activation, acc: &[f32; L], used: usize, o: &mut [f32; L]) {
-    if act == Activation::Sine {
-        *o = *acc;
-        S::sin_lanes(o);
-    } else {
-        for (o, &v) in o.iter_mut().zip(acc) {
-            *o = activate::<S>(act, v);
+    /// `a[l] += q · x[l]` (one rounding for the product, one for the sum):
+    /// each lane's sum is [`row_sum`]'s, left to right.
+    #[inline(always)]
+    fn axpy<const L: usize>(a: &mut [f32; L], q: f32, x: &[f32; L]) {
+        for (al, &xl) in a.iter_mut().zip(x) {
+            *al += q * xl;
         }
     }
-    for o in o.iter_mut().skip(used) {
-        *o = 0.0;
+
+    #[inline(always)]
+    fn bias(layer: &Layer<'_>, j: usize) -> f32 {
+        layer.bias(j)
+    }
+
+    /// The activation of each lane; the sine through [`Sine::sin_lanes`]
+    /// (all lanes at once: the same bits as [`Sine::sin`] lane by lane).
+    #[inline(always)]
+    fn finish<const L: usize>(
+        _layer: &Layer<'_>,
+        act: Activation,
+        _j: usize,
+        acc: &[f32; L],
+        used: usize,
+        o: &mut [f32; L],
+    ) {
+        if act == Activation::Sine {
+            *o = *acc;
+            S::sin_lanes(o);
+        } else {
+            for (o, &v) in o.iter_mut().zip(acc) {
+                *o = activate::<S>(act, v);
+            }
+        }
+        for o in o.iter_mut().skip(used) {
+            *o = 0.0;
+        }
     }
 }
 
@@ -271,7 +206,7 @@ impl<S: Sine> Backend for Float<S> {
         out: &mut [[f32; L]],
         used: usize,
     ) {
-        dense_lanes::<S, L>(layer, x, out, used);
+        crate::lanes::dense_lanes::<Self, L>(layer, x, out, used);
     }
 
     fn latent(layer: &Layer<'_>, skip: usize, z: &[f32], part: &[f32], out: &mut [f32]) {

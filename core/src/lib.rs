@@ -118,6 +118,7 @@ pub mod golden;
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[allow(unsafe_code)]
 mod kernels;
+mod lanes;
 #[doc(hidden)]
 pub mod math;
 pub mod predictor;
