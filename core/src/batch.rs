@@ -63,7 +63,7 @@ use crate::engine::{in_exp, out_exp, Backend, Engine};
 use crate::fixed::Q15;
 use crate::float::Float;
 use crate::frame::Frame;
-use crate::predictor::{PredictError, Trajectory};
+use crate::predictor::{on_kind, ByKind, PredictError, Trajectory};
 use crate::prng::Gaussian;
 use crate::sine::Sine;
 use crate::Error;
@@ -92,6 +92,14 @@ pub struct QueryError {
     pub index: usize,
     /// The error.
     pub error: PredictError,
+}
+
+impl QueryError {
+    /// An error of the call as a whole (bad counts or lengths, a network the
+    /// model lacks), reported at index 0.
+    fn of_call(error: PredictError) -> Self {
+        Self { index: 0, error }
+    }
 }
 
 impl core::fmt::Display for QueryError {
@@ -242,12 +250,11 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         trajectories: bool,
         mut emit: impl FnMut(usize, usize, LaneOut<'_>) -> Result<(), PredictError>,
     ) -> Result<(), QueryError> {
-        let fail = |index, error| QueryError { index, error };
         if k == 0 {
-            return Err(fail(0, PredictError::BadSampleCount));
+            return Err(QueryError::of_call(PredictError::BadSampleCount));
         }
         if trajectories && !self.model.has_predictor() {
-            return Err(fail(0, PredictError::NoPredictor));
+            return Err(QueryError::of_call(PredictError::NoPredictor));
         }
         for (gi, group) in queries.chunks(L).enumerate() {
             let base = gi * L;
@@ -420,6 +427,30 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         Ok(())
     }
 
+    /// A one-track call that draws `n` samples and fills `out`: `scalar` on
+    /// the scalar engine when `n` is [`few`], else `many` on the one
+    /// `query` with `k = out.len()` (its error without the index); the same
+    /// bits either way.
+    fn one_track<T>(
+        &mut self,
+        n: usize,
+        query: Query<'_>,
+        out: &mut [T],
+        scalar: impl FnOnce(
+            &mut Engine<'a, B, W>,
+            &[[f32; 2]],
+            u64,
+            &mut [T],
+        ) -> Result<(), PredictError>,
+        many: impl FnOnce(&mut Self, &[Query<'_>], usize, &mut [T]) -> Result<(), QueryError>,
+    ) -> Result<(), PredictError> {
+        if few::<L>(n) {
+            return scalar(&mut self.scalar, query.past, query.seed, out);
+        }
+        let k = out.len();
+        many(self, &[query], k, out).map_err(|e| e.error)
+    }
+
     /// `out.len()` plain latent samples of one track: exactly
     /// [`crate::Engine::predict_samples`]' bits.
     pub fn predict_samples(
@@ -428,11 +459,13 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        if few::<L>(out.len()) {
-            return self.scalar.predict_samples(past, seed, out);
-        }
-        self.predict_samples_many(&[Query { past, seed }], out.len(), out)
-            .map_err(|e| e.error)
+        self.one_track(
+            out.len(),
+            Query { past, seed },
+            out,
+            Engine::predict_samples,
+            Self::predict_samples_many,
+        )
     }
 
     /// `k` plain latent samples of each of `queries`: `out[t·k + s]` is
@@ -462,11 +495,13 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         seed: u64,
         out: &mut [Trajectory],
     ) -> Result<(), PredictError> {
-        if few::<L>(out.len()) {
-            return self.scalar.predict_trajectories(past, seed, out);
-        }
-        self.predict_trajectories_many(&[Query { past, seed }], out.len(), out)
-            .map_err(|e| e.error)
+        self.one_track(
+            out.len(),
+            Query { past, seed },
+            out,
+            Engine::predict_trajectories,
+            Self::predict_trajectories_many,
+        )
     }
 
     /// `k` trajectories of each of `queries`: `out[t·k + s]` is sample `s`
@@ -479,10 +514,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         out: &mut [Trajectory],
     ) -> Result<(), QueryError> {
         if !self.model.has_predictor() {
-            return Err(QueryError {
-                index: 0,
-                error: PredictError::NoPredictor,
-            });
+            return Err(QueryError::of_call(PredictError::NoPredictor));
         }
         check_len(queries.len(), k, out.len())?;
         self.run(queries, k, true, |t, s, o| {
@@ -502,12 +534,13 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        let k = out.len();
-        if few::<L>(crate::sampling::samples_needed(self.model.extensions(), k)) {
-            return self.scalar.predict_endpoint_set::<N>(past, seed, out);
-        }
-        self.predict_endpoint_sets::<N>(&[Query { past, seed }], k, out)
-            .map_err(|e| e.error)
+        self.one_track(
+            crate::sampling::samples_needed(self.model.extensions(), out.len()),
+            Query { past, seed },
+            out,
+            Engine::predict_endpoint_set::<N>,
+            Self::predict_endpoint_sets::<N>,
+        )
     }
 
     /// The model's endpoint set, `k` endpoints, of each of `queries`:
@@ -525,16 +558,10 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         let n = crate::sampling::samples_needed(&ext, k);
         check_len(queries.len(), k, out.len())?;
         if k == 0 || k > n {
-            return Err(QueryError {
-                index: 0,
-                error: PredictError::BadSampleCount,
-            });
+            return Err(QueryError::of_call(PredictError::BadSampleCount));
         }
         if n > N {
-            return Err(QueryError {
-                index: 0,
-                error: PredictError::CapacityExceeded,
-            });
+            return Err(QueryError::of_call(PredictError::CapacityExceeded));
         }
         let mut buf = heapless::Vec::<[f32; 2], N>::new();
         self.run(queries, n, false, |t, s, o| {
@@ -560,10 +587,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         out: &mut [Trajectory],
     ) -> Result<(), QueryError> {
         if !self.model.has_point_head() {
-            return Err(QueryError {
-                index: 0,
-                error: PredictError::NoPointHead,
-            });
+            return Err(QueryError::of_call(PredictError::NoPointHead));
         }
         check_len(queries.len(), 1, out.len())?;
         let scale = self.model.config().data_scale;
@@ -630,18 +654,9 @@ fn few<const L: usize>(n: usize) -> bool {
 /// `out_len == n·k` with `k > 0`, else [`PredictError::BadSampleCount`].
 fn check_len(n: usize, k: usize, out_len: usize) -> Result<(), QueryError> {
     if k == 0 || n.checked_mul(k) != Some(out_len) {
-        return Err(QueryError {
-            index: 0,
-            error: PredictError::BadSampleCount,
-        });
+        return Err(QueryError::of_call(PredictError::BadSampleCount));
     }
     Ok(())
-}
-
-/// The batched engine matching the blob's kind.
-enum Kind<'a, S: Sine, const W: usize, const L: usize> {
-    F32(Batch<'a, Float<S>, W, L>),
-    Q15(Batch<'a, Q15, W, L>),
 }
 
 /// Like [`crate::Predictor`] (any valid blob, kind chosen at run time, the
@@ -663,34 +678,26 @@ enum Kind<'a, S: Sine, const W: usize, const L: usize> {
 /// p.predict_samples_many(&tracks, 20, &mut many).map_err(|e| e.error)?;
 /// # Ok(()) }
 /// ```
-pub struct BatchPredictor<'a, S: Sine, const W: usize, const L: usize>(Kind<'a, S, W, L>);
+pub struct BatchPredictor<'a, S: Sine, const W: usize, const L: usize>(
+    ByKind<Batch<'a, Float<S>, W, L>, Batch<'a, Q15, W, L>>,
+);
 
 /// [`BatchPredictor`] with the host's lane count [`HOST_LANES`].
 pub type HostBatchPredictor<'a, S, const W: usize> = BatchPredictor<'a, S, W, HOST_LANES>;
-
-/// Calls `$body` on whichever batched engine `$p` holds.
-macro_rules! on_batch {
-    ($p:expr, $e:ident => $body:expr) => {
-        match $p {
-            Kind::F32($e) => $body,
-            Kind::Q15($e) => $body,
-        }
-    };
-}
 
 impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
     /// A batched predictor for `model`, whatever its numeric kind; fails
     /// as [`crate::Predictor::new`] does.
     pub fn new(model: Model<'a>) -> Result<Self, Error> {
         Ok(Self(match model.numeric() {
-            NumericKind::F32 => Kind::F32(Batch::new(model)?),
-            NumericKind::Int16Q15 => Kind::Q15(Batch::new(model)?),
+            NumericKind::F32 => ByKind::F32(Batch::new(model)?),
+            NumericKind::Int16Q15 => ByKind::Q15(Batch::new(model)?),
         }))
     }
 
     /// The model.
     pub fn model(&self) -> &Model<'a> {
-        on_batch!(&self.0, e => e.model())
+        on_kind!(&self.0, e => e.model())
     }
 
     /// [`crate::Predictor::predict_samples`], batched (same bits).
@@ -700,7 +707,7 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        on_batch!(&mut self.0, e => e.predict_samples(past, seed, out))
+        on_kind!(&mut self.0, e => e.predict_samples(past, seed, out))
     }
 
     /// [`crate::Predictor::predict_trajectories`], batched (same bits).
@@ -710,7 +717,7 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         seed: u64,
         out: &mut [Trajectory],
     ) -> Result<(), PredictError> {
-        on_batch!(&mut self.0, e => e.predict_trajectories(past, seed, out))
+        on_kind!(&mut self.0, e => e.predict_trajectories(past, seed, out))
     }
 
     /// [`crate::Predictor::predict_endpoint_set`], batched (same bits).
@@ -720,7 +727,7 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        on_batch!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
+        on_kind!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
     }
 
     /// [`Batch::predict_samples_many`]: `k` samples of each track,
@@ -731,7 +738,7 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         k: usize,
         out: &mut [[f32; 2]],
     ) -> Result<(), QueryError> {
-        on_batch!(&mut self.0, e => e.predict_samples_many(queries, k, out))
+        on_kind!(&mut self.0, e => e.predict_samples_many(queries, k, out))
     }
 
     /// [`Batch::predict_trajectories_many`]: `k` trajectories of each
@@ -742,7 +749,7 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         k: usize,
         out: &mut [Trajectory],
     ) -> Result<(), QueryError> {
-        on_batch!(&mut self.0, e => e.predict_trajectories_many(queries, k, out))
+        on_kind!(&mut self.0, e => e.predict_trajectories_many(queries, k, out))
     }
 
     /// [`Batch::predict_endpoint_sets`]: the endpoint set (`k` endpoints)
@@ -753,7 +760,7 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         k: usize,
         out: &mut [[f32; 2]],
     ) -> Result<(), QueryError> {
-        on_batch!(&mut self.0, e => e.predict_endpoint_sets::<N>(queries, k, out))
+        on_kind!(&mut self.0, e => e.predict_endpoint_sets::<N>(queries, k, out))
     }
 
     /// [`Batch::predict_points`]: the point forecast of each track.
@@ -762,6 +769,6 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         queries: &[Query<'_>],
         out: &mut [Trajectory],
     ) -> Result<(), QueryError> {
-        on_batch!(&mut self.0, e => e.predict_points(queries, out))
+        on_kind!(&mut self.0, e => e.predict_points(queries, out))
     }
 }

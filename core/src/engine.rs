@@ -381,6 +381,26 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         Ok(t)
     }
 
+    /// Starts the stream of `seed` for `past` and fills `out` in order, one
+    /// `draw` per element (each draws the next sample);
+    /// [`PredictError::BadSampleCount`] for an empty `out`.
+    fn each_sample<T>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [T],
+        mut draw: impl FnMut(&mut Self) -> Result<T, PredictError>,
+    ) -> Result<(), PredictError> {
+        if out.is_empty() {
+            return Err(PredictError::BadSampleCount);
+        }
+        self.start(past, seed)?;
+        for o in out.iter_mut() {
+            *o = draw(self)?;
+        }
+        Ok(())
+    }
+
     /// `out.len()` plain latent samples: the first `out.len()` endpoints of the
     /// stream seeded with `seed`, whatever the blob's protocol (the building
     /// block of [`Engine::predict_endpoint_set`]).
@@ -390,14 +410,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        if out.is_empty() {
-            return Err(PredictError::BadSampleCount);
-        }
-        self.start(past, seed)?;
-        for o in out.iter_mut() {
-            *o = self.next_endpoint()?;
-        }
-        Ok(())
+        self.each_sample(past, seed, out, Self::next_endpoint)
     }
 
     /// The model's endpoint set (see [`crate::sampling`]): `out.len()` endpoints,
@@ -434,14 +447,9 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         if !self.model.has_predictor() {
             return Err(PredictError::NoPredictor);
         }
-        if out.is_empty() {
-            return Err(PredictError::BadSampleCount);
-        }
-        self.start(past, seed)?;
-        for t in out.iter_mut() {
-            self.next_endpoint()?;
-            *t = self.last_trajectory()?;
-        }
-        Ok(())
+        self.each_sample(past, seed, out, |e| {
+            e.next_endpoint()?;
+            e.last_trajectory()
+        })
     }
 }

@@ -110,24 +110,32 @@ impl core::fmt::Display for PredictError {
 
 impl core::error::Error for PredictError {}
 
-/// The engine matching the blob's kind.
-enum Kind<'a, S: Sine, const W: usize> {
-    F32(Engine<'a, Float<S>, W>),
-    Q15(Engine<'a, Q15, W>),
+/// One engine per numeric kind, holding the one a blob's kind calls for:
+/// the run-time dispatch of [`Predictor`] (scalar engines) and of
+/// `batch::BatchPredictor` (batched engines).
+pub(crate) enum ByKind<F, Q> {
+    /// The engine of an f32 blob.
+    F32(F),
+    /// The engine of an int16/Q15 blob.
+    Q15(Q),
 }
 
-/// Predicts from any valid blob (see the module docs).
-pub struct Predictor<'a, S: Sine, const W: usize>(Kind<'a, S, W>);
-
-/// Calls `$f` on whichever engine `$p` holds.
-macro_rules! on_engine {
+/// Evaluates `$body` with `$e` bound to whichever engine the [`ByKind`]
+/// `$p` holds (both arms are the same code, typed per engine).
+macro_rules! on_kind {
     ($p:expr, $e:ident => $body:expr) => {
         match $p {
-            Kind::F32($e) => $body,
-            Kind::Q15($e) => $body,
+            $crate::predictor::ByKind::F32($e) => $body,
+            $crate::predictor::ByKind::Q15($e) => $body,
         }
     };
 }
+pub(crate) use on_kind;
+
+/// Predicts from any valid blob (see the module docs).
+pub struct Predictor<'a, S: Sine, const W: usize>(
+    ByKind<Engine<'a, Float<S>, W>, Engine<'a, Q15, W>>,
+);
 
 impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// A predictor for `model`, whatever its numeric kind. Fails with
@@ -135,22 +143,22 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// exceeds `W`.
     pub fn new(model: Model<'a>) -> Result<Self, Error> {
         Ok(Self(match model.numeric() {
-            NumericKind::F32 => Kind::F32(Engine::new(model)?),
-            NumericKind::Int16Q15 => Kind::Q15(Engine::new(model)?),
+            NumericKind::F32 => ByKind::F32(Engine::new(model)?),
+            NumericKind::Int16Q15 => ByKind::Q15(Engine::new(model)?),
         }))
     }
 
     /// The model.
     pub fn model(&self) -> &Model<'a> {
-        on_engine!(&self.0, e => e.model())
+        on_kind!(&self.0, e => e.model())
     }
 
     /// Name of the sine this predictor runs the model with (`S::NAME` for
     /// f32 blobs, `q15-table` for fixed-point ones), as golden files name it.
     pub fn sine_name(&self) -> &'static str {
         match self.0 {
-            Kind::F32(_) => S::NAME,
-            Kind::Q15(_) => crate::fixed::SINE_NAME,
+            ByKind::F32(_) => S::NAME,
+            ByKind::Q15(_) => crate::fixed::SINE_NAME,
         }
     }
 
@@ -158,7 +166,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// last one the endpoint. Needs a point-forecast head
     /// ([`Model::has_point_head`]); the model's single best guess.
     pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        on_engine!(&mut self.0, e => e.predict_point(past))
+        on_kind!(&mut self.0, e => e.predict_point(past))
     }
 
     /// The model's endpoint set: `out.len()` endpoints (plain latent samples
@@ -172,7 +180,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        on_engine!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
+        on_kind!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
     }
 
     /// `out.len()` plain latent samples (the first endpoints of the stream
@@ -183,7 +191,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        on_engine!(&mut self.0, e => e.predict_samples(past, seed, out))
+        on_kind!(&mut self.0, e => e.predict_samples(past, seed, out))
     }
 
     /// `out.len()` full trajectories of plain latent samples (the last point
@@ -194,7 +202,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         seed: u64,
         out: &mut [Trajectory],
     ) -> Result<(), PredictError> {
-        on_engine!(&mut self.0, e => e.predict_trajectories(past, seed, out))
+        on_kind!(&mut self.0, e => e.predict_trajectories(past, seed, out))
     }
 
     /// Starts a sample stream (encodes `past` once); then call
@@ -202,16 +210,16 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// in between if you like. `start` + `k` × `next_endpoint` gives exactly
     /// [`Predictor::predict_samples`] with `k` outputs.
     pub fn start(&mut self, past: &[[f32; 2]], seed: u64) -> Result<(), PredictError> {
-        on_engine!(&mut self.0, e => e.start(past, seed))
+        on_kind!(&mut self.0, e => e.start(past, seed))
     }
 
     /// The next sample's endpoint of the stream begun by [`Predictor::start`].
     pub fn next_endpoint(&mut self) -> Result<[f32; 2], PredictError> {
-        on_engine!(&mut self.0, e => e.next_endpoint())
+        on_kind!(&mut self.0, e => e.next_endpoint())
     }
 
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.
     pub fn last_trajectory(&mut self) -> Result<Trajectory, PredictError> {
-        on_engine!(&mut self.0, e => e.last_trajectory())
+        on_kind!(&mut self.0, e => e.last_trajectory())
     }
 }
