@@ -39,6 +39,136 @@
 
 use core::arch::asm;
 
+/// The loops of one of [`dot2_q15`]'s paths as asm text, `$block` being
+/// that path's 4-input block: with `m` = the number of 4-input blocks
+/// (≥ 1), 4 blocks per iteration (label 2) while at least 4 remain, then 1
+/// block per iteration (label 4); branches to label 9 (`9f`) when none is
+/// left after the first loop, else falls through at the end. Both paths use
+/// labels 2–4: a numeric local label may be defined again, and `2b`/`3f`
+/// mean the nearest one before/after.
+macro_rules! q15_loops {
+    ($block:ident) => {
+        concat!(
+            "subs {m}, {m}, #4\n",
+            "blt 3f\n",
+            "2:\n",
+            $block!(),
+            $block!(),
+            $block!(),
+            $block!(),
+            "subs {m}, {m}, #4\n",
+            "bge 2b\n",
+            "3:\n",
+            "adds {m}, {m}, #4\n",
+            "beq 9f\n",
+            "4:\n",
+            $block!(),
+            "subs {m}, {m}, #1\n",
+            "bne 4b",
+        )
+    };
+}
+
+/// [`dot2_q15`]'s 4-input block for word-aligned rows: one `LDRD` of four
+/// activations, per row one `LDRD` of four weights and two `SMLALD` (7
+/// instructions, 8 MACs).
+macro_rules! q15_block_ldrd {
+    () => {
+        concat!(
+            "ldrd {x0}, {x1}, [{xp}], #8\n",
+            "ldrd {w0}, {w1}, [{p0}], #8\n",
+            "smlald {a0}, {a1}, {w0}, {x0}\n",
+            "smlald {a0}, {a1}, {w1}, {x1}\n",
+            "ldrd {w0}, {w1}, [{p1}], #8\n",
+            "smlald {b0}, {b1}, {w0}, {x0}\n",
+            "smlald {b0}, {b1}, {w1}, {x1}\n",
+        )
+    };
+}
+
+/// [`dot2_q15`]'s 4-input block for rows at any alignment: one `LDRD` of
+/// four activations, then twice: one unaligned `LDR` of two weights per
+/// row and one `SMLALD` per row (9 instructions, 8 MACs).
+macro_rules! q15_block_ldr {
+    () => {
+        concat!(
+            "ldrd {x0}, {x1}, [{xp}], #8\n",
+            "ldr {w0}, [{p0}], #4\n",
+            "ldr {w1}, [{p1}], #4\n",
+            "smlald {a0}, {a1}, {w0}, {x0}\n",
+            "smlald {b0}, {b1}, {w1}, {x0}\n",
+            "ldr {w0}, [{p0}], #4\n",
+            "ldr {w1}, [{p1}], #4\n",
+            "smlald {a0}, {a1}, {w0}, {x1}\n",
+            "smlald {b0}, {b1}, {w1}, {x1}\n",
+        )
+    };
+}
+
+/// The whole of one of [`dot4_f32`]'s paths as asm text: save s0–s11, load
+/// the four sums into s0–s3, form `p1..p3` (row stride `n`), then per 4
+/// inputs one `VLDM` of `x` into s4–s7 and `$row` for each row (pointer,
+/// sum register), `m` times; store the sums and restore s0–s11.
+macro_rules! f32_loop {
+    ($row:ident) => {
+        concat!(
+            "vpush {{s0-s11}}\n",
+            "vldmia {ap}, {{s0-s3}}\n",
+            "add {p1}, {p0}, {n}\n",
+            "add {p2}, {p1}, {n}\n",
+            "add {p3}, {p2}, {n}\n",
+            "2:\n",
+            "vldmia {xp}!, {{s4-s7}}\n",
+            $row!("p0", "s0"),
+            $row!("p1", "s1"),
+            $row!("p2", "s2"),
+            $row!("p3", "s3"),
+            "subs {m}, {m}, #1\n",
+            "bne 2b\n",
+            "vstmia {ap}, {{s0-s3}}\n",
+            "vpop {{s0-s11}}",
+        )
+    };
+}
+
+/// Four `VMLA.F32` into sum register `$s`: `$s += s8·s4`, then s9·s5,
+/// s10·s6, s11·s7, in this order (each product and sum rounded).
+macro_rules! f32_vmla4 {
+    ($s:literal) => {
+        concat!(
+            concat!("vmla.f32 ", $s, ", s8, s4\n"),
+            concat!("vmla.f32 ", $s, ", s9, s5\n"),
+            concat!("vmla.f32 ", $s, ", s10, s6\n"),
+            concat!("vmla.f32 ", $s, ", s11, s7\n"),
+        )
+    };
+}
+
+/// One row of [`dot4_f32`]'s aligned path: one `VLDM` of four weights from
+/// the pointer operand named `$p` into s8–s11, then `f32_vmla4!` into `$s`.
+macro_rules! f32_row_vldm {
+    ($p:literal, $s:literal) => {
+        concat!("vldmia {", $p, "}!, {{s8-s11}}\n", f32_vmla4!($s))
+    };
+}
+
+/// One row of [`dot4_f32`]'s any-alignment path: four unaligned `LDR` of
+/// weights from the pointer operand named `$p` (into `n`, `t1`–`t3`), two
+/// `VMOV` into s8–s11, then `f32_vmla4!` into `$s`.
+macro_rules! f32_row_ldr {
+    ($p:literal, $s:literal) => {
+        concat!(
+            concat!("ldr {n}, [{", $p, "}], #4\n"),
+            concat!("ldr {t1}, [{", $p, "}], #4\n"),
+            concat!("ldr {t2}, [{", $p, "}], #4\n"),
+            concat!("ldr {t3}, [{", $p, "}], #4\n"),
+            "vmov s8, s9, {n}, {t1}\n",
+            "vmov s10, s11, {t2}, {t3}\n",
+            f32_vmla4!($s),
+        )
+    };
+}
+
 /// Two rows of i16 LE weights, `g[lo..n]` and `g[n + lo..2n]` (`n`: the
 /// row stride in bytes): `(a0 + Σ_i q0_i x_i, a1 + Σ_i q1_i x_i)` over
 /// `i < k`, where `k` is the largest multiple of 4 with `k ≤ x.len()`;
@@ -82,114 +212,13 @@ pub(crate) fn dot2_q15(
             "orr {w0}, {p0}, {p1}",
             "tst {w0}, #3",
             "bne 6f",
-            // Aligned rows: per 4 inputs one LDRD of activations, one LDRD of
-            // two weight pairs per row, four SMLALD (7 instructions, 8 MACs);
-            // m = number of 4-input blocks (≥ 1), 4 blocks per iteration first.
-            "subs {m}, {m}, #4",
-            "blt 3f",
-            "2:",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldrd {w0}, {w1}, [{p0}], #8",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {a0}, {a1}, {w1}, {x1}",
-                "ldrd {w0}, {w1}, [{p1}], #8",
-                "smlald {b0}, {b1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldrd {w0}, {w1}, [{p0}], #8",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {a0}, {a1}, {w1}, {x1}",
-                "ldrd {w0}, {w1}, [{p1}], #8",
-                "smlald {b0}, {b1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldrd {w0}, {w1}, [{p0}], #8",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {a0}, {a1}, {w1}, {x1}",
-                "ldrd {w0}, {w1}, [{p1}], #8",
-                "smlald {b0}, {b1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldrd {w0}, {w1}, [{p0}], #8",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {a0}, {a1}, {w1}, {x1}",
-                "ldrd {w0}, {w1}, [{p1}], #8",
-                "smlald {b0}, {b1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-            "subs {m}, {m}, #4",
-            "bge 2b",
-            "3:",
-            "adds {m}, {m}, #4",
-            "beq 9f",
-            "4:",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldrd {w0}, {w1}, [{p0}], #8",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {a0}, {a1}, {w1}, {x1}",
-                "ldrd {w0}, {w1}, [{p1}], #8",
-                "smlald {b0}, {b1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-            "subs {m}, {m}, #1",
-            "bne 4b",
+            // Aligned rows: one LDRD of two weight pairs per row (7
+            // instructions, 8 MACs).
+            q15_loops!(q15_block_ldrd),
             "b 9f",
             // Rows at any alignment: two LDR per row (9 instructions, 8 MACs).
             "6:",
-            "subs {m}, {m}, #4",
-            "blt 7f",
-            "5:",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x0}",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x1}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x0}",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x1}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x0}",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x1}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x0}",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x1}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-            "subs {m}, {m}, #4",
-            "bge 5b",
-            "7:",
-            "adds {m}, {m}, #4",
-            "beq 9f",
-            "8:",
-                "ldrd {x0}, {x1}, [{xp}], #8",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x0}",
-                "smlald {b0}, {b1}, {w1}, {x0}",
-                "ldr {w0}, [{p0}], #4",
-                "ldr {w1}, [{p1}], #4",
-                "smlald {a0}, {a1}, {w0}, {x1}",
-                "smlald {b0}, {b1}, {w1}, {x1}",
-            "subs {m}, {m}, #1",
-            "bne 8b",
+            q15_loops!(q15_block_ldr),
             "9:",
             m = inout(reg) k / 4 => _,
             xp = inout(reg) x.as_ptr() => _,
@@ -246,37 +275,7 @@ pub(crate) fn dot4_f32(g: &[u8], n: usize, lo: usize, x: &[f32], acc: &mut [f32;
         // flush-to-zero and default-NaN settings exactly as `VMUL` + `VADD`.
         unsafe {
             asm!(
-                "vpush {{s0-s11}}",
-                "vldmia {ap}, {{s0-s3}}",
-                "add {p1}, {p0}, {n}",
-                "add {p2}, {p1}, {n}",
-                "add {p3}, {p2}, {n}",
-                "2:",
-                "vldmia {xp}!, {{s4-s7}}",
-                "vldmia {p0}!, {{s8-s11}}",
-                "vmla.f32 s0, s8, s4",
-                "vmla.f32 s0, s9, s5",
-                "vmla.f32 s0, s10, s6",
-                "vmla.f32 s0, s11, s7",
-                "vldmia {p1}!, {{s8-s11}}",
-                "vmla.f32 s1, s8, s4",
-                "vmla.f32 s1, s9, s5",
-                "vmla.f32 s1, s10, s6",
-                "vmla.f32 s1, s11, s7",
-                "vldmia {p2}!, {{s8-s11}}",
-                "vmla.f32 s2, s8, s4",
-                "vmla.f32 s2, s9, s5",
-                "vmla.f32 s2, s10, s6",
-                "vmla.f32 s2, s11, s7",
-                "vldmia {p3}!, {{s8-s11}}",
-                "vmla.f32 s3, s8, s4",
-                "vmla.f32 s3, s9, s5",
-                "vmla.f32 s3, s10, s6",
-                "vmla.f32 s3, s11, s7",
-                "subs {m}, {m}, #1",
-                "bne 2b",
-                "vstmia {ap}, {{s0-s3}}",
-                "vpop {{s0-s11}}",
+                f32_loop!(f32_row_vldm),
                 m = inout(reg) k / 4 => _,
                 xp = inout(reg) x.as_ptr() => _,
                 ap = in(reg) acc.as_mut_ptr(),
@@ -295,57 +294,7 @@ pub(crate) fn dot4_f32(g: &[u8], n: usize, lo: usize, x: &[f32], acc: &mut [f32;
         // free once p1–p3 are set and serves as the fourth temporary.
         unsafe {
             asm!(
-                "vpush {{s0-s11}}",
-                "vldmia {ap}, {{s0-s3}}",
-                "add {p1}, {p0}, {n}",
-                "add {p2}, {p1}, {n}",
-                "add {p3}, {p2}, {n}",
-                "2:",
-                "vldmia {xp}!, {{s4-s7}}",
-                "ldr {n}, [{p0}], #4",
-                "ldr {t1}, [{p0}], #4",
-                "ldr {t2}, [{p0}], #4",
-                "ldr {t3}, [{p0}], #4",
-                "vmov s8, s9, {n}, {t1}",
-                "vmov s10, s11, {t2}, {t3}",
-                "vmla.f32 s0, s8, s4",
-                "vmla.f32 s0, s9, s5",
-                "vmla.f32 s0, s10, s6",
-                "vmla.f32 s0, s11, s7",
-                "ldr {n}, [{p1}], #4",
-                "ldr {t1}, [{p1}], #4",
-                "ldr {t2}, [{p1}], #4",
-                "ldr {t3}, [{p1}], #4",
-                "vmov s8, s9, {n}, {t1}",
-                "vmov s10, s11, {t2}, {t3}",
-                "vmla.f32 s1, s8, s4",
-                "vmla.f32 s1, s9, s5",
-                "vmla.f32 s1, s10, s6",
-                "vmla.f32 s1, s11, s7",
-                "ldr {n}, [{p2}], #4",
-                "ldr {t1}, [{p2}], #4",
-                "ldr {t2}, [{p2}], #4",
-                "ldr {t3}, [{p2}], #4",
-                "vmov s8, s9, {n}, {t1}",
-                "vmov s10, s11, {t2}, {t3}",
-                "vmla.f32 s2, s8, s4",
-                "vmla.f32 s2, s9, s5",
-                "vmla.f32 s2, s10, s6",
-                "vmla.f32 s2, s11, s7",
-                "ldr {n}, [{p3}], #4",
-                "ldr {t1}, [{p3}], #4",
-                "ldr {t2}, [{p3}], #4",
-                "ldr {t3}, [{p3}], #4",
-                "vmov s8, s9, {n}, {t1}",
-                "vmov s10, s11, {t2}, {t3}",
-                "vmla.f32 s3, s8, s4",
-                "vmla.f32 s3, s9, s5",
-                "vmla.f32 s3, s10, s6",
-                "vmla.f32 s3, s11, s7",
-                "subs {m}, {m}, #1",
-                "bne 2b",
-                "vstmia {ap}, {{s0-s3}}",
-                "vpop {{s0-s11}}",
+                f32_loop!(f32_row_ldr),
                 m = inout(reg) k / 4 => _,
                 xp = inout(reg) x.as_ptr() => _,
                 ap = in(reg) acc.as_mut_ptr(),
