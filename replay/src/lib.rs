@@ -2,7 +2,10 @@
 //! (`golden-host`, println output): the same code, the same lines, so `cargo
 //! xtask qemu` can compare the two runs line by line. `no_std`, no heap.
 //!
-//! Lines (the caller prints each [`Line`]):
+//! Lines (the host prints each [`Line`] through [`Line::print`] and the
+//! totals with [`Summary`]'s `Display`; the firmware prints the same text
+//! with typed defmt, `firmware/src/golden_run.rs`, because the Cortex-M0's
+//! golden run has no stack left for `core::fmt`; `tests/lines.rs` pins the text):
 //!
 //! ```text
 //! model <model> <numeric> <sine> <n>     before a model's cases: f32|int16q15, the sidecar's sine
@@ -22,6 +25,8 @@
 
 #![no_std]
 #![deny(missing_docs)]
+
+use core::fmt;
 
 use gpecnet_core::golden::{fnv1a, GoldenCase, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
@@ -97,6 +102,52 @@ pub enum Line<'a> {
     },
 }
 
+impl Line<'_> {
+    /// The line as text through `print(text, error)`: `error` is `false` for
+    /// the result lines `cargo xtask qemu` compares (`model`, `golden`,
+    /// `xcheck`) and `true` for failures (printed on stderr on the host, at
+    /// error level by defmt); a golden case that differs from its sidecar is
+    /// followed by the error line `MISMATCH <model> case <case>`.
+    pub fn print(&self, print: &mut dyn FnMut(fmt::Arguments<'_>, bool)) {
+        match *self {
+            Line::Model {
+                model,
+                numeric,
+                sine,
+                cases,
+            } => print(format_args!("model {model} {numeric} {sine} {cases}"), false),
+            Line::Golden {
+                model,
+                case,
+                hash,
+                ok,
+            } => {
+                print(format_args!("golden {model} {case} {hash:08x}"), false);
+                if !ok {
+                    print(format_args!("MISMATCH {model} case {case}"), true);
+                }
+            }
+            Line::Xcheck {
+                model,
+                sine,
+                case,
+                hash,
+            } => print(format_args!("xcheck {model} {sine} {case} {hash:08x}"), false),
+            Line::Error { model, what } => print(format_args!("golden {model}: {what}"), true),
+            Line::TooWide {
+                model,
+                needed,
+                capacity,
+            } => print(
+                format_args!(
+                    "golden {model}: model needs scratch width {needed} > SCRATCH {capacity} (firmware/src/lib.rs)"
+                ),
+                true,
+            ),
+        }
+    }
+}
+
 /// Totals over all models.
 #[derive(Default, Clone, Copy)]
 pub struct Summary {
@@ -124,6 +175,18 @@ impl Summary {
     /// At least one case ran, and every case of every model matched.
     pub fn ok(&self) -> bool {
         self.models > 0 && self.cases > 0 && self.mismatches == 0 && self.errors == 0
+    }
+}
+
+/// `golden summary: models=.. cases=.. mismatches=.. errors=.. xchecks=..`,
+/// the last line of a replay on both sides.
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "golden summary: models={} cases={} mismatches={} errors={} xchecks={}",
+            self.models, self.cases, self.mismatches, self.errors, self.xchecks
+        )
     }
 }
 

@@ -1,8 +1,9 @@
 //! `golden-host [WEIGHTS_DIR]`: the firmware's golden verification on the
-//! host (stable toolchain), same code (`firmware/src/golden.rs`), same lines.
+//! host (stable toolchain), same code (`gpecnet-replay`, as `firmware/src/golden_run.rs`), same lines.
 //! `cargo xtask qemu` compares its `golden`/`xcheck` lines with the firmware's.
 //! `golden-host --macs FILE.gpec K`: the blob's MAC count for K endpoints.
-use gpecnet_replay::{verify_all, EmbeddedModel, Line};
+use gpecnet_mcu_models::{blob_path, golden_path, only_from_env, select};
+use gpecnet_replay::{verify_all, EmbeddedModel};
 
 /// The firmware's scratch width on the M4F/M7 (`gpecnet_firmware::SCRATCH`).
 const SCRATCH: usize = 128;
@@ -39,29 +40,8 @@ fn main() {
         .first()
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../weights"));
-    let only: Option<Vec<String>> = std::env::var("GPECNET_MODELS")
-        .ok()
-        .filter(|s| !s.is_empty())
-        .map(|s| s.split(',').map(|x| x.trim().to_string()).collect());
-    // Same selection and order as firmware/build.rs.
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter_map(|e| {
-                    let p = e.path();
-                    (p.extension()? == "gpec").then(|| p.file_stem()?.to_str().map(String::from))?
-                })
-                .filter(|n| dir.join(format!("{n}.golden")).is_file())
-                .filter(|n| only.as_ref().map_or(true, |o| o.contains(n)))
-                // Host-only models do not go into the image (firmware/build.rs MAX_MCU_BLOB).
-                .filter(|n| {
-                    std::fs::metadata(dir.join(format!("{n}.gpec")))
-                        .is_ok_and(|m| m.len() <= 512 * 1024)
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    names.sort();
+    // The models firmware/build.rs embeds, in the same order.
+    let names = select(&dir, only_from_env().as_deref()).names;
     if names.is_empty() {
         eprintln!(
             "golden-host: no model in {} (need <name>.gpec + <name>.golden)",
@@ -74,55 +54,26 @@ fn main() {
         .map(|n| EmbeddedModel {
             name: Box::leak(n.clone().into_boxed_str()),
             blob: Box::leak(
-                std::fs::read(dir.join(format!("{n}.gpec")))
+                std::fs::read(blob_path(&dir, n))
                     .unwrap()
                     .into_boxed_slice(),
             ),
             golden: Box::leak(
-                std::fs::read(dir.join(format!("{n}.golden")))
+                std::fs::read(golden_path(&dir, n))
                     .unwrap()
                     .into_boxed_slice(),
             ),
         })
         .collect();
     let s = verify_all::<SCRATCH>(&models, true, &mut |l| {
-        match l {
-        Line::Model {
-            model,
-            numeric,
-            sine,
-            cases,
-        } => println!("model {model} {numeric} {sine} {cases}"),
-        Line::Golden {
-            model,
-            case,
-            hash,
-            ok,
-        } => {
-            println!("golden {model} {case} {hash:08x}");
-            if !ok {
-                eprintln!("MISMATCH {model} case {case}");
+        l.print(&mut |text, error| {
+            if error {
+                eprintln!("{text}")
+            } else {
+                println!("{text}")
             }
-        }
-        Line::Xcheck {
-            model,
-            sine,
-            case,
-            hash,
-        } => println!("xcheck {model} {sine} {case} {hash:08x}"),
-        Line::Error { model, what } => eprintln!("golden {model}: {what}"),
-        Line::TooWide {
-            model,
-            needed,
-            capacity,
-        } => eprintln!(
-            "golden {model}: model needs scratch width {needed} > SCRATCH {capacity} (firmware/src/lib.rs)"
-        ),
-    }
+        })
     });
-    println!(
-        "golden summary: models={} cases={} mismatches={} errors={} xchecks={}",
-        s.models, s.cases, s.mismatches, s.errors, s.xchecks
-    );
+    println!("{s}");
     exit(if s.ok() { 0 } else { 1 })
 }
