@@ -45,26 +45,11 @@ pub(crate) fn weights_dir(o: &Opts) -> PathBuf {
     o.weights.clone().unwrap_or_else(|| root().join("weights"))
 }
 
-/// Model names with both files, sorted (the firmware's build.rs does the same).
-/// Largest blob linked into the firmware: the STM32F405 has 1 MiB of flash,
-/// and code, golden files and the other models need room too. Bigger
-/// (host-only, e.g. paper-size) models are skipped by firmware/build.rs too.
-pub(crate) const MAX_MCU_BLOB: u64 = 512 * 1024;
-
+/// The models the firmware embeds from `dir` (`<name>.gpec` + `<name>.golden`,
+/// at most `MAX_MCU_BLOB` bytes), sorted: gpecnet-mcu-models, the rule of
+/// firmware/build.rs and golden-host; the xtask names the set per build itself.
 pub(crate) fn models_in(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .map(|e| e.path())
-                .filter(|p| p.extension().is_some_and(|x| x == "gpec"))
-                .filter(|p| std::fs::metadata(p).is_ok_and(|m| m.len() <= MAX_MCU_BLOB))
-                .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(String::from))
-                .filter(|n| dir.join(format!("{n}.golden")).is_file())
-                .collect()
-        })
-        .unwrap_or_default();
-    v.sort();
-    v
+    gpecnet_mcu_models::select(dir, None).names
 }
 
 pub(crate) fn require_models(dir: &Path) -> Vec<String> {
@@ -133,7 +118,7 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
     ] {
         let mut c = fw_cargo(o);
         // The corrupted-blob proof runs the golden mode on one model (the first).
-        c.env("GPECNET_MODELS", &first);
+        c.env(gpecnet_mcu_models::ONLY_VAR, &first);
         c.arg("run");
         mcu::M4F.firmware_args(&mut c, &root(), "golden", &[f]);
         let (rc, out, _) = output(c);
@@ -150,10 +135,11 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
 }
 
 pub(crate) fn fw_test() -> i32 {
-    // The golden replay the firmware runs (crate gpecnet-replay), tested on the
-    // host, and the firmware's host tools (golden-host, make-test-blob) built.
+    // The golden replay the firmware runs (crate gpecnet-replay) and the model
+    // selection of its build script (gpecnet-mcu-models), tested on the host,
+    // and the firmware's host tools (golden-host, make-test-blob) built.
     let mut c = host_cargo();
-    c.args(["test", "-p", "gpecnet-replay"]);
+    c.args(["test", "-p", "gpecnet-replay", "-p", "gpecnet-mcu-models"]);
     let rc = status(c);
     if rc != 0 {
         return rc;

@@ -60,7 +60,7 @@ enum Cmd {
     /// Prove the failure paths: an injected panic, HardFault, stack overflow, hung task and
     /// corrupted embedded blob must each log their cause and end the run with exit 1.
     FwFaults(FwArgs),
-    /// Host side of the firmware: the golden replay's tests (gpecnet-replay) and the host tools built.
+    /// Host side of the firmware: the golden replay's and the model selection's tests (gpecnet-replay, gpecnet-mcu-models) and the host tools built.
     FwTest,
     /// Flash/RAM/stack/instruction count per model and numeric path on the STM32F405 (TCG plugin),
     /// and where the instructions go per function (the dense layers' share, instructions per MAC).

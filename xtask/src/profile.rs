@@ -8,6 +8,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
+use gpecnet_mcu_models::blob_path;
+
 use crate::elf::{read_elf, Elf};
 use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::toolchain::{output, require, show, status, which};
@@ -142,7 +144,7 @@ pub(crate) fn build_profile_image(
     elf_copy: &Path,
 ) -> Elf {
     let mut c = fw_cargo(o);
-    c.env("GPECNET_MODELS", models)
+    c.env(gpecnet_mcu_models::ONLY_VAR, models)
         .env("GPECNET_SINE", sine)
         .arg("build");
     mcu.firmware_args(&mut c, &root(), "profile", features);
@@ -245,9 +247,9 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
     let mut rows = Vec::new();
     let mut failed = false;
     for m in &models {
-        let blob_path = dir.join(format!("{m}.gpec"));
-        let blob_len = std::fs::metadata(&blob_path).map_or(0, |md| md.len() as u32);
-        let fixed = blob_is_fixed(&blob_path);
+        let blob = blob_path(&dir, m);
+        let blob_len = std::fs::metadata(&blob).map_or(0, |md| md.len() as u32);
+        let fixed = blob_is_fixed(&blob);
         if only_fixed.is_some_and(|f| f != fixed) {
             continue;
         }
@@ -317,49 +319,31 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             });
         }
     }
-    let mut t = String::new();
-    let _ = writeln!(
-        t,
-        "Profile: release (opt-level 3, fat LTO), thumbv7em-none-eabihf, QEMU netduinoplus2 (STM32F405), one prediction K = 20\n"
-    );
-    md_table(
-        &mut t,
-        &[
-            "model",
-            "path",
-            "flash B (.text / .rodata)",
-            "blob B",
-            "predict code B",
-            "code + weights B",
-            "static RAM B",
-            "stack peak B (run / predict)",
-            "Predictor B",
-            "instructions (K=20)",
-            "MACs (K=20)",
-            "insns/MAC",
-            "output fnv32",
-        ],
-        rows.iter().map(|r| {
-            vec![
-                r.model.clone(),
-                r.sine.clone(),
-                format!("{} ({} / {})", r.flash, r.text, r.rodata),
-                r.blob.to_string(),
-                opt(r.exec_code.map(u64::from)),
-                opt(r.exec_code.map(|c| u64::from(c + r.blob))),
-                r.ram.to_string(),
-                format!(
-                    "{} / {}",
-                    opt(r.stack_total.map(u64::from)),
-                    opt(r.stack_predict.map(u64::from))
-                ),
-                opt(r.predictor.map(u64::from)),
-                opt(r.insns),
-                opt(r.macs),
-                per_mac(r.insns, r.macs),
-                r.hash.clone(),
-            ]
+    let columns: &[Column<ProfRow>] = &[
+        ("model", |r| r.model.clone()),
+        ("path", |r| r.sine.clone()),
+        ("flash B (.text / .rodata)", |r| {
+            format!("{} ({} / {})", r.flash, r.text, r.rodata)
         }),
+        ("blob B", |r| r.blob.to_string()),
+        ("predict code B", |r| opt(r.exec_code.map(u64::from))),
+        ("code + weights B", |r| {
+            opt(r.exec_code.map(|c| u64::from(c + r.blob)))
+        }),
+        ("static RAM B", |r| r.ram.to_string()),
+        ("stack peak B (run / predict)", |r| {
+            opt_pair(r.stack_total, r.stack_predict)
+        }),
+        ("Predictor B", |r| opt(r.predictor.map(u64::from))),
+        ("instructions (K=20)", |r| opt(r.insns)),
+        ("MACs (K=20)", |r| opt(r.macs)),
+        ("insns/MAC", |r| per_mac(r.insns, r.macs)),
+        ("output fnv32", |r| r.hash.clone()),
+    ];
+    let mut t = md_section(
+        "Profile: release (opt-level 3, fat LTO), thumbv7em-none-eabihf, QEMU netduinoplus2 (STM32F405), one prediction K = 20\n",
+        columns,
+        &rows,
     );
     let _ = writeln!(
         t,
@@ -382,7 +366,7 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
     );
     for r in rows.iter().filter(|r| r.sine == FIXED_PATH) {
         // A format-2 model with a point head is held to issue 10's budget for the whole call.
-        let with_point = blob_has_point_head(&dir.join(format!("{}.gpec", r.model)));
+        let with_point = blob_has_point_head(&blob_path(&dir, &r.model));
         let (target, what) = if with_point {
             (
                 TARGET_INSNS_POINT,
@@ -498,9 +482,33 @@ pub(crate) fn md_table(
     }
 }
 
+/// A column of a markdown table over rows of type `R`: its header and its
+/// cell, side by side so the two cannot drift apart.
+pub(crate) type Column<R> = (&'static str, fn(&R) -> String);
+
+/// A markdown section: the line `intro`, then [`md_table`] over typed rows,
+/// one cell per [`Column`].
+pub(crate) fn md_section<R>(intro: &str, columns: &[Column<R>], rows: &[R]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{intro}");
+    let header: Vec<&str> = columns.iter().map(|c| c.0).collect();
+    md_table(
+        &mut out,
+        &header,
+        rows.iter()
+            .map(|r| columns.iter().map(|c| (c.1)(r)).collect()),
+    );
+    out
+}
+
 /// A table cell: the number, or `-` when it was not measured.
 pub(crate) fn opt(v: Option<u64>) -> String {
     v.map_or("-".to_string(), |v| v.to_string())
+}
+
+/// Two measurements in one cell, `a / b` (each `-` when not measured).
+pub(crate) fn opt_pair(a: Option<u32>, b: Option<u32>) -> String {
+    format!("{} / {}", opt(a.map(u64::from)), opt(b.map(u64::from)))
 }
 
 /// Instructions per MAC with two decimals, or `-`.
@@ -562,6 +570,20 @@ mod tests {
             ["`fixed::dense_q`", "600", "60.0%", "yes", "1.71"]
         );
         assert_eq!(rows[2][5..], ["", "-"]);
+    }
+
+    #[test]
+    fn md_section_puts_each_header_over_its_cells() {
+        let rows = [(1u32, Some(2u32)), (3, None)];
+        let columns: &[Column<(u32, Option<u32>)>] = &[
+            ("a", |r| r.0.to_string()),
+            ("a / b", |r| opt_pair(Some(r.0), r.1)),
+        ];
+        let t = md_section("intro", columns, &rows);
+        assert_eq!(
+            t,
+            "intro\n| a | a / b |\n|---|---|\n| 1 | 1 / 2 |\n| 3 | 3 / - |\n"
+        );
     }
 
     #[test]

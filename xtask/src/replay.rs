@@ -10,11 +10,13 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use gpecnet_mcu_models::{blob_path, golden_path};
+
 use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
 use crate::mcu::{self, Mcu};
 use crate::profile::{
-    blob_is_fixed, build_profile_image, field, md_table, opt, per_mac, plugin, run_with_plugin,
-    FIXED_PATH,
+    blob_is_fixed, build_profile_image, field, md_section, opt, opt_pair, per_mac, plugin,
+    run_with_plugin, Column, FIXED_PATH,
 };
 use crate::toolchain::{host_cargo, output, require};
 use crate::{die, root};
@@ -30,8 +32,8 @@ struct Replay {
 
 /// A model of `dir` on `mcu`: `Ok(width)` when it can be embedded, else why not.
 fn fit(dir: &Path, m: &str, mcu: &Mcu) -> Result<usize, String> {
-    let blob = std::fs::read(dir.join(format!("{m}.gpec"))).unwrap_or_default();
-    let golden = std::fs::metadata(dir.join(format!("{m}.golden"))).map_or(0, |md| md.len());
+    let blob = std::fs::read(blob_path(dir, m)).unwrap_or_default();
+    let golden = std::fs::metadata(golden_path(dir, m)).map_or(0, |md| md.len());
     let width = gpecnet_core::Model::from_blob(&blob).map_or(0, |m| m.scratch_width());
     let bytes = blob.len() as u64 + golden;
     if mcu.fits(width, bytes) {
@@ -162,7 +164,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     for batch in &batches {
         eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
         let mut c = fw_cargo(o);
-        c.env("GPECNET_MODELS", batch.join(","));
+        c.env(gpecnet_mcu_models::ONLY_VAR, batch.join(","));
         c.arg("run");
         mcu.firmware_args(&mut c, &root(), "golden", &mcu.golden_features());
         c.args(&o.rest);
@@ -189,7 +191,8 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     if mcu.demo {
         eprintln!("xtask: {} demo", mcu.name);
         let mut c = fw_cargo(o);
-        c.env("GPECNET_MODELS", models.join(",")).arg("run");
+        c.env(gpecnet_mcu_models::ONLY_VAR, models.join(","))
+            .arg("run");
         mcu.firmware_args(&mut c, &root(), "demo", &[]);
         let (rc, out, err) = output(c);
         fw_out.push_str(&out);
@@ -212,7 +215,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     if mcu.micromath {
         h.args(["--features", "micromath"]);
     }
-    h.env("GPECNET_MODELS", models.join(","))
+    h.env(gpecnet_mcu_models::ONLY_VAR, models.join(","))
         .args(["--bin", "golden-host", "--"])
         .arg(dir);
     let (host_rc, host_out, host_err) = output(h);
@@ -336,7 +339,7 @@ fn profile_class(
     for m in all {
         match fit(dir, m, mcu) {
             Ok(_) => {
-                let path = if blob_is_fixed(&dir.join(format!("{m}.gpec"))) {
+                let path = if blob_is_fixed(&blob_path(dir, m)) {
                     FIXED_PATH
                 } else {
                     "fast-f32"
@@ -357,8 +360,7 @@ fn profile_class(
             }),
         }
     }
-    let blob_len =
-        |m: &str| std::fs::metadata(dir.join(format!("{m}.gpec"))).map_or(0, |md| md.len() as u32);
+    let blob_len = |m: &str| std::fs::metadata(blob_path(dir, m)).map_or(0, |md| md.len() as u32);
     for (path, models) in by_path {
         for (i, batch) in image_batches(dir, &models, &["gpec"], mcu.image_data_budget)
             .iter()
@@ -412,46 +414,30 @@ fn profile_class(
 
 /// The MCU × model table (markdown).
 fn matrix_table(rows: &[Row]) -> String {
-    let mut t = String::new();
-    let _ = writeln!(
-        t,
-        "\nGolden replay and profile per MCU class (`cargo xtask qemu --all-targets`; release, opt-level 3, fat LTO; one call = point forecast + 20 endpoints):\n"
-    );
-    md_table(
-        &mut t,
-        &[
-            "MCU",
-            "model",
-            "path",
-            "flash B (code + blob)",
-            "static RAM B",
-            "stack B (golden run / predictor + one call)",
-            "instructions per call",
-            "insns/MAC",
-            "bit-exact with host",
-        ],
-        rows.iter().map(|r| {
-            vec![
-                r.mcu.to_string(),
-                r.model.clone(),
-                r.path.clone(),
-                opt(r.flash.map(u64::from)),
-                opt(r.ram.map(u64::from)),
-                format!(
-                    "{} / {}",
-                    opt(r.stack_run.map(u64::from)),
-                    opt(r.stack_call.map(u64::from))
-                ),
-                opt(r.insns),
-                per_mac(r.insns, r.macs),
-                match r.bit_exact {
-                    Some(true) => "pass",
-                    Some(false) => "FAIL",
-                    None => "-",
-                }
-                .to_string(),
-            ]
+    let columns: &[Column<Row>] = &[
+        ("MCU", |r| r.mcu.to_string()),
+        ("model", |r| r.model.clone()),
+        ("path", |r| r.path.clone()),
+        ("flash B (code + blob)", |r| opt(r.flash.map(u64::from))),
+        ("static RAM B", |r| opt(r.ram.map(u64::from))),
+        ("stack B (golden run / predictor + one call)", |r| {
+            opt_pair(r.stack_run, r.stack_call)
         }),
+        ("instructions per call", |r| opt(r.insns)),
+        ("insns/MAC", |r| per_mac(r.insns, r.macs)),
+        ("bit-exact with host", |r| {
+            match r.bit_exact {
+                Some(true) => "pass",
+                Some(false) => "FAIL",
+                None => "-",
+            }
+            .to_string()
+        }),
+    ];
+    let mut t = md_section(
+        "\nGolden replay and profile per MCU class (`cargo xtask qemu --all-targets`; release, opt-level 3, fat LTO; one call = point forecast + 20 endpoints):\n",
+        columns,
+        rows,
     );
     let _ = writeln!(
         t,
