@@ -250,7 +250,15 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     let xs = x.chunks_exact(2);
     let xt = xs.remainder();
     for (xx, q) in xs.zip(c) {
-        acc += mac2(xx, q);
+        let (x0, x1) = match *xx {
+            [a, b] => (i32::from(a), i32::from(b)),
+            _ => (0, 0),
+        };
+        let (q0, q1) = match q.split_first_chunk::<2>() {
+            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
+            None => (0, 0),
+        };
+        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
     }
     if let [v] = *xt {
         acc += i64::from(w16(t) * i32::from(v));
@@ -264,25 +272,17 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
 #[inline(always)]
 fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     for (xx, q) in x.chunks_exact(2).zip(w.chunks_exact(4)) {
-        acc += mac2(xx, q);
+        let (x0, x1) = match *xx {
+            [a, b] => (i32::from(a), i32::from(b)),
+            _ => (0, 0),
+        };
+        let (q0, q1) = match q.split_first_chunk::<2>() {
+            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
+            None => (0, 0),
+        };
+        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
     }
     acc
-}
-
-/// One step of [`dot1`] and [`dot_even`]: `q_0·x_0 + q_1·x_1` for two
-/// inputs `xx` and their four weight bytes `q` (i16 LE), each product
-/// exact in `i32`, their sum in `i64` (added to the row's sum after it).
-#[inline(always)]
-fn mac2(xx: &[i16], q: &[u8]) -> i64 {
-    let (x0, x1) = match *xx {
-        [a, b] => (i32::from(a), i32::from(b)),
-        _ => (0, 0),
-    };
-    let (q0, q1) = match q.split_first_chunk::<2>() {
-        Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
-        None => (0, 0),
-    };
-    i64::from(q0 * x0) + i64::from(q1 * x1)
 }
 
 /// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for the two rows of `g`
