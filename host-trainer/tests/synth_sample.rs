@@ -1,7 +1,7 @@
 //! The synthetic pool: deterministic, in range, classified as labelled, type shares followed.
 
 use gpecnet_trainer::rng::Rng;
-use gpecnet_trainer::synth::agent::Mlp;
+use gpecnet_trainer::synth::agent::new_policy;
 use gpecnet_trainer::synth::classify::{classify, TrajType};
 use gpecnet_trainer::synth::in_range;
 use gpecnet_trainer::synth::sample::{build_pool, pool_csv, read_pool, shares, take_first_pct};
@@ -13,7 +13,7 @@ fn counts() -> [usize; 10] {
 
 #[test]
 fn pool_is_deterministic_in_range_and_follows_the_shares() {
-    let policy = Mlp::new(&mut Rng::new(1));
+    let policy = new_policy(&mut Rng::new(1)).unwrap();
     let p = shares(&counts());
     assert_eq!(p[TrajType::Other.index()], 0.0);
     let a = build_pool(200, &p, &policy, 42).unwrap();
@@ -41,7 +41,7 @@ fn pool_is_deterministic_in_range_and_follows_the_shares() {
 
 #[test]
 fn csv_round_trip_and_first_k_percent() {
-    let policy = Mlp::new(&mut Rng::new(1));
+    let policy = new_policy(&mut Rng::new(1)).unwrap();
     let pool = build_pool(50, &shares(&counts()), &policy, 7).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("pool.csv");

@@ -7,6 +7,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 
 use crate::data::{load_sdd, Dataset, SddSplit};
+use crate::model::Mlp;
 
 use super::abscore::{self, filter_by_abscore, Which};
 use super::agent;
@@ -205,15 +206,24 @@ pub fn run_classify(data: &Path, out: &Path) -> Result<String> {
     Ok(rep)
 }
 
-/// `gpecnet rl-train`: learning curve, sample-episode picture, curve CSV and the policy.
+/// Pins candle's matmul thread count to 1 for the policy's tiny matmuls. Unset, candle reads
+/// the machine's core count from `/proc` for every matmul, which made the per-step rollouts
+/// (one `[1, 8]` forward each) about 15 times slower; see [`crate::train::set_num_threads`].
+fn pin_policy_threads() {
+    crate::train::set_num_threads(1);
+}
+
+/// `gpecnet rl-train`: learning curve, sample-episode picture, curve CSV and the policy
+/// (candle's matmuls pinned to one thread).
 pub fn run_rl_train(
     episodes: usize,
     batch: usize,
     lr: f64,
     seed: u64,
     out: &Path,
-) -> Result<(String, agent::Mlp)> {
-    let tr = agent::train(episodes, batch, lr, seed);
+) -> Result<(String, Mlp)> {
+    pin_policy_threads();
+    let tr = agent::train(episodes, batch, lr, seed)?;
     let csv = crate::csvfile::to_csv(
         &["episodes", "mean_reward", "mean_final_dist_px", "mean_ics"],
         tr.curve.iter().map(|c| {
@@ -285,7 +295,11 @@ pub fn run_rl_train(
         })
         .collect();
     write(out, "rl_episodes.svg", &plot::panels_svg("Policy-gradient agent (turquoise) in the HMM playground (grey); red ×: goal; circles: impending collisions", &panels, 4))?;
-    write(out, "policy.json", &serde_json::to_string(&tr.net.params)?)?;
+    write(
+        out,
+        "policy.json",
+        &serde_json::to_string(&agent::policy_params(&tr.net)?)?,
+    )?;
     let first = &tr.curve[..tr.curve.len().min(10)];
     let last = &tr.curve[tr.curve.len().saturating_sub(10)..];
     let avg = |s: &[agent::CurvePoint], f: &dyn Fn(&agent::CurvePoint) -> f64| {
@@ -315,7 +329,8 @@ pub fn run_rl_train(
 }
 
 /// `gpecnet synth`: train a policy (`rl_episodes`), build the `n`-trajectory pool with SDD
-/// train's type shares, write it as CSV plus a type table and an example picture.
+/// train's type shares, write it as CSV plus a type table and an example picture (candle's
+/// matmuls pinned to one thread; a later `gpecnet train` in the same process pins its own).
 pub fn run_synth(
     data: &Path,
     n: usize,

@@ -139,6 +139,25 @@ pub fn random_point(size: f32, rng: &mut Rng) -> [f32; 2] {
     [rng.uniform(m, size - m), rng.uniform(m, size - m)]
 }
 
+/// A goal for an agent at `pos`: a [`random_point`], redrawn up to `tries` times until its
+/// distance from `pos` is in `dist` (the last draw when none is).
+pub fn random_goal(
+    pos: [f32; 2],
+    size: f32,
+    dist: std::ops::RangeInclusive<f32>,
+    tries: usize,
+    rng: &mut Rng,
+) -> [f32; 2] {
+    let mut goal = random_point(size, rng);
+    for _ in 0..tries {
+        if dist.contains(&(goal[0] - pos[0]).hypot(goal[1] - pos[1])) {
+            break;
+        }
+        goal = random_point(size, rng);
+    }
+    goal
+}
+
 impl Playground {
     /// `n` agents with random attributes, starts and goals (goals 150–400 px from the start when
     /// the playground allows it) in a `size`-px square.
@@ -146,14 +165,7 @@ impl Playground {
         let agents = (0..n)
             .map(|_| {
                 let pos = random_point(size, rng);
-                let mut goal = random_point(size, rng);
-                for _ in 0..20 {
-                    let d = (goal[0] - pos[0]).hypot(goal[1] - pos[1]);
-                    if (150.0..=400.0).contains(&d) {
-                        break;
-                    }
-                    goal = random_point(size, rng);
-                }
+                let goal = random_goal(pos, size, 150.0..=400.0, 20, rng);
                 HmmAgent {
                     pos,
                     goal,
@@ -214,6 +226,21 @@ impl Playground {
         }
         counts
     }
+
+    /// Every agent's first [`WINDOW`] positions (its trajectory once the playground has been
+    /// stepped 19 times; positions not reached yet are `[0, 0]`).
+    pub fn trajectories(&self) -> Vec<Traj> {
+        self.agents
+            .iter()
+            .map(|a| {
+                let mut t = [[0.0; 2]; WINDOW];
+                for (d, p) in t.iter_mut().zip(&a.track) {
+                    *d = *p;
+                }
+                t
+            })
+            .collect()
+    }
 }
 
 /// Simulate `n` HMM agents for 19 steps in a `size` playground and return their 20-point
@@ -224,14 +251,5 @@ pub fn simulate(n: usize, size: f32, rng: &mut Rng) -> (Vec<Traj>, usize) {
     for _ in 1..WINDOW {
         total += pg.step(&[], rng).iter().sum::<usize>();
     }
-    let trajs = pg
-        .agents
-        .iter()
-        .map(|a| {
-            let mut t = [[0.0; 2]; WINDOW];
-            t.copy_from_slice(&a.track[..WINDOW]);
-            t
-        })
-        .collect();
-    (trajs, total)
+    (pg.trajectories(), total)
 }

@@ -24,9 +24,10 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 
 use crate::data::{Window, SDD_FRAME_STEP, WINDOW};
+use crate::model::Mlp;
 use crate::rng::Rng;
 
-use super::agent::{rollout, Mlp, PLAYGROUND};
+use super::agent::{rollout, PLAYGROUND};
 use super::classify::{classify, TrajType};
 use super::hmm::simulate;
 use super::newtonian::{generate, place, Kind, Motion};
@@ -117,8 +118,8 @@ fn from_track(track: &Traj, rng: &mut Rng) -> Traj {
 }
 
 /// Draw one candidate for type `ty` (`turn` rotates the type-7 sources).
-fn candidate(ty: TrajType, policy: &Mlp, turn: usize, rng: &mut Rng) -> (Source, Traj) {
-    match ty {
+fn candidate(ty: TrajType, policy: &Mlp, turn: usize, rng: &mut Rng) -> Result<(Source, Traj)> {
+    Ok(match ty {
         TrajType::T1 => (Source::Artefact, place(&[[0.0; 2]; WINDOW], rng)),
         TrajType::T2 | TrajType::T2F => {
             let t = plateau_track(rng, 7, 5.0, ty == TrajType::T2F);
@@ -167,11 +168,11 @@ fn candidate(ty: TrajType, policy: &Mlp, turn: usize, rng: &mut Rng) -> (Source,
                 (Source::Hmm, from_track(&trajs[0], rng))
             }
             _ => {
-                let ep = rollout(policy, rng, true);
+                let ep = rollout(policy, rng, true)?;
                 (Source::Rl, from_track(&ep.track, rng))
             }
         },
-    }
+    })
 }
 
 /// Training shares `p_c` from type counts (indexed like [`TrajType::ALL`]); "other" gets 0.
@@ -204,7 +205,7 @@ pub fn build_pool(n: usize, p: &[f64; 10], policy: &Mlp, seed: u64) -> Result<Ve
         let ty = TrajType::ALL[ci];
         let mut found = None;
         for _ in 0..10_000 {
-            let (src, t) = candidate(ty, policy, turn7, &mut rng);
+            let (src, t) = candidate(ty, policy, turn7, &mut rng)?;
             if super::in_range(&t) && classify(&t) == ty {
                 found = Some((src, t));
                 break;
