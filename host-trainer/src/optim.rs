@@ -32,31 +32,26 @@ pub trait AdamFloat: WithDType + Serialize + DeserializeOwned {
     fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>>;
 }
 
-impl AdamFloat for f32 {
-    fn sqrt(self) -> Self {
-        f32::sqrt(self)
-    }
+/// [`AdamFloat`] for a float type and its [`CpuStorage`] variant.
+macro_rules! adam_float {
+    ($t:ty, $variant:ident) => {
+        impl AdamFloat for $t {
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
 
-    fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>> {
-        match s {
-            CpuStorage::F32(w) => Some(w),
-            _ => None,
+            fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>> {
+                match s {
+                    CpuStorage::$variant(w) => Some(w),
+                    _ => None,
+                }
+            }
         }
-    }
+    };
 }
 
-impl AdamFloat for f64 {
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-
-    fn storage_mut(s: &mut CpuStorage) -> Option<&mut Vec<Self>> {
-        match s {
-            CpuStorage::F64(w) => Some(w),
-            _ => None,
-        }
-    }
-}
+adam_float!(f32, F32);
+adam_float!(f64, F64);
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
