@@ -324,8 +324,8 @@ pub fn golden_bytes(info: &GoldenInfo<'_>, cases: &[GoldenCase]) -> Result<Vec<u
             push(
                 &mut out,
                 &GoldenCaseWireV2 {
+                    case: v1,
                     point: &q,
-                    ..v1.into()
                 },
             )?;
         } else {

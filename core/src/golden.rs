@@ -73,30 +73,21 @@ pub struct GoldenCaseWire<'a> {
     pub trajectory0: &'a [u8],
 }
 
-/// One case on the wire, format version 2: [`GoldenCaseWire`] plus the point forecast.
+/// One case on the wire, format version 2: a [`GoldenCaseWire`] followed by the point
+/// forecast. postcard writes a nested struct as its fields in order, so the bytes are the
+/// version 1 case's fields, then `point`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct GoldenCaseWireV2<'a> {
-    /// Observed positions, f32 LE pairs.
-    pub past: &'a [u8],
-    /// Latent seed.
-    pub seed: u64,
-    /// Expected endpoints, f32 LE pairs.
-    pub endpoints: &'a [u8],
-    /// Expected trajectory of sample 0, f32 LE pairs, or empty.
-    pub trajectory0: &'a [u8],
+    /// The version 1 fields: past, seed, endpoints, trajectory of sample 0.
+    #[serde(borrow)]
+    pub case: GoldenCaseWire<'a>,
     /// Expected point forecast, f32 LE pairs, or empty.
     pub point: &'a [u8],
 }
 
 impl<'a> From<GoldenCaseWire<'a>> for GoldenCaseWireV2<'a> {
-    fn from(c: GoldenCaseWire<'a>) -> Self {
-        GoldenCaseWireV2 {
-            past: c.past,
-            seed: c.seed,
-            endpoints: c.endpoints,
-            trajectory0: c.trajectory0,
-            point: &[],
-        }
+    fn from(case: GoldenCaseWire<'a>) -> Self {
+        GoldenCaseWireV2 { case, point: &[] }
     }
 }
 
@@ -214,9 +205,9 @@ impl<'a> GoldenSet<'a> {
         let mut rest = cur;
         let fl = 8 * info.future_len as usize;
         for _ in 0..info.n_cases {
-            let c = take_case(&mut rest, pre.version)?;
+            let GoldenCaseWireV2 { case: c, point } = take_case(&mut rest, pre.version)?;
             let traj_ok = c.trajectory0.is_empty() || c.trajectory0.len() == fl;
-            let point_ok = c.point.is_empty() || c.point.len() == fl;
+            let point_ok = point.is_empty() || point.len() == fl;
             if c.past.len() != 8 * info.past_len as usize
                 || c.endpoints.len() != 8 * info.k as usize
                 || !traj_ok
@@ -241,7 +232,7 @@ impl<'a> GoldenSet<'a> {
         let mut rest = self.cases;
         let (n, version) = (self.info.n_cases, self.version);
         (0..n).map_while(move |_| {
-            let c = take_case(&mut rest, version).ok()?;
+            let GoldenCaseWireV2 { case: c, point } = take_case(&mut rest, version).ok()?;
             let mut past = heapless::Vec::new();
             for i in 0..c.past.len() / 8 {
                 past.push([read_f32(c.past, 2 * i), read_f32(c.past, 2 * i + 1)])
@@ -252,7 +243,7 @@ impl<'a> GoldenSet<'a> {
                 seed: c.seed,
                 endpoints: c.endpoints,
                 trajectory0: c.trajectory0,
-                point: c.point,
+                point,
             })
         })
     }
