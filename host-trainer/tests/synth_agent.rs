@@ -5,7 +5,7 @@ use candle_core::Tensor;
 use gpecnet_trainer::rng::Rng;
 use gpecnet_trainer::synth::agent::{
     advantages, log_prob, n_params, new_policy, policy_params, reinforce_loss, reward, rollout,
-    train, POLICY_STD,
+    train, Episode, POLICY_STD,
 };
 use gpecnet_trainer::synth::hmm::Attributes;
 use gpecnet_trainer::synth::in_range;
@@ -60,14 +60,20 @@ fn log_prob_is_the_gaussian_log_density() {
     }
 }
 
-#[test]
-fn advantages_have_zero_mean_per_step_and_unit_rms() {
+/// A fresh policy from `seed` (one candle thread) and `n` sampled (not greedy) episodes of it.
+fn policy_and_batch(seed: u64, n: usize) -> (gpecnet_trainer::model::Mlp, Vec<Episode>) {
     one_thread();
-    let mut rng = Rng::new(3);
+    let mut rng = Rng::new(seed);
     let net = new_policy(&mut rng).unwrap();
-    let batch: Vec<_> = (0..5)
+    let batch = (0..n)
         .map(|_| rollout(&net, &mut rng, false).unwrap())
         .collect();
+    (net, batch)
+}
+
+#[test]
+fn advantages_have_zero_mean_per_step_and_unit_rms() {
+    let (_, batch) = policy_and_batch(3, 5);
     let adv = advantages(&batch);
     assert_eq!(adv.len(), 5 * 19);
     for t in 0..19 {
@@ -92,14 +98,9 @@ fn set_params(net: &gpecnet_trainer::model::Mlp, p: &[f64]) {
 
 #[test]
 fn candle_gradient_of_the_reinforce_loss_matches_finite_differences() {
-    one_thread();
     // J(φ) = −Σ_e Σ_t log π_φ(a_t|s_t) Â_t / B with Â fixed by the batch: candle's backward()
     // against central differences of the loss itself, for every parameter.
-    let mut rng = Rng::new(9);
-    let net = new_policy(&mut rng).unwrap();
-    let batch: Vec<_> = (0..4)
-        .map(|_| rollout(&net, &mut rng, false).unwrap())
-        .collect();
+    let (net, batch) = policy_and_batch(9, 4);
     let params = policy_params(&net).unwrap();
     assert_eq!(params.len(), n_params());
     assert_eq!(n_params(), 8 * 16 + 16 + 16 * 8 + 8 + 8 * 4 + 4);
