@@ -48,6 +48,7 @@ impl Trainer {
     pub fn new(cfg: TrainConfig, data: PreparedData) -> Result<Self> {
         cfg.validate()?;
         set_num_threads(cfg.resolved_threads());
+        keep_freed_memory();
         let model = Model::new(&cfg, &mut Rng::with_stream(cfg.seed, streams::INIT))?;
         let adam = Adam::new(model.vars(), AdamParams::with_lr(cfg.learning_rate));
         let rng = Rng::with_stream(cfg.seed, streams::TRAIN);
@@ -68,6 +69,7 @@ impl Trainer {
     pub fn from_checkpoint(ckpt: Checkpoint, data: PreparedData) -> Result<Self> {
         let cfg = ckpt.config()?;
         set_num_threads(cfg.resolved_threads());
+        keep_freed_memory();
         let model = Model::new(&cfg, &mut Rng::new(0))?;
         model
             .set_weights(&ckpt.weights)
