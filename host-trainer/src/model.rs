@@ -18,7 +18,8 @@
 //! from the crate's seeded [`Rng`]; no candle randomness is used.
 //!
 //! Each dense layer is one fused candle op ([`Linear`]: candle's own matmul, then the bias) and
-//! the sine activation another ([`SineOp`]: candle's `x.affine(w0, 0).sin()` in one pass). Their
+//! the sine activation another ([`SineOp`]: candle's `x.affine(w0, 0).sin()` in one pass), or,
+//! inside a sine MLP, both are one op ([`LinearSine`]). Their
 //! forward and backward passes perform the very f32 operations of the unfused candle graph, so
 //! training is bit-identical to it, but without its intermediate tensors and zero-filled
 //! gradient accumulators, and the elementwise work is split over the run's threads
@@ -132,14 +133,12 @@ impl Mlp {
         };
         let last = self.layers.len() - 1;
         for (i, l) in self.layers.iter().enumerate() {
-            h = linear(&h, l.weight.as_tensor(), l.bias.as_tensor())?;
-            if i < last {
-                h = match self.activation {
-                    Act::Sine => sine(&h, self.w0)?,
-                    Act::Relu => h.relu()?,
-                    Act::Linear => h,
-                };
-            }
+            let (w, b) = (l.weight.as_tensor(), l.bias.as_tensor());
+            h = match self.activation {
+                Act::Sine if i < last => linear_sine(&h, w, b, self.w0)?,
+                Act::Relu if i < last => linear(&h, w, b)?.relu()?,
+                _ => linear(&h, w, b)?,
+            };
         }
         if self.out_scale != 1.0 {
             h = h.affine(f64::from(self.out_scale), 0.0)?;
@@ -290,28 +289,7 @@ impl candle_core::CustomOp3 for Linear {
         s3: &CpuStorage,
         l3: &Layout,
     ) -> candle_core::Result<(CpuStorage, Shape)> {
-        use candle_core::backend::BackendStorage;
-        let (m, k) = l1.shape().dims2()?;
-        let (n, k2) = l2.shape().dims2()?;
-        let b = f32_slice(s3, l3)?;
-        if k != k2 || b.len() != n || n == 0 {
-            candle_core::bail!("linear: [{m}, {k}] x [{n}, {k2}]ᵀ + [{}]", b.len());
-        }
-        let y = s1.matmul(s2, (1, m, n, k), l1, &l2.transpose(0, 1)?)?;
-        let CpuStorage::F32(mut y) = y else {
-            candle_core::bail!("linear: f32 only");
-        };
-        if y.len() != m * n {
-            candle_core::bail!("linear: matmul returned {} values for [{m}, {n}]", y.len());
-        }
-        let chunk = chunk_len(y.len()).div_ceil(n) * n;
-        for_each_job(y.chunks_mut(chunk), |y| {
-            for y in y.chunks_mut(n) {
-                for (y, &b) in y.iter_mut().zip(b) {
-                    *y += b;
-                }
-            }
-        });
+        let (y, m, n) = linear_forward(s1, l1, s2, l2, s3, l3)?;
         Ok((CpuStorage::F32(y), Shape::from((m, n))))
     }
 
@@ -329,10 +307,171 @@ impl candle_core::CustomOp3 for Linear {
         } else {
             grad.affine(1.0, 0.0)?
         };
-        let dx = g.matmul(&w.t()?.t()?)?;
-        let dw = x.t()?.matmul(&g)?.t()?;
-        let db = g.apply_op1_no_bwd(&ColumnSum(b.elem_count()))?;
-        Ok((Some(dx), Some(dw), Some(db)))
+        linear_backward(x, w, b, &g)
+    }
+}
+
+/// [`Linear`]'s forward pass: `(x Wᵀ + b, rows, out)`.
+fn linear_forward(
+    s1: &CpuStorage,
+    l1: &Layout,
+    s2: &CpuStorage,
+    l2: &Layout,
+    s3: &CpuStorage,
+    l3: &Layout,
+) -> candle_core::Result<(Vec<f32>, usize, usize)> {
+    use candle_core::backend::BackendStorage;
+    let (m, k) = l1.shape().dims2()?;
+    let (n, k2) = l2.shape().dims2()?;
+    let b = f32_slice(s3, l3)?;
+    if k != k2 || b.len() != n || n == 0 {
+        candle_core::bail!("linear: [{m}, {k}] x [{n}, {k2}]ᵀ + [{}]", b.len());
+    }
+    let y = s1.matmul(s2, (1, m, n, k), l1, &l2.transpose(0, 1)?)?;
+    let CpuStorage::F32(mut y) = y else {
+        candle_core::bail!("linear: f32 only");
+    };
+    if y.len() != m * n {
+        candle_core::bail!("linear: matmul returned {} values for [{m}, {n}]", y.len());
+    }
+    let chunk = chunk_len(y.len()).div_ceil(n) * n;
+    for_each_job(y.chunks_mut(chunk), |y| {
+        for y in y.chunks_mut(n) {
+            for (y, &b) in y.iter_mut().zip(b) {
+                *y += b;
+            }
+        }
+    });
+    Ok((y, m, n))
+}
+
+/// [`Linear`]'s backward pass from `G`, the gradient of its output after candle's accumulator
+/// (`0 + dy`): `(dx, dW, db)`.
+fn linear_backward(
+    x: &Tensor,
+    w: &Tensor,
+    b: &Tensor,
+    g: &Tensor,
+) -> candle_core::Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
+    let dx = g.matmul(&w.t()?.t()?)?;
+    let dw = weight_gradient(x, g)?;
+    let db = g.apply_op1_no_bwd(&ColumnSum(b.elem_count()))?;
+    Ok((Some(dx), Some(dw), Some(db)))
+}
+
+/// `sin(w0 · (x Wᵀ + b))`, a dense layer and its SIREN activation, as one differentiable op
+/// ([`LinearSine`]); the same bits as [`linear`] followed by [`sine`], and the same gradients.
+/// Shapes and dtypes [`linear`] does not fuse fall back to the two ops.
+pub fn linear_sine(x: &Tensor, w: &Tensor, b: &Tensor, w0: f32) -> candle_core::Result<Tensor> {
+    let f32s = [x, w, b].iter().all(|t| t.dtype() == DType::F32);
+    match (x.dims(), w.dims(), b.dims()) {
+        (&[m, k], &[n, k2], &[n2]) if f32s && k == k2 && n == n2 && m * n * k > 0 => {
+            x.apply_op3(w, b, LinearSine::new(w0))
+        }
+        _ => sine(&linear(x, w, b)?, w0),
+    }
+}
+
+/// [`Linear`] then [`SineOp`] in one node of the graph. Forward: [`Linear`]'s `h = x Wᵀ + b`,
+/// then `sin(h · w0 + 0)`; `h` is kept in the op for the backward pass. Backward, from the
+/// accumulated `dy`: `G = 0 + (((0 + dy · cos(h · w0 + 0)) · w0) + 0)` — [`SineBackward`]'s
+/// operations followed by the zero-filled accumulator candle would add `h`'s gradient to —
+/// then [`Linear`]'s backward from `G`. The same bits as the two ops, without the graph node of
+/// `h`, its accumulator (an allocation, a fill and an add over `[rows, out]`) and a scan.
+#[derive(Debug)]
+pub struct LinearSine {
+    sine: SineOp,
+    /// `h = x Wᵀ + b` of the forward pass.
+    pre: std::sync::OnceLock<Vec<f32>>,
+}
+
+impl LinearSine {
+    /// The op for the SIREN factor `w0`.
+    pub fn new(w0: f32) -> Self {
+        Self {
+            sine: SineOp { w0 },
+            pre: std::sync::OnceLock::new(),
+        }
+    }
+}
+
+impl candle_core::CustomOp3 for LinearSine {
+    fn name(&self) -> &'static str {
+        "gpecnet-linear-sine"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> candle_core::Result<(CpuStorage, Shape)> {
+        let (h, m, n) = linear_forward(s1, l1, s2, l2, s3, l3)?;
+        let op = self.sine;
+        let y = map_elements(h.len(), 1, |range, y| {
+            for (y, &h) in y.iter_mut().zip(&h[range]) {
+                *y = op.arg(h).sin();
+            }
+        });
+        if self.pre.set(h).is_err() {
+            candle_core::bail!("linear-sine: one op instance per forward pass");
+        }
+        Ok((CpuStorage::F32(y), Shape::from((m, n))))
+    }
+
+    fn bwd(
+        &self,
+        x: &Tensor,
+        w: &Tensor,
+        b: &Tensor,
+        res: &Tensor,
+        grad: &Tensor,
+    ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
+        let Some(h) = self.pre.get() else {
+            candle_core::bail!("linear-sine: backward pass without a forward pass");
+        };
+        let grad = grad.contiguous()?;
+        let (storage, layout) = grad.storage_and_layout();
+        let dy = match &*storage {
+            candle_core::Storage::Cpu(cpu) => f32_slice(cpu, layout)?,
+            _ => candle_core::bail!("linear-sine: CPU tensors only"),
+        };
+        if dy.len() != h.len() {
+            candle_core::bail!("linear-sine: {} outputs, {} gradients", h.len(), dy.len());
+        }
+        let op = self.sine;
+        let g = map_elements(h.len(), 1, |range, g| {
+            for ((g, &h), &dy) in g.iter_mut().zip(&h[range.clone()]).zip(&dy[range]) {
+                let d_arg = 0.0 + dy * op.arg(h).cos();
+                *g = 0.0 + (d_arg * op.w0 + 0.0);
+            }
+        });
+        drop(storage);
+        let g = Tensor::from_vec(g, res.shape(), &Device::Cpu)?;
+        linear_backward(x, w, b, &g)
+    }
+}
+
+/// `dW = (xᵀ G)ᵀ`, `[out, in]`, for `x` `[rows, in]` and `G` `[rows, out]`, in the bits of
+/// candle's `x.t().matmul(&G).t()` but laid out row-major, so that the gradient accumulator
+/// candle adds it to reads it contiguously instead of through a transposed view.
+///
+/// It is computed as `Gᵀ x`: the `gemm` crate computes every output element as one fused
+/// multiply-add chain over the rows, in row order, in blocks whose size depends only on `rows`
+/// (`kc`; the other cache parameters and the thread split only tile the output), so the
+/// transposed product has the same bits in every element. The exceptions are its special
+/// paths for `in` or `out` of 1 (matrix-vector) and `rows` ≤ 2 (outer products), which are
+/// not symmetric in the two operands: those shapes keep candle's form.
+fn weight_gradient(x: &Tensor, g: &Tensor) -> candle_core::Result<Tensor> {
+    let (rows, cols_in) = x.dims2()?;
+    let cols_out = g.dims2()?.1;
+    if rows > 2 && cols_in > 1 && cols_out > 1 {
+        g.t()?.matmul(x)
+    } else {
+        x.t()?.matmul(g)?.t()
     }
 }
 
@@ -425,12 +564,23 @@ impl CustomOp1 for ColumnSum {
         if cols == 0 || g.len() % cols != 0 {
             candle_core::bail!("bias gradient: {} values, bias of {cols}", g.len());
         }
+        // Split by columns (each column still summed over the rows in order): one range of
+        // columns per thread when the gradient is large enough to be worth it.
+        let jobs = if g.len() >= PAR_MIN_CHUNK {
+            candle_core::utils::get_num_threads().clamp(1, cols)
+        } else {
+            1
+        };
+        let chunk = cols.div_ceil(jobs);
         let mut sum = vec![0f32; cols];
-        for row in g.chunks_exact(cols) {
-            for (s, &r) in sum.iter_mut().zip(row) {
-                *s += 0.0 + r;
+        for_each_job(sum.chunks_mut(chunk).enumerate(), |(i, sum)| {
+            let columns = i * chunk..i * chunk + sum.len();
+            for row in g.chunks_exact(cols) {
+                for (s, &r) in sum.iter_mut().zip(&row[columns.clone()]) {
+                    *s += 0.0 + r;
+                }
             }
-        }
+        });
         Ok((CpuStorage::F32(sum), Shape::from(cols)))
     }
 }
@@ -1086,6 +1236,76 @@ mod tests {
             ("b2", &b2),
         ];
         assert_same_bits_and_gradients(&out(true), &out(false), &g, &vars, "linear");
+    }
+
+    #[test]
+    fn fused_linear_sine_is_bit_identical_to_linear_then_sine() {
+        let mut rng = Rng::new(14);
+        let dev = Device::Cpu;
+        // Large enough for several elementwise jobs; a small odd shape; w0 = 1, 30, 0.5.
+        for ((m, k, n), w0) in [
+            ((300, 33, 257), 1.0f32),
+            ((5, 3, 4), 30.0),
+            ((64, 8, 16), 0.5),
+        ] {
+            let mut vec =
+                |len: usize, r: f32| -> Vec<f32> { (0..len).map(|_| rng.uniform(-r, r)).collect() };
+            let x = Var::from_vec(vec(m * k, 2.0), (m, k), &dev).unwrap();
+            let w = Var::from_vec(vec(n * k, 0.5), (n, k), &dev).unwrap();
+            let b = Var::from_vec(vec(n, 0.5), n, &dev).unwrap();
+            let mut g = vec(m * n, 3.0);
+            g[..3].copy_from_slice(&[-0.0, 0.0, -0.0]);
+            let g = Tensor::from_vec(g, (m, n), &dev).unwrap();
+            // The layer is applied twice to x (shared weights, accumulated gradients).
+            let out = |fused: bool| {
+                let layer = |x: &Tensor| {
+                    if fused {
+                        linear_sine(x, w.as_tensor(), b.as_tensor(), w0).unwrap()
+                    } else {
+                        sine(&linear(x, w.as_tensor(), b.as_tensor()).unwrap(), w0).unwrap()
+                    }
+                };
+                let x2 = x.as_tensor().affine(0.5, 0.0).unwrap();
+                (layer(x.as_tensor()) + layer(&x2)).unwrap()
+            };
+            let vars = [("x", &x), ("w", &w), ("b", &b)];
+            let what = format!("{m}x{k} -> {n}, w0 = {w0}");
+            assert_same_bits_and_gradients(&out(true), &out(false), &g, &vars, &what);
+        }
+    }
+
+    #[test]
+    fn weight_gradient_is_bit_identical_to_candles_transposed_product() {
+        let mut rng = Rng::new(13);
+        // Paper-size layers (the last batch of an epoch too), more rows than one `kc` block of
+        // the gemm crate (512), and the shapes that keep candle's form.
+        let shapes = [
+            (512, 1024, 512),
+            (448, 512, 1024),
+            (512, 34, 1024),
+            (1000, 40, 70),
+            (300, 2, 8),
+            (7, 5, 3),
+            (3, 9, 4),
+            (2, 9, 4),
+            (1, 9, 4),
+            (50, 1, 6),
+            (50, 6, 1),
+        ];
+        for (rows, cols_in, cols_out) in shapes {
+            let mut vec =
+                |n: usize| -> Vec<f32> { (0..n).map(|_| rng.uniform(-2.0, 2.0)).collect() };
+            let x = Tensor::from_vec(vec(rows * cols_in), (rows, cols_in), &Device::Cpu).unwrap();
+            let g = Tensor::from_vec(vec(rows * cols_out), (rows, cols_out), &Device::Cpu).unwrap();
+            let ours = weight_gradient(&x, &g).unwrap();
+            let candle = x.t().unwrap().matmul(&g).unwrap().t().unwrap();
+            assert_eq!(ours.dims(), &[cols_out, cols_in]);
+            assert_eq!(
+                bits(&ours),
+                bits(&candle),
+                "{rows} rows, {cols_in} -> {cols_out}"
+            );
+        }
     }
 
     #[test]
