@@ -120,16 +120,43 @@ pub const QUARTER_SINE: [u16; 257] = [
     32693, 32706, 32718, 32729, 32738, 32746, 32753, 32758, 32762, 32766, 32767, 32768,
 ];
 
+/// [`QUARTER_SINE`] as interpolation pairs: entry `i` holds `a_i` in its
+/// low half and `a_(i+1) − a_i` (0..=201, the quarter wave rises) in its
+/// high half; entry 256 holds `(32768, 0)`, which interpolates to the same
+/// peak as the `(32768, 32768)` pair [`sin_q15`] specifies there (its
+/// fraction is 0 and the difference is 0). One word load per activation
+/// instead of two halfword loads and a subtraction; 1,028 bytes of flash.
+const SINE_PAIRS: [u32; 257] = {
+    let mut t = [0u32; 257];
+    let mut i = 0;
+    while i < 257 {
+        let a = QUARTER_SINE[i] as u32;
+        let d = if i < 256 {
+            QUARTER_SINE[i + 1] as u32 - a
+        } else {
+            0
+        };
+        t[i] = a | (d << 16);
+        i += 1;
+    }
+    t
+};
+
 /// `sin(2π · phase / 2^32)` in Q15, saturated to −32767..=32767 (so that
 /// every activation fits an `i16`).
 ///
 /// Quadrant = top 2 bits; within the quadrant the 30-bit offset `p` is
 /// mirrored (`2^30 − p`) in quadrants 1 and 3; index `p >> 22` (0..=256)
 /// into [`QUARTER_SINE`], 16-bit fraction `(p >> 6) & 0xffff`, linear
-/// interpolation `v = a + (((b − a) · frac + 2^15) >> 16)`, then
-/// `min(v, 32767)`, negated in quadrants 2 and 3. Measured maximum error
-/// against f64 `sin` over all 2^26 distinct inputs (the low 6 bits are
-/// ignored): see [`SIN_Q15_MAX_ERROR`].
+/// interpolation `v = a + (((b − a) · frac + 2^15) >> 16)` (at index 256,
+/// `p = 2^30`: `a = b = 32768`), then `min(v, 32767)`, negated in quadrants
+/// 2 and 3. Measured maximum error against f64 `sin` over all 2^26
+/// distinct inputs (the low 6 bits are ignored): see [`SIN_Q15_MAX_ERROR`].
+///
+/// Computed from [`SINE_PAIRS`] (`a` and `b − a` in one word); since
+/// `0 ≤ v ≤ 32768`, `min(v, 32767)` is written as a clamp to the `i16`
+/// range, one `SSAT` on a Cortex-M4 (`sin_q15_matches_table_form` checks
+/// every distinct input against the two-table-load form).
 #[inline]
 pub fn sin_q15(phase: u32) -> i32 {
     // −1 in quadrants 2 and 3, else 0: `(v ^ neg) − neg` negates there.
@@ -140,12 +167,10 @@ pub fn sin_q15(phase: u32) -> i32 {
     }
     let idx = (p >> 22) as usize;
     let frac = ((p >> 6) & 0xffff) as i32;
-    let (a, b) = match QUARTER_SINE.get(idx..idx + 2) {
-        Some(&[a, b]) => (a as i32, b as i32),
-        // idx = 256 (p = 2^30): frac = 0, the peak.
-        _ => (32768, 32768),
-    };
-    let v = (a + (((b - a) * frac + 0x8000) >> 16)).min(32767);
+    // idx ≤ 256 (p ≤ 2^30), so the fallback never runs.
+    let e = SINE_PAIRS.get(idx).copied().unwrap_or(32768);
+    let (a, d) = ((e & 0xffff) as i32, (e >> 16) as i32);
+    let v = (a + ((d * frac + 0x8000) >> 16)).clamp(-32768, 32767);
     (v ^ neg) - neg
 }
 
@@ -165,18 +190,21 @@ pub fn pow2(e: i32) -> f32 {
 
 #[doc(hidden)]
 /// f32 → fixed: `clamp(round_ties_even(x · 2^e), −32768, 32767)`; NaN → 0.
+///
+/// Computed without branches as `clamp(((y + M) − M) as i32)` with
+/// `y = x · 2^e` and `M = 1.5 · 2^23`, which is the same integer for every
+/// `y`: for |y| < 2^22 `(y + M) − M` is [`crate::math::round_ties_even`]'s
+/// own expression; for `y ≥ 2^22` (or +∞) rounding is monotonic, so
+/// `(y + M) − M ≥ (2^22 + M) − M = 2^22` (both steps exact) and the clamp
+/// gives 32767 as before, and symmetrically −32768 for `y ≤ −2^22`; NaN
+/// stays NaN and `as i32` maps it to 0. On a Cortex-M4F this is `VMLA`,
+/// `VSUB`, `VCVT`, `SSAT` instead of three compare-and-branch steps
+/// (`fixed_blob.rs`, `quantize_matches_reference`, checks it against the
+/// branching form over a stride of all f32 bit patterns).
 #[inline]
 pub fn quantize(x: f32, e: i8) -> i32 {
-    let r = crate::math::round_ties_even(x * pow2(e as i32));
-    if r.is_nan() {
-        0
-    } else if r < -32768.0 {
-        -32768
-    } else if r > 32767.0 {
-        32767
-    } else {
-        r as i32
-    }
+    const MAGIC: f32 = 12_582_912.0;
+    ((x * pow2(e as i32) + MAGIC - MAGIC) as i32).clamp(-32768, 32767)
 }
 
 #[doc(hidden)]
@@ -201,6 +229,28 @@ fn rshr(a: i64, s: i8) -> i64 {
     }
 }
 
+/// The phase of a `Sine` channel: `rshr(acc, s) mod 2^32` for `s ≥ 0`, else
+/// `(acc mod 2^32) · 2^(−s) mod 2^32` (module docs, step 2).
+///
+/// For `1 ≤ s ≤ 31` only bits `s .. s + 31` of `acc + 2^(s−1)` are needed:
+/// the sum is taken modulo 2^64 (it is exact: |acc| < 2^47) and its two
+/// words are shifted as 32-bit words, `(lo >> s) | (hi << (32 − s))`, which
+/// are exactly those bits (arithmetic or logical shift only differ above
+/// bit 63). That is an add with carry and three shifts instead of a
+/// variable 64-bit shift; `s ≥ 32` takes [`rshr`].
+#[inline(always)]
+fn sine_phase(acc: i64, shift: i8) -> u32 {
+    if shift <= 0 {
+        (acc as u32).wrapping_shl((-(shift as i32)) as u32)
+    } else if shift < 32 {
+        let s = shift as u32;
+        let r = (acc as u64).wrapping_add(u64::from(1u32 << (s - 1)));
+        ((r as u32) >> s) | (((r >> 32) as u32).wrapping_shl(32 - s))
+    } else {
+        rshr(acc, shift) as u32
+    }
+}
+
 #[doc(hidden)]
 /// The activation of one accumulated channel (see the module docs).
 #[inline]
@@ -214,14 +264,7 @@ pub fn activate_q(act: Activation, acc: i64, shift: i8) -> i16 {
                 v
             }
         }
-        Activation::Sine => {
-            let phase = if shift >= 0 {
-                rshr(acc, shift) as u32
-            } else {
-                (acc as u32).wrapping_shl((-(shift as i32)) as u32)
-            };
-            sin_q15(phase) as i16
-        }
+        Activation::Sine => sin_q15(sine_phase(acc, shift)) as i16,
     }
 }
 
@@ -250,20 +293,29 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     let xs = x.chunks_exact(2);
     let xt = xs.remainder();
     for (xx, q) in xs.zip(c) {
-        let (x0, x1) = match *xx {
-            [a, b] => (i32::from(a), i32::from(b)),
-            _ => (0, 0),
-        };
-        let (q0, q1) = match q.split_first_chunk::<2>() {
-            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
-            None => (0, 0),
-        };
-        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
+        acc = pair_step(xx, q, acc);
     }
     if let [v] = *xt {
         acc += i64::from(w16(t) * i32::from(v));
     }
     acc
+}
+
+/// One step of [`dot1`]/[`dot_even`]: `acc + q0·x0 + q1·x1` for two
+/// activations `xx` and two i16 LE weights `q` (4 bytes), each product
+/// exact in `i32`, both added to the `i64` as `acc + (p0 + p1)` (exact, so
+/// the grouping does not matter).
+#[inline(always)]
+fn pair_step(xx: &[i16], q: &[u8], acc: i64) -> i64 {
+    let (x0, x1) = match *xx {
+        [a, b] => (i32::from(a), i32::from(b)),
+        _ => (0, 0),
+    };
+    let (q0, q1) = match q.split_first_chunk::<2>() {
+        Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
+        None => (0, 0),
+    };
+    acc + (i64::from(q0 * x0) + i64::from(q1 * x1))
 }
 
 /// [`dot1`] for an even `x.len()` (no odd tail, so a shorter loop
@@ -272,25 +324,16 @@ fn dot1(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
 #[inline(always)]
 fn dot_even(w: &[u8], x: &[i16], mut acc: i64) -> i64 {
     for (xx, q) in x.chunks_exact(2).zip(w.chunks_exact(4)) {
-        let (x0, x1) = match *xx {
-            [a, b] => (i32::from(a), i32::from(b)),
-            _ => (0, 0),
-        };
-        let (q0, q1) = match q.split_first_chunk::<2>() {
-            Some((a, b)) => (i32::from(i16::from_le_bytes(*a)), w16(b)),
-            None => (0, 0),
-        };
-        acc += i64::from(q0 * x0) + i64::from(q1 * x1);
+        acc = pair_step(xx, q, acc);
     }
     acc
 }
 
 /// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for the two rows of `g`
 /// (stride `n` bytes), columns from byte `lo`: the portable
-/// [`dot1`]/[`dot_even`] twice, or on a Cortex-M4/M7 the `SMLALD` kernel
-/// (`kernels::dot2_q15`, two rows per pass) over the longest
-/// prefix it takes and [`dot1`] on the rest. Integer sums are exact, so
-/// both give the same `i64`s.
+/// [`dot1`]/[`dot_even`] twice (a Cortex-M4/M7 takes its own
+/// [`rows_with`] and never comes here). Integer sums are exact.
+#[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
 #[inline(always)]
 fn dot2(
     g: &[u8],
@@ -301,24 +344,13 @@ fn dot2(
     a1: i64,
     dot: &impl Fn(&[u8], &[i16], i64) -> i64,
 ) -> (i64, i64) {
-    #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
-    {
-        let _ = dot;
-        let (a0, a1, k) = crate::kernels::dot2_q15(g, n, lo, x, a0, a1);
-        if k == x.len() {
-            return (a0, a1);
-        }
-        dot2_rest(g, n, lo, x, k, a0, a1)
-    }
-    #[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
-    {
-        let (r0, r1) = pair_rows(g, n, lo, 2 * x.len());
-        (dot(r0, x, a0), dot(r1, x, a1))
-    }
+    let (r0, r1) = pair_rows(g, n, lo, 2 * x.len());
+    (dot(r0, x, a0), dot(r1, x, a1))
 }
 
 /// Bytes `lo..lo + len` of the two rows of `g` (stride `n`), each empty
 /// when it would run past its row (as the one-row walk has it).
+#[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
 #[inline(always)]
 fn pair_rows(g: &[u8], n: usize, lo: usize, len: usize) -> (&[u8], &[u8]) {
     if lo.saturating_add(len) > n {
@@ -330,15 +362,85 @@ fn pair_rows(g: &[u8], n: usize, lo: usize, len: usize) -> (&[u8], &[u8]) {
     )
 }
 
-/// The columns `k..` of [`dot2`] that the kernel left (fewer than 4, or
-/// all of them for an unaligned `x`): the portable [`dot1`], out of line
-/// so that it is compiled once.
+/// [`rows_with`] on a Cortex-M4/M7: up to `kernels::ROW_CHUNK` (16) rows at a time,
+/// their dot products by one call of the `SMLALD` row kernel
+/// (`kernels::dot_rows_q15`, which loops over the row pairs in assembly)
+/// into a stack array, the columns it leaves by [`dot_rows_rest`] (and an
+/// odd last row by [`dot_row`]), then `f(o_j, init_j + dot_j, s_j)` row by
+/// row. The
+/// same exact `i64` sums as the portable walk, so the same outputs.
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(always)]
+fn rows_with<T>(
+    w: &[u8],
+    (n, lo): (usize, usize),
+    x: &[i16],
+    mut inits: impl Iterator<Item = (i64, i8)>,
+    out: &mut [T],
+    mut f: impl FnMut(&mut T, i64, i8),
+    dot: impl Fn(&[u8], &[i16], i64) -> i64,
+) {
+    let _ = dot;
+    let nrows = out.len().min(w.len().checked_div(n).unwrap_or(0));
+    let out = out.get_mut(..nrows).unwrap_or(&mut []);
+    if lo.saturating_add(2 * x.len()) > n {
+        // Columns past the row: every dot product is empty (as in the
+        // portable walk, whose row slices are then empty).
+        for o in out {
+            let Some((i, s)) = inits.next() else {
+                return;
+            };
+            f(o, i, s);
+        }
+        return;
+    }
+    let chunk = crate::kernels::ROW_CHUNK;
+    for (oc, wc) in out.chunks_mut(chunk).zip(w.chunks(chunk.saturating_mul(n))) {
+        let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
+        let (acc, k) = crate::kernels::dot_rows_q15(wc, n, lo, x, oc.len(), &mut buf);
+        if k < x.len() && !acc.is_empty() {
+            dot_rows_rest(wc, (n, lo), x, k, acc);
+        }
+        for (j, o) in oc.iter_mut().enumerate() {
+            let Some((i, s)) = inits.next() else {
+                return;
+            };
+            let a = match acc.get(j) {
+                Some(&a) => i + a,
+                // An odd last row, or every row when the kernel did nothing.
+                None => dot_row(wc, (n, lo), x, j, i),
+            };
+            f(o, a, s);
+        }
+    }
+}
+
+/// What `kernels::dot_rows_q15` left of [`rows_with`]'s chunk: adds
+/// `Σ_i q_j,i · x_i` over the columns `k..` (fewer than 4) to `acc[j]` for
+/// each row it did, with the portable [`dot1`]; out of line so that it is
+/// compiled once. `lo + 2·x.len() ≤ n` (checked by the caller).
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
-fn dot2_rest(g: &[u8], n: usize, lo: usize, x: &[i16], k: usize, a0: i64, a1: i64) -> (i64, i64) {
-    let x = x.get(k..).unwrap_or(&[]);
-    let (r0, r1) = pair_rows(g, n, lo + 2 * k, 2 * x.len());
-    (dot1(r0, x, a0), dot1(r1, x, a1))
+fn dot_rows_rest(w: &[u8], (n, lo): (usize, usize), x: &[i16], k: usize, acc: &mut [i64]) {
+    let hi = lo + 2 * x.len();
+    let xs = x.get(k..).unwrap_or(&[]);
+    for (a, row) in acc.iter_mut().zip(w.chunks_exact(n.max(1))) {
+        let r = row.get(lo + 2 * k..hi).unwrap_or(&[]);
+        *a = dot1(r, xs, *a);
+    }
+}
+
+/// `init + Σ_i q_j,i · x_i` for row `j` of [`rows_with`]'s chunk `w`, all
+/// columns, with the portable [`dot1`] (a row the kernel did not take);
+/// out of line. `lo + 2·x.len() ≤ n` (checked by the caller).
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(never)]
+fn dot_row(w: &[u8], (n, lo): (usize, usize), x: &[i16], j: usize, init: i64) -> i64 {
+    let start = j.saturating_mul(n).saturating_add(lo);
+    let r = w
+        .get(start..start.saturating_add(2 * x.len()))
+        .unwrap_or(&[]);
+    dot1(r, x, init)
 }
 
 /// For each output `o_j` of `out` zipped with `inits` (`(init_j, s_j)`),
@@ -346,6 +448,7 @@ fn dot2_rest(g: &[u8], n: usize, lo: usize, x: &[i16], k: usize, a0: i64, a1: i6
 /// row `j` of `w` has `n` bytes and its columns start at byte `lo`
 /// (`(n, lo)`, the second argument): two
 /// rows at a time ([`dot2`]; an odd last row with `dot`).
+#[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
 #[inline(always)]
 fn rows_with<T>(
     w: &[u8],
@@ -625,6 +728,165 @@ impl Backend for Q15 {
             Activation::Sine => latent_with(layer, skip, z, part, out, |a, s| {
                 activate_q(Activation::Sine, a, s)
             }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `quantize` as the module docs specify it, with the branches it had
+    /// before the branch-free form.
+    fn quantize_ref(x: f32, e: i8) -> i32 {
+        let r = crate::math::round_ties_even(x * pow2(e as i32));
+        if r.is_nan() {
+            0
+        } else if r < -32768.0 {
+            -32768
+        } else if r > 32767.0 {
+            32767
+        } else {
+            r as i32
+        }
+    }
+
+    #[test]
+    fn quantize_matches_reference() {
+        let edges = [
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            32766.5,
+            32767.0,
+            32767.5,
+            32768.0,
+            -32767.5,
+            -32768.0,
+            -32768.5,
+            -32769.0,
+            4_194_303.5,
+            4_194_304.0,
+            8_388_608.0,
+            12_582_912.0,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        for e in [-20i8, -3, 0, 7, 12, 15, 30] {
+            for &x in &edges {
+                for v in [
+                    x,
+                    -x,
+                    f32::from_bits(x.to_bits() + 1),
+                    f32::from_bits(x.to_bits().wrapping_sub(1)),
+                ] {
+                    assert_eq!(quantize(v, e), quantize_ref(v, e), "{v:e} e {e}");
+                }
+            }
+            // A stride through all f32 bit patterns (both signs, every exponent).
+            let mut b = 0u32;
+            while let Some(n) = b.checked_add(4099) {
+                let x = f32::from_bits(b);
+                assert_eq!(quantize(x, e), quantize_ref(x, e), "{b:#x} e {e}");
+                b = n;
+            }
+        }
+        // Every f32 with 2^13 <= |x| <= 2^16 at e = 0 (around the clamp bounds).
+        for b in 0x4600_0000..=0x4780_0000u32 {
+            for x in [f32::from_bits(b), -f32::from_bits(b)] {
+                assert_eq!(quantize(x, 0), quantize_ref(x, 0), "{x:e}");
+            }
+        }
+    }
+
+    /// `sin_q15` as specified, with two loads from `QUARTER_SINE`.
+    fn sin_q15_ref(phase: u32) -> i32 {
+        let neg = (phase as i32) >> 31;
+        let mut p = phase & 0x3fff_ffff;
+        if phase & (1 << 30) != 0 {
+            p = (1 << 30) - p;
+        }
+        let idx = (p >> 22) as usize;
+        let frac = ((p >> 6) & 0xffff) as i32;
+        let (a, b) = match QUARTER_SINE.get(idx..idx + 2) {
+            Some(&[a, b]) => (a as i32, b as i32),
+            _ => (32768, 32768),
+        };
+        let v = (a + (((b - a) * frac + 0x8000) >> 16)).min(32767);
+        (v ^ neg) - neg
+    }
+
+    #[test]
+    fn sin_q15_matches_table_form() {
+        // Every distinct input (the low 6 bits are ignored), with low bits
+        // 0 and 63, and the quadrant edges.
+        for k in 0..(1u32 << 26) {
+            for ph in [k << 6, (k << 6) | 63] {
+                assert_eq!(sin_q15(ph), sin_q15_ref(ph), "{ph:#x}");
+            }
+        }
+        for ph in [0u32, 1 << 30, 1 << 31, 3 << 30, u32::MAX] {
+            assert_eq!(sin_q15(ph), sin_q15_ref(ph), "{ph:#x}");
+        }
+    }
+
+    /// `rshr` exactly, in `i128`.
+    fn rshr_ref(a: i64, s: i8) -> i64 {
+        if s <= 0 {
+            a
+        } else {
+            ((i128::from(a) + (1i128 << (s - 1))) >> s) as i64
+        }
+    }
+
+    #[test]
+    fn sine_phase_matches_reference() {
+        let mut r = crate::prng::Xoshiro128PlusPlus::seed_from_u64(5);
+        for s in -31i8..=62 {
+            let want = |a: i64| {
+                if s >= 0 {
+                    rshr_ref(a, s) as u32
+                } else {
+                    (a as u32).wrapping_shl((-(s as i32)) as u32)
+                }
+            };
+            let bound = (1i64 << 47) - 1;
+            let mut edges = [
+                0i64,
+                1,
+                -1,
+                bound,
+                -bound,
+                1 << 31,
+                -(1 << 31),
+                (1 << 32) - 1,
+                1 << 32,
+            ];
+            if s > 0 {
+                let h = 1i64 << (s - 1);
+                edges[1] = h;
+                edges[2] = h - 1;
+                edges[3] = -h;
+                edges[4] = -h - 1;
+            }
+            for a in edges {
+                assert_eq!(sine_phase(a, s), want(a), "a {a} s {s}");
+                assert_eq!(rshr(a, s), rshr_ref(a, s), "a {a} s {s}");
+            }
+            for _ in 0..20_000 {
+                let raw = (u64::from(r.next_u32()) << 32 | u64::from(r.next_u32())) as i64;
+                // |a| < 2^47 at every magnitude.
+                let a = raw >> (17 + r.next_u32() % 47);
+                assert_eq!(sine_phase(a, s), want(a), "a {a} s {s}");
+                let act = activate_q(Activation::Sine, a, s);
+                assert_eq!(act, sin_q15(want(a)) as i16, "a {a} s {s}");
+            }
         }
     }
 }

@@ -43,16 +43,34 @@ pub fn round_ties_even(x: f32) -> f32 {
 /// fractional part and the result is `±0`.
 #[inline]
 pub fn sin_turns(t: f32) -> f32 {
+    if !t.is_finite() {
+        return f32::NAN;
+    }
+    sin_reduced(t - round_ties_even(t))
+}
+
+/// [`sin_turns`] for a phase known to satisfy `|t| < 2^22` (finite): the
+/// same operations without the two guards, which cannot fire there
+/// (`round_ties_even` takes its `(t + M) − M` branch, and a finite `t`
+/// needs no NaN check), so the same bits. The latent sampler's phases are
+/// in `[0, 1.25]`.
+#[inline]
+pub(crate) fn sin_turns_small(t: f32) -> f32 {
+    // 1.5 * 2^23, as in `round_ties_even`.
+    const MAGIC: f32 = 12_582_912.0;
+    sin_reduced(t - ((t + MAGIC) - MAGIC))
+}
+
+/// The fold and polynomial of [`sin_turns`] for a reduced phase `r`
+/// (`|r| ≤ 1/2`).
+#[inline(always)]
+fn sin_reduced(mut r: f32) -> f32 {
     const C1: f32 = core::f32::consts::TAU;
     const C3: f32 = -41.341_7;
     const C5: f32 = 81.605_25;
     const C7: f32 = -76.705_86;
     const C9: f32 = 42.058_693;
     const C11: f32 = -15.094_643;
-    if !t.is_finite() {
-        return f32::NAN;
-    }
-    let mut r = t - round_ties_even(t);
     if r > 0.25 {
         r = 0.5 - r;
     } else if r < -0.25 {
@@ -77,12 +95,20 @@ pub fn cos_turns(t: f32) -> f32 {
 /// a high part exact in f32 and a low part, so `e·LN2_HI` is exact.
 #[inline]
 pub fn ln(x: f32) -> f32 {
-    const LN2_HI: f32 = 0.693_145_75; // 0x3f317200: 8 trailing zero bits
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    const SQRT2: f32 = core::f32::consts::SQRT_2;
     if x.is_nan() || x < f32::MIN_POSITIVE || !x.is_finite() {
         return f32::NAN;
     }
+    ln_normal(x)
+}
+
+/// [`ln`] for an `x` known to be positive, finite and normal: the same
+/// operations without the guard (which cannot fire there), so the same
+/// bits. The latent sampler's `u1` is in `[2^-24, 1]`.
+#[inline]
+pub(crate) fn ln_normal(x: f32) -> f32 {
+    const LN2_HI: f32 = 0.693_145_75; // 0x3f317200: 8 trailing zero bits
+    const LN2_LO: f32 = 1.428_606_8e-6;
+    const SQRT2: f32 = core::f32::consts::SQRT_2;
     let bits = x.to_bits();
     let mut e = ((bits >> 23) & 0xff) as i32 - 127;
     let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
@@ -99,10 +125,21 @@ pub fn ln(x: f32) -> f32 {
 }
 
 /// Square root, correctly rounded (so identical on every IEEE target):
-/// delegates to `libm::sqrtf`.
+/// `libm::sqrtf`, or on a Cortex-M4F/M7 the FPU's `VSQRT.F32`, which is
+/// correctly rounded too (IEEE 754 requires it of a square root; the same
+/// bits for every input `≥ −0`, negative inputs and NaN give a NaN either
+/// way). The golden replay on the Cortex-M4F/M7 in QEMU takes a root per
+/// pair of latent normals and checks every output bit (`docs/kernels.md`).
 #[inline]
 pub fn sqrt(x: f32) -> f32 {
-    libm::sqrtf(x)
+    #[cfg(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs"))]
+    {
+        crate::kernels::sqrt_f32(x)
+    }
+    #[cfg(not(all(target_arch = "arm", target_feature = "dsp", target_feature = "fpregs")))]
+    {
+        libm::sqrtf(x)
+    }
 }
 
 #[cfg(test)]
@@ -139,6 +176,41 @@ mod tests {
         assert_eq!(sin_turns(-0.25), -1.0);
         assert!(sin_turns(f32::INFINITY).is_nan());
         assert!(sin_turns(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn guard_free_forms_match_every_sampler_input() {
+        // Every u1 = k · 2^-24 (k = 1 ..= 2^24) and every t = k · 2^-24
+        // (k < 2^24) the latent sampler can produce, and t + 1/4 (cos).
+        for k in 1..=(1u32 << 24) {
+            let u = (k as f32) * (1.0 / 16_777_216.0);
+            assert_eq!(ln_normal(u).to_bits(), ln(u).to_bits(), "u {u:e}");
+            let t = ((k - 1) as f32) * (1.0 / 16_777_216.0);
+            assert_eq!(
+                sin_turns_small(t).to_bits(),
+                sin_turns(t).to_bits(),
+                "t {t:e}"
+            );
+            let c = t + 0.25;
+            assert_eq!(
+                sin_turns_small(c).to_bits(),
+                cos_turns(t).to_bits(),
+                "t {t:e}"
+            );
+        }
+        // And a stride through all finite |t| < 2^22.
+        let mut b = 0u32;
+        while let Some(n) = b.checked_add(997) {
+            let t = f32::from_bits(b);
+            if t.abs() < 4_194_304.0 {
+                assert_eq!(
+                    sin_turns_small(t).to_bits(),
+                    sin_turns(t).to_bits(),
+                    "t {t:e}"
+                );
+            }
+            b = n;
+        }
     }
 
     #[test]

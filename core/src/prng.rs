@@ -151,10 +151,13 @@ impl Gaussian {
         }
         let u1 = self.rng.next_open01();
         let t = self.rng.next_half_open01();
-        let l = math::ln(u1);
+        // u1 in [2^-24, 1] is normal and t in [0, 1): the guard-free forms
+        // of `ln`, `sin_turns` and `cos_turns(t) = sin_turns(t + 1/4)`,
+        // which give the same bits there.
+        let l = math::ln_normal(u1);
         let rho = math::sqrt(-(l + l));
-        self.spare = Some(rho * math::sin_turns(t));
-        rho * math::cos_turns(t)
+        self.spare = Some(rho * math::sin_turns_small(t));
+        rho * math::sin_turns_small(t + 0.25)
     }
 }
 

@@ -7,19 +7,25 @@
 //!
 //! # Q15: two rows per pass, `SMLALD`
 //!
-//! [`dot2_q15`] adds `Σ_i q0_i · x_i` and `Σ_i q1_i · x_i` to two `i64`
-//! accumulators. Per four inputs: one `LDRD` brings `x_i .. x_i+3` (the
-//! activation row is 4-byte aligned; otherwise the caller's portable loop
-//! runs) and four `SMLALD` do the eight MACs. The weights come either with
-//! one `LDRD` per row (both rows' columns word aligned: a format-3 blob, whose
-//! tensors start at multiples of 4, placed at an aligned address, with an
-//! even row stride — 7 instructions per 8 MACs) or with two `LDR` per row
-//! (any alignment: flash is normal memory and the Cortex-M4 allows unaligned
-//! `LDR`, as the portable loop's compiled code already assumes; `LDRD`
-//! would fault — 9 per 8). `SMLALD` adds both 16 × 16 products to a 64-bit
-//! accumulator with 64-bit wrap-around; since `|acc| < 2^47` for every
-//! valid blob (see [`crate::fixed`]), nothing wraps and the sum equals the
-//! portable `i64` sum exactly, whatever the order or the load width.
+//! [`dot_rows_q15`] computes `Σ_i q_j,i · x_i` for every row `j` of a block
+//! of rows in one `asm!` block, two rows per pass. Per four inputs: one
+//! `LDRD` brings `x_i .. x_i+3` (the activation row is 4-byte aligned;
+//! otherwise the caller's portable loop runs) and four `SMLALD` do the
+//! eight MACs. The weights come either with one `LDRD` per row (both rows'
+//! columns word aligned: a format-3 blob, whose tensors start at multiples
+//! of 4, placed at an aligned address, with an even row stride — 7
+//! instructions per 8 MACs) or with two `LDR` per row (any alignment: flash
+//! is normal memory and the Cortex-M4 allows unaligned `LDR`, as the
+//! portable loop's compiled code already assumes; `LDRD` would fault — 9 per
+//! 8). `SMLALD` adds both 16 × 16 products to a 64-bit accumulator with
+//! 64-bit wrap-around; since `|acc| < 2^47` for every valid blob (see
+//! [`crate::fixed`]), nothing wraps and the sum equals the portable `i64`
+//! sum exactly, whatever the order or the load width.
+//!
+//! # f32 square root: `VSQRT.F32`
+//!
+//! [`sqrt_f32`]: the FPU's correctly rounded square root, the same bits as
+//! the correctly rounded `libm::sqrtf` (the latent sampler's root).
 //!
 //! # f32: four rows per pass, `VMLA.F32`
 //!
@@ -38,8 +44,9 @@
 //! `VLDR`/`VLDM` would fault), then four `VMLA`.
 
 use core::arch::asm;
+use core::mem::MaybeUninit;
 
-/// The loops of one of [`dot2_q15`]'s paths as asm text, `$block` being
+/// The loops over one row pair of one of [`dot_rows_q15`]'s paths as asm text, `$block` being
 /// that path's 4-input block: with `m` = the number of 4-input blocks
 /// (≥ 1), 4 blocks per iteration (label 2) while at least 4 remain, then 1
 /// block per iteration (label 4); branches to label 9 (`9f`) when none is
@@ -69,7 +76,7 @@ macro_rules! q15_loops {
     };
 }
 
-/// [`dot2_q15`]'s 4-input block for word-aligned rows: one `LDRD` of four
+/// [`dot_rows_q15`]'s 4-input block for word-aligned rows: one `LDRD` of four
 /// activations, per row one `LDRD` of four weights and two `SMLALD` (7
 /// instructions, 8 MACs).
 macro_rules! q15_block_ldrd {
@@ -86,7 +93,7 @@ macro_rules! q15_block_ldrd {
     };
 }
 
-/// [`dot2_q15`]'s 4-input block for rows at any alignment: one `LDRD` of
+/// [`dot_rows_q15`]'s 4-input block for rows at any alignment: one `LDRD` of
 /// four activations, then twice: one unaligned `LDR` of two weights per
 /// row and one `SMLALD` per row (9 instructions, 8 MACs).
 macro_rules! q15_block_ldr {
@@ -101,6 +108,54 @@ macro_rules! q15_block_ldr {
             "ldr {w1}, [{p1}], #4\n",
             "smlald {a0}, {a1}, {w0}, {x1}\n",
             "smlald {b0}, {b1}, {w1}, {x1}\n",
+        )
+    };
+}
+
+/// The whole of one of [`dot_rows_q15`]'s paths as asm text, `$block` being
+/// that path's 4-input block ([`q15_block_ldrd`] or [`q15_block_ldr`]).
+///
+/// On entry `m` = blocks per row, `xp` = `x`, `p0` = the first row's first
+/// column, `x0` = row pairs (≥ 1), `x1` = the output pointer, `w0` = `adv`
+/// (bytes from the end of a row pair's columns in its second row to the
+/// first column of the next pair's first row: `n − 2k`), `w1` = `n` (row
+/// stride). These six are kept in a 24-byte frame below the stack pointer
+/// (slots: 0 blocks, 4 `x`, 8 output pointer, 12 `adv`, 16 `n`, 20 pairs
+/// left) because all 12 operand registers are busy in the inner loop. Per
+/// row pair: zero both 64-bit accumulators, reload `m` and `xp`, run
+/// [`q15_loops`], store both sums (`STRD`, low word first: an `i64` in
+/// little-endian order), step `p0`/`p1` to the next pair and count down.
+macro_rules! q15_rows {
+    ($block:ident) => {
+        concat!(
+            "sub sp, sp, #24\n",
+            "str {m}, [sp]\n",
+            "str {xp}, [sp, #4]\n",
+            "str {x1}, [sp, #8]\n",
+            "strd {w0}, {w1}, [sp, #12]\n",
+            "str {x0}, [sp, #20]\n",
+            "add {p1}, {p0}, {w1}\n",
+            "5:\n",
+            "mov {a0}, #0\n",
+            "mov {a1}, #0\n",
+            "mov {b0}, #0\n",
+            "mov {b1}, #0\n",
+            "ldr {m}, [sp]\n",
+            "ldr {xp}, [sp, #4]\n",
+            q15_loops!($block),
+            "\n9:\n",
+            "ldr {w0}, [sp, #8]\n",
+            "strd {a0}, {a1}, [{w0}], #8\n",
+            "strd {b0}, {b1}, [{w0}], #8\n",
+            "str {w0}, [sp, #8]\n",
+            "ldrd {w0}, {w1}, [sp, #12]\n",
+            "add {p0}, {p1}, {w0}\n",
+            "add {p1}, {p0}, {w1}\n",
+            "ldr {w0}, [sp, #20]\n",
+            "subs {w0}, {w0}, #1\n",
+            "str {w0}, [sp, #20]\n",
+            "bne 5b\n",
+            "add sp, sp, #24",
         )
     };
 }
@@ -169,78 +224,141 @@ macro_rules! f32_row_ldr {
     };
 }
 
-/// Two rows of i16 LE weights, `g[lo..n]` and `g[n + lo..2n]` (`n`: the
-/// row stride in bytes): `(a0 + Σ_i q0_i x_i, a1 + Σ_i q1_i x_i)` over
-/// `i < k`, where `k` is the largest multiple of 4 with `k ≤ x.len()`;
-/// returns the sums and `k`. Does nothing (returns `k = 0`) when `x` is
-/// not 4-byte aligned, `g` is shorter than `2n` or the columns would run
-/// past a row (`lo + 2·x.len() > n`).
+/// Rows per call of [`dot_rows_q15`]: the length of its buffer.
+pub(crate) const ROW_CHUNK: usize = 16;
+
+/// `Σ_{i<k} q_j,i · x_i` for the rows `j < rows` (at most [`ROW_CHUNK`]) of
+/// i16 LE weights `w[j·n + lo ..]` (`n`: the row stride in bytes), where
+/// `k` is the largest multiple of 4 with `k ≤ x.len()`, written into the
+/// caller's uninitialised `buf` (an array returned by value was copied, and
+/// an array or struct initialised in Rust was cleared with a call per
+/// chunk); returns the written sums and `k`. The sums start from 0: the caller adds its bias or partial sum
+/// (exact integers, so the grouping does not matter). The kernel takes an
+/// even number of rows: the sums are those of the first `rows & !1` rows
+/// (an odd last row is the caller's), or none (and `k = 0`) when `k` would
+/// be 0, `x` is not 4-byte aligned, the columns would run past a row
+/// (`lo + 2·x.len() > n`) or `w` holds fewer rows.
+///
+/// One `asm!` block for all the rows ([`q15_rows`]): what a kernel call per
+/// row pair cost around it in Rust (the checks, the accumulators in and
+/// out of registers, the alignment test, ~45 instructions) is paid once
+/// per call here; per row pair the frame bookkeeping is 17 instructions.
+/// Aligned rows (`w + lo` and `n` multiples of 4, tested once) take the
+/// `LDRD` block, any others the `LDR` block.
 #[inline(always)]
-pub(crate) fn dot2_q15(
-    g: &[u8],
+pub(crate) fn dot_rows_q15<'b>(
+    w: &[u8],
     n: usize,
     lo: usize,
     x: &[i16],
-    a0: i64,
-    a1: i64,
-) -> (i64, i64, usize) {
+    rows: usize,
+    buf: &'b mut [MaybeUninit<i64>; ROW_CHUNK],
+) -> (&'b mut [i64], usize) {
+    let rows = rows.min(ROW_CHUNK);
+    let even = rows & !1;
     let k = x.len() & !3;
-    if k == 0
-        || (x.as_ptr() as usize) & 3 != 0
-        || g.len() / 2 < n
-        || lo.saturating_add(2 * x.len()) > n
-    {
-        return (a0, a1, 0);
+    let ok = k != 0
+        && even != 0
+        && (x.as_ptr() as usize) & 3 == 0
+        && lo.saturating_add(2 * x.len()) <= n
+        && even.saturating_mul(n) <= w.len();
+    if !ok {
+        return (&mut [], 0);
     }
-    let (mut a0l, mut a0h) = (a0 as u32, (a0 >> 32) as u32);
-    let (mut a1l, mut a1h) = (a1 as u32, (a1 >> 32) as u32);
-    // SAFETY: reads `x[..k]` (k ≤ x.len()) with `LDRD` at 4-byte aligned
-    // addresses (`x` is 4-byte aligned, checked above, and advances by 8),
-    // and bytes `[lo, lo + 2k)` and `[n + lo, n + lo + 2k)` of `g` (inside
-    // `g`: lo + 2k ≤ lo + 2·x.len() ≤ n and 2n ≤ g.len()) through `p0 = g +
-    // lo` and `p1 = p0 + n`, each advancing over its own row. When both are
-    // 4-byte aligned (tested in the block: `(p0 | p1) & 3 == 0`) the
-    // weights are read with `LDRD`, which needs word alignment only
-    // (Armv7-M), so it holds; otherwise with `LDR`, which the Cortex-M4/M7
-    // allow unaligned on normal memory (flash and SRAM; `CCR.UNALIGN_TRP` is
-    // 0 out of reset and the firmware never sets it). No writes to memory,
-    // no stack; the flags are clobbered (asm! assumes so without
-    // `preserves_flags`); every register written is a declared operand.
+    let out = buf.as_mut_ptr().cast::<i64>();
+    let p0 = w.as_ptr().wrapping_add(lo);
+    // n ≥ lo + 2·x.len() ≥ 2k (checked above).
+    let adv = n.wrapping_sub(2 * k);
+    if (p0 as usize | n) & 3 == 0 {
+        // SAFETY: reads `x[..k]` with `LDRD` at 4-byte aligned addresses
+        // (`x` is 4-byte aligned, checked above, and each row restarts at
+        // `x`), and for each row `j < even` the bytes `[j·n + lo, j·n + lo +
+        // 2k)` of `w` (inside `w`: lo + 2k ≤ n and even·n ≤ w.len()) with
+        // `LDRD` at 4-byte aligned addresses (`w + lo` and `n` are
+        // multiples of 4, checked just above, and each pointer advances by
+        // 8). Writes `buf[..even]` (even ≤ ROW_CHUNK; 2·even words,
+        // `STRD` at the array's 8-byte aligned addresses), nothing else but
+        // its own 24-byte frame below the stack pointer, which it releases
+        // before the end (no `nostack`: the compiler keeps the stack
+        // pointer aligned and nothing lives below it). Every register
+        // written is a declared operand; the flags are clobbered (asm!
+        // assumes so).
+        unsafe {
+            asm!(
+                q15_rows!(q15_block_ldrd),
+                m = inout(reg) k / 4 => _,
+                xp = inout(reg) x.as_ptr() => _,
+                p0 = inout(reg) p0 => _,
+                p1 = out(reg) _,
+                x0 = inout(reg) even / 2 => _,
+                x1 = inout(reg) out => _,
+                w0 = inout(reg) adv => _,
+                w1 = inout(reg) n => _,
+                a0 = out(reg) _,
+                a1 = out(reg) _,
+                b0 = out(reg) _,
+                b1 = out(reg) _,
+            );
+        }
+    } else {
+        // SAFETY: as above, except that the weights are read with `LDR`,
+        // which the Cortex-M4/M7 allow unaligned on normal memory (flash and
+        // SRAM; `CCR.UNALIGN_TRP` is 0 out of reset and the firmware never
+        // sets it).
+        unsafe {
+            asm!(
+                q15_rows!(q15_block_ldr),
+                m = inout(reg) k / 4 => _,
+                xp = inout(reg) x.as_ptr() => _,
+                p0 = inout(reg) p0 => _,
+                p1 = out(reg) _,
+                x0 = inout(reg) even / 2 => _,
+                x1 = inout(reg) out => _,
+                w0 = inout(reg) adv => _,
+                w1 = inout(reg) n => _,
+                a0 = out(reg) _,
+                a1 = out(reg) _,
+                b0 = out(reg) _,
+                b1 = out(reg) _,
+            );
+        }
+    }
+    // SAFETY: the kernel above has written `buf[..even]` (even ≤
+    // ROW_CHUNK); `MaybeUninit<i64>` has the layout of `i64`; the slice
+    // reborrows `buf` mutably for `'b`.
+    let sums = unsafe { core::slice::from_raw_parts_mut(out, even) };
+    (sums, k)
+}
+
+/// `sqrt(x)` with the FPU's `VSQRT.F32`, which IEEE 754 (and the Armv7-M
+/// `FPSqrt` pseudocode) define as correctly rounded, like `libm::sqrtf`:
+/// so the same bits for every input that is not NaN or below −0 (the
+/// latent sampler only takes roots of `−2·ln(u) ≥ −0`; for those two the
+/// result is a NaN either way). s0 is saved in a core register and
+/// restored (stable Rust cannot name VFP registers as operands, see
+/// [`dot4_f32`]).
+#[cfg(target_feature = "fpregs")]
+#[inline(always)]
+pub(crate) fn sqrt_f32(x: f32) -> f32 {
+    let y: u32;
+    // SAFETY: register-only: `t` keeps s0 while s0 holds `x` and its root,
+    // then s0 is restored; `t` is an `out` operand (not `lateout`), so it
+    // never shares a register with `x`. No memory, no stack, no flags (the
+    // FPSCR's cumulative exception bits are set as by any f32 operation).
     unsafe {
         asm!(
-            "add {p1}, {p1}, {p0}",
-            "orr {w0}, {p0}, {p1}",
-            "tst {w0}, #3",
-            "bne 6f",
-            // Aligned rows: one LDRD of two weight pairs per row (7
-            // instructions, 8 MACs).
-            q15_loops!(q15_block_ldrd),
-            "b 9f",
-            // Rows at any alignment: two LDR per row (9 instructions, 8 MACs).
-            "6:",
-            q15_loops!(q15_block_ldr),
-            "9:",
-            m = inout(reg) k / 4 => _,
-            xp = inout(reg) x.as_ptr() => _,
-            p0 = inout(reg) g.as_ptr().wrapping_add(lo) => _,
-            // p1 = p0 + n, formed in n's register.
-            p1 = inout(reg) n => _,
-            x0 = out(reg) _,
-            x1 = out(reg) _,
-            w0 = out(reg) _,
-            w1 = out(reg) _,
-            a0 = inout(reg) a0l,
-            a1 = inout(reg) a0h,
-            b0 = inout(reg) a1l,
-            b1 = inout(reg) a1h,
-            options(nostack, readonly),
+            "vmov {t}, s0",
+            "vmov s0, {x}",
+            "vsqrt.f32 s0, s0",
+            "vmov {y}, s0",
+            "vmov s0, {t}",
+            x = in(reg) x.to_bits(),
+            y = lateout(reg) y,
+            t = out(reg) _,
+            options(pure, nomem, nostack, preserves_flags),
         );
     }
-    (
-        (u64::from(a0l) | (u64::from(a0h) << 32)) as i64,
-        (u64::from(a1l) | (u64::from(a1h) << 32)) as i64,
-        k,
-    )
+    f32::from_bits(y)
 }
 
 /// Four rows of f32 LE weights, `g[j·n + lo..(j + 1)·n]` for `j < 4`
