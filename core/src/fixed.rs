@@ -153,10 +153,10 @@ const SINE_PAIRS: [u32; 257] = {
 /// 2 and 3. Measured maximum error against f64 `sin` over all 2^26
 /// distinct inputs (the low 6 bits are ignored): see [`SIN_Q15_MAX_ERROR`].
 ///
-/// Computed from [`SINE_PAIRS`] (`a` and `b − a` in one word); since
-/// `0 ≤ v ≤ 32768`, `min(v, 32767)` is written as a clamp to the `i16`
-/// range, one `SSAT` on a Cortex-M4 (`sin_q15_matches_table_form` checks
-/// every distinct input against the two-table-load form).
+/// Computed from a private table of `(a, b − a)` words; since
+/// `0 ≤ v ≤ 32768`, `min(v, 32767)` is `v − (v >> 15)`, one subtraction
+/// with a shifted operand on a Cortex-M4 (`sin_q15_matches_table_form`
+/// checks every distinct input against the two-table-load form).
 #[inline]
 pub fn sin_q15(phase: u32) -> i32 {
     // −1 in quadrants 2 and 3, else 0: `(v ^ neg) − neg` negates there.
@@ -170,7 +170,10 @@ pub fn sin_q15(phase: u32) -> i32 {
     // idx ≤ 256 (p ≤ 2^30), so the fallback never runs.
     let e = SINE_PAIRS.get(idx).copied().unwrap_or(32768);
     let (a, d) = ((e & 0xffff) as i32, (e >> 16) as i32);
-    let v = (a + ((d * frac + 0x8000) >> 16)).clamp(-32768, 32767);
+    // 0 ≤ v ≤ b ≤ 32768 (the rounded step is at most d), so v >> 15 is 1
+    // only at 32768: `v − (v >> 15)` is `min(v, 32767)`.
+    let v = a + ((d * frac + 0x8000) >> 16);
+    let v = v - (v >> 15);
     (v ^ neg) - neg
 }
 
@@ -232,20 +235,21 @@ fn rshr(a: i64, s: i8) -> i64 {
 /// The phase of a `Sine` channel: `rshr(acc, s) mod 2^32` for `s ≥ 0`, else
 /// `(acc mod 2^32) · 2^(−s) mod 2^32` (module docs, step 2).
 ///
-/// For `1 ≤ s ≤ 31` only bits `s .. s + 31` of `acc + 2^(s−1)` are needed:
-/// the sum is taken modulo 2^64 (it is exact: |acc| < 2^47) and its two
-/// words are shifted as 32-bit words, `(lo >> s) | (hi << (32 − s))`, which
-/// are exactly those bits (arithmetic or logical shift only differ above
-/// bit 63). That is an add with carry and three shifts instead of a
-/// variable 64-bit shift; `s ≥ 32` takes [`rshr`].
+/// For `1 ≤ s ≤ 31`: `rshr(acc, s) = ⌊(acc + 2^(s−1)) / 2^s⌋`, which is
+/// `⌊acc / 2^s⌋` plus bit `s − 1` of `acc` (adding `2^(s−1)` carries into
+/// bit `s` exactly when that bit is set), and only the low 32 bits of
+/// `⌊acc / 2^s⌋ = acc >> s` are needed: bits `s .. s + 31` of `acc`, i.e.
+/// `(lo >> s) | (hi << (32 − s))` of its two words. Four shifts, an `and`
+/// and an add instead of a variable 64-bit shift; `s ≥ 32` takes [`rshr`].
 #[inline(always)]
 fn sine_phase(acc: i64, shift: i8) -> u32 {
     if shift <= 0 {
         (acc as u32).wrapping_shl((-(shift as i32)) as u32)
     } else if shift < 32 {
         let s = shift as u32;
-        let r = (acc as u64).wrapping_add(u64::from(1u32 << (s - 1)));
-        ((r as u32) >> s) | (((r >> 32) as u32).wrapping_shl(32 - s))
+        let (lo, hi) = (acc as u32, (acc >> 32) as u32);
+        // Bits s .. s + 31 of acc, plus bit s − 1 (the rounding).
+        ((lo >> s) | hi.wrapping_shl(32 - s)).wrapping_add((lo >> (s - 1)) & 1)
     } else {
         rshr(acc, shift) as u32
     }
@@ -362,7 +366,7 @@ fn pair_rows(g: &[u8], n: usize, lo: usize, len: usize) -> (&[u8], &[u8]) {
     )
 }
 
-/// [`rows_with`] on a Cortex-M4/M7: up to `kernels::ROW_CHUNK` (16) rows at a time,
+/// [`rows_with`] on a Cortex-M4/M7: up to `kernels::ROW_CHUNK` (32) rows at a time,
 /// their dot products by one call of the `SMLALD` row kernel
 /// (`kernels::dot_rows_q15`, which loops over the row pairs in assembly)
 /// into a stack array, the columns it leaves by [`dot_rows_rest`] (and an
@@ -401,16 +405,17 @@ fn rows_with<T>(
         if k < x.len() && !acc.is_empty() {
             dot_rows_rest(wc, (n, lo), x, k, acc);
         }
-        for (j, o) in oc.iter_mut().enumerate() {
+        let done = acc.len();
+        // `zip` pulls from `inits` only while a row is left: one init per row.
+        for ((o, &a), (i, s)) in oc.iter_mut().zip(acc.iter()).zip(&mut inits) {
+            f(o, i + a, s);
+        }
+        // An odd last row, or every row when the kernel did nothing.
+        for (j, o) in oc.iter_mut().enumerate().skip(done) {
             let Some((i, s)) = inits.next() else {
                 return;
             };
-            let a = match acc.get(j) {
-                Some(&a) => i + a,
-                // An odd last row, or every row when the kernel did nothing.
-                None => dot_row(wc, (n, lo), x, j, i),
-            };
-            f(o, a, s);
+            f(o, dot_row(wc, (n, lo), x, j, i), s);
         }
     }
 }
