@@ -69,8 +69,27 @@ use crate::sine::Sine;
 use crate::Error;
 
 /// Lanes the host uses ([`HostBatchPredictor`]): 8 f32 lanes are two SSE
-/// vectors, and 4 rows × 8 lanes of sums fill x86-64's 16 vector registers.
+/// vectors, and 4 rows × 8 lanes of sums fill x86-64's 16 vector registers;
+/// with AVX2 ([`set_wide_vectors`]) one `ymm` register, 8 rows at a time.
 pub const HOST_LANES: usize = 8;
+
+/// Whether the f32 batched path may use AVX2 on an x86-64 CPU that has it
+/// (checked once with CPUID), process-wide; the default is `true`. The
+/// results are the same bits either way (each lane's operations keep their
+/// order; no fused multiply-add, see `docs/host-speed.md`), so this only
+/// changes the speed: tests and benchmarks turn it off to compare both
+/// paths. No effect on other targets.
+///
+/// ```
+/// gpecnet_core::batch::set_wide_vectors(false); // SSE2 only from here on
+/// gpecnet_core::batch::set_wide_vectors(true);
+/// ```
+pub fn set_wide_vectors(enabled: bool) {
+    #[cfg(target_arch = "x86_64")]
+    crate::kernels::x86::set_wide_vectors(enabled);
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = enabled;
+}
 
 /// One track of a batched call: its observed past (`past_len` points, the
 /// caller's units) and its sampler seed (as `seed` of

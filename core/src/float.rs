@@ -206,6 +206,9 @@ impl<S: Sine> Backend for Float<S> {
         out: &mut [[f32; L]],
         used: usize,
     ) {
+        #[cfg(target_arch = "x86_64")]
+        crate::kernels::x86::dense_lanes::<Self, L>(layer, x, out, used);
+        #[cfg(not(target_arch = "x86_64"))]
         crate::lanes::dense_lanes::<Self, L>(layer, x, out, used);
     }
 

@@ -115,7 +115,6 @@ pub mod float;
 pub mod frame;
 #[doc(hidden)]
 pub mod golden;
-#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[allow(unsafe_code)]
 mod kernels;
 mod lanes;

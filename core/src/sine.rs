@@ -71,8 +71,9 @@ impl Sine for LibmSine {
     /// the right one selected by bit masks), so the lanes vectorise;
     /// otherwise `libm::sinf` lane by lane. The same bits as `libm::sinf`
     /// either way (`sine::tests::lanes_equal_libm_sampled`, and
-    /// `lanes_equal_libm_all` over every f32).
-    #[inline]
+    /// `lanes_equal_libm_all` over every f32). Always inlined, so that it
+    /// takes the vector width of its caller (`crate::kernels`).
+    #[inline(always)]
     fn sin_lanes<const L: usize>(x: &mut [f32; L]) {
         if x.iter().any(|v| v.to_bits() & 0x7fff_ffff >= MEDIUM_LIMIT) {
             for v in x.iter_mut() {

@@ -83,6 +83,14 @@ enum Cmd {
         /// Repetitions of the whole-test-set case (default: --reps).
         #[arg(long)]
         set_reps: Option<usize>,
+        /// Time only the batched path (skip the scalar one, which takes a minute per call
+        /// on sdd-paper's test set).
+        #[arg(long)]
+        batched_only: bool,
+        /// Batched path without AVX2 (`gpecnet_core::batch::set_wide_vectors(false)`; the
+        /// same bits): reported as `gpecnet-batch-sse2`.
+        #[arg(long)]
+        sse2: bool,
     },
     /// Write a config's training samples (obs, dest, future, initial_pos) + the config.
     TrainData {
@@ -305,7 +313,23 @@ fn time_case(min_ms: u64, reps: usize, mut f: impl FnMut() -> Result<()>) -> Res
     Ok(per_call[per_call.len() / 2])
 }
 
-fn infer(blob: &Path, root: &Path, min_ms: u64, reps: usize, set_reps: usize) -> Result<()> {
+/// What `infer` times, and how long.
+struct Timing {
+    /// Minimum milliseconds of one repetition.
+    min_ms: u64,
+    /// Repetitions per one-pedestrian case.
+    reps: usize,
+    /// Repetitions of the whole-test-set case.
+    set_reps: usize,
+    /// Time the scalar path too.
+    scalar: bool,
+    /// Batched path without AVX2.
+    sse2: bool,
+}
+
+fn infer(blob: &Path, root: &Path, t: &Timing) -> Result<()> {
+    let (min_ms, reps, set_reps) = (t.min_ms, t.reps, t.set_reps);
+    gpecnet_core::batch::set_wide_vectors(!t.sse2);
     let bytes = read(blob)?;
     let model = Model::from_blob(&bytes).map_err(|e| anyhow!("{}: {e}", blob.display()))?;
     let windows = test_windows(root)?;
@@ -341,43 +365,56 @@ fn infer(blob: &Path, root: &Path, min_ms: u64, reps: usize, set_reps: usize) ->
     }
     let mut scalar = serde_json::Map::new();
     let mut batched = serde_json::Map::new();
-    for k in PED_KS {
+    for k in PED_KS.into_iter().filter(|_| t.scalar) {
         let s = time_case(min_ms, reps, || {
             p.predict_samples(&pasts[0], 0, &mut a[..k])
                 .map_err(|e| anyhow!("{e}"))
         })?;
         scalar.insert(format!("ped_k{k}"), json!(s));
+    }
+    for k in PED_KS {
         let s = time_case(min_ms, reps, || {
             bp.predict_samples(&pasts[0], 0, &mut b[..k])
                 .map_err(|e| anyhow!("{e}"))
         })?;
         batched.insert(format!("ped_k{k}"), json!(s));
     }
-    let s = time_case(min_ms, set_reps, || {
-        for (i, past) in pasts.iter().enumerate() {
-            p.predict_samples(past, i as u64, &mut set_a[i * SET_K..(i + 1) * SET_K])
-                .map_err(|e| anyhow!("window {i}: {e}"))?;
-        }
-        Ok(())
-    })?;
-    scalar.insert(format!("set_k{SET_K}"), json!(s));
+    if t.scalar {
+        let s = time_case(min_ms, set_reps, || {
+            for (i, past) in pasts.iter().enumerate() {
+                p.predict_samples(past, i as u64, &mut set_a[i * SET_K..(i + 1) * SET_K])
+                    .map_err(|e| anyhow!("window {i}: {e}"))?;
+            }
+            Ok(())
+        })?;
+        scalar.insert(format!("set_k{SET_K}"), json!(s));
+    }
     let s = time_case(min_ms, set_reps, || {
         bp.predict_samples_many(&queries, SET_K, &mut set_b)
             .map_err(|e| anyhow!("{e}"))
     })?;
     batched.insert(format!("set_k{SET_K}"), json!(s));
-    for (name, api, cases) in [
+    let (batch_name, batch_api) = if t.sse2 {
         (
-            "gpecnet",
-            "Predictor::predict_samples, one window at a time",
-            scalar,
-        ),
+            "gpecnet-batch-sse2",
+            "HostBatchPredictor (8 lanes, SSE2 only): predict_samples / predict_samples_many over all windows",
+        )
+    } else {
         (
             "gpecnet-batch",
-            "HostBatchPredictor (8 lanes): predict_samples / predict_samples_many over all windows",
-            batched,
-        ),
-    ] {
+            "HostBatchPredictor (8 lanes, AVX2 where the CPU has it): predict_samples / predict_samples_many over all windows",
+        )
+    };
+    let scalar_row = (
+        "gpecnet",
+        "Predictor::predict_samples, one window at a time",
+        scalar,
+    );
+    let rows = [
+        Some(scalar_row).filter(|_| t.scalar),
+        Some((batch_name, batch_api, batched)),
+    ];
+    for (name, api, cases) in rows.into_iter().flatten() {
         println!(
             "{}",
             json!({
@@ -461,7 +498,18 @@ fn main() -> Result<()> {
             min_ms,
             reps,
             set_reps,
-        } => infer(&blob, &data, min_ms, reps, set_reps.unwrap_or(reps)),
+            batched_only,
+            sse2,
+        } => {
+            let timing = Timing {
+                min_ms,
+                reps,
+                set_reps: set_reps.unwrap_or(reps),
+                scalar: !batched_only,
+                sse2,
+            };
+            infer(&blob, &data, &timing)
+        }
         Cmd::TrainData { config, out, data } => train_data(&config, &out, &data),
         Cmd::Train {
             config,

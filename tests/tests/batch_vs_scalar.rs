@@ -4,9 +4,10 @@
 //! 20, 200 and K = 13 (not a multiple of the lane count), many tracks side
 //! by side (endpoint sets, plain samples, trajectories, point forecasts),
 //! with the host's 8 lanes and with 3 lanes (every chunk boundary falls
-//! inside a track).
+//! inside a track); for f32 also with 16 lanes and on the portable SSE2
+//! path where the host takes AVX2 (`gpecnet_core::batch::set_wide_vectors`).
 
-use gpecnet_core::batch::BatchPredictor;
+use gpecnet_core::batch::{set_wide_vectors, BatchPredictor};
 use gpecnet_core::blob::MAX_TTS_SAMPLES;
 use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine, Trajectory};
 use gpecnet_tests::{data_root, shipped_blobs};
@@ -137,7 +138,15 @@ fn batched_equals_scalar_on_every_shipped_blob() {
                 check::<LibmSine, 3>(&name, &model, &pasts);
                 if model.parameter_count() < 500_000 {
                     check::<FastSine, 8>(&name, &model, &pasts);
+                    // 16 lanes: two vectors per sum (4 rows at a time on AVX2).
+                    check::<LibmSine, 16>(&name, &model, &pasts);
                 }
+                // The portable SSE2 path, which a host with AVX2 skips
+                // (process-wide switch; the bits are the same either way,
+                // so other tests running meanwhile are unaffected).
+                set_wide_vectors(false);
+                check::<LibmSine, 8>(&name, &model, &pasts);
+                set_wide_vectors(true);
             }
             NumericKind::Int16Q15 => {
                 check::<LibmSine, 8>(&name, &model, &pasts);
