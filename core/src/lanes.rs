@@ -121,8 +121,10 @@ fn rows_lanes<K: LaneArith, const L: usize, const R: usize>(
             let (mut lo, mut hi) = (four(0), four(4));
             let cols = quad_cols(quad(0), wb).zip(quad_cols(quad(4), wb));
             for (xi, (w_lo, w_hi)) in x.iter().zip(cols) {
-                axpy4::<K, L>(&mut lo, w_lo, xi);
-                axpy4::<K, L>(&mut hi, w_hi, xi);
+                // One load of `x[i]` (a register) for the eight rows.
+                let xi = *xi;
+                axpy4::<K, L>(&mut lo, w_lo, &xi);
+                axpy4::<K, L>(&mut hi, w_hi, &xi);
             }
             for (o, a) in acc.iter_mut().zip(lo.into_iter().chain(hi)) {
                 *o = a;
@@ -146,7 +148,13 @@ pub(crate) fn dense_lanes<K: LaneArith, const L: usize>(
     out: &mut [[K::Act; L]],
     used: usize,
 ) {
-    dense_rows::<K, L, ROWS>(layer, x, out, used);
+    if L <= 8 {
+        dense_rows::<K, L, ROWS>(layer, x, out, used);
+    } else {
+        // Wider lanes are enough independent sums per row; 4 rows of them
+        // would not fit the 16 SSE registers.
+        dense_rows::<K, L, 1>(layer, x, out, used);
+    }
 }
 
 /// The dense layer on `L` lanes, `R` rows at a time ([`rows_lanes`]), the

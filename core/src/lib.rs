@@ -2,7 +2,8 @@
 //!
 //! G-PECNet pedestrian endpoint prediction for microcontrollers: `#![no_std]`,
 //! no heap, no panics on any input or blob bytes; `unsafe` only in one private
-//! module of Cortex-M4/M7 inner loops (inline assembly, see below).
+//! module of target kernels (Cortex-M4/M7 inline assembly, the x86-64 AVX2
+//! dispatch; see below).
 //!
 //! G-PECNet (Garg & Rameshan, ICLR 2024 tiny paper) is PECNet (Mangalam et
 //! al., ECCV 2020) with its ReLUs replaced by SIREN sines. Given the last 8
@@ -76,12 +77,15 @@
 //!
 //! ## `unsafe`
 //! The crate is `#![deny(unsafe_code)]`; the one exception is the private
-//! `kernels` module (`#[allow(unsafe_code)]`), compiled only for
-//! `cfg(all(target_arch = "arm", target_feature = "dsp"))` (`thumbv7em`):
+//! `kernels` module (`#[allow(unsafe_code)]`), one submodule per target,
+//! each block with a `SAFETY:` note: on
+//! `cfg(all(target_arch = "arm", target_feature = "dsp"))` (`thumbv7em`)
 //! the dense layers' inner loops in inline assembly (`SMLALD` for Q15,
-//! `VMLA.F32` for f32), each block with a `SAFETY:` note. Every other
-//! target runs the portable loops of [`fixed`] and [`float`], which are the
-//! reference; both give the same bits (`docs/kernels.md`).
+//! `VMLA.F32` for f32, `docs/kernels.md`); on x86-64 the CPUID check and
+//! the call into the batched f32 lanes compiled with AVX2
+//! ([`batch::set_wide_vectors`], `docs/host-speed.md`). Every target keeps
+//! the portable loops of [`fixed`], [`float`] and the lanes, which are the
+//! reference; both give the same bits.
 //!
 //! ## Features
 //! - `defmt`: `defmt::Format` on public types, for logging on a device.

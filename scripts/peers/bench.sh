@@ -97,6 +97,9 @@ for r in $(seq 1 "$ROUNDS"); do
         [ "$m" = sdd-paper ] && SET_REPS=1
         log "round $r/$ROUNDS $m: gpecnet"
         "$PB" infer --blob "weights/$m.gpec" --min-ms "$MIN_MS" --reps "$REPS" --set-reps "$SET_REPS" >> "$RESULTS"
+        log "round $r/$ROUNDS $m: gpecnet batched, SSE2 only"
+        "$PB" infer --blob "weights/$m.gpec" --min-ms "$MIN_MS" --reps "$REPS" --set-reps "$SET_REPS" \
+            --batched-only --sse2 >> "$RESULTS"
         for peer in ort torch; do
             log "round $r/$ROUNDS $m: $peer"
             (cd scripts/peers && "../../$PY" bench_peer.py --peer "$peer" --onnx "../../$OUT/$m-endpoint.onnx" \

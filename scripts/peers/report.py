@@ -156,22 +156,26 @@ def main():
       "`HostBatchPredictor` (`gpecnet_core::batch`, 8 lanes; `predict_samples` for one "
       "pedestrian, `predict_samples_many` for the test set), checked bit-identical to each "
       "other before timing; both include the frame, the latent sampler (Box–Muller) and the "
-      "mapping to pixels, which the peers get for free (precomputed latents). Peers: one call "
+      "mapping to pixels, which the peers get for free (precomputed latents). \"batched\" is "
+      "the default (AVX2 where the CPU has it, chosen at run time); \"SSE2\" is the same "
+      "batched path with `gpecnet_core::batch::set_wide_vectors(false)` (`peer_bench infer "
+      "--sse2`), the same bits. Peers: one call "
       "of the graph on `x [n, 16]`, `z [n, K, 16]` (n = 1 for one pedestrian, 2,829 for the set).")
     w("")
-    w("| model | case | gpecnet scalar | gpecnet batched | onnxruntime | PyTorch eager "
-      "| ORT / scalar | ORT / batched | PyTorch / scalar | PyTorch / batched |")
-    w("|---|---|---|---|---|---|---|---|---|---|")
+    w("| model | case | gpecnet scalar | gpecnet batched, SSE2 | gpecnet batched | onnxruntime "
+      "| PyTorch eager | ORT / scalar | ORT / batched | PyTorch / scalar | PyTorch / batched |")
+    w("|---|---|---|---|---|---|---|---|---|---|---|")
     summary = []
     for m in models:
         for case, label in CASES:
             g = med((m, "gpecnet", case), infer)
             gb = med((m, "gpecnet-batch", case), infer)
+            gs = med((m, "gpecnet-batch-sse2", case), infer)
             o = med((m, "ort", case), infer)
             t = med((m, "torch", case), infer)
             if g is None and o is None:
                 continue
-            w(f"| {m} | {label} | {fmt_t(g)} | {fmt_t(gb)} | {fmt_t(o)} | {fmt_t(t)} "
+            w(f"| {m} | {label} | {fmt_t(g)} | {fmt_t(gs)} | {fmt_t(gb)} | {fmt_t(o)} | {fmt_t(t)} "
               f"| {ratio(o, g)} | **{ratio(o, gb)}** | {ratio(t, g)} | **{ratio(t, gb)}** |")
             summary.append((f"{label}, {m}", f"{ratio(o, gb)} ({ratio(o, g)})",
                             f"{ratio(t, gb)} ({ratio(t, g)})"))
