@@ -65,7 +65,7 @@ fn row_lanes<K: LaneArith, const L: usize>(row: &[u8], x: &[[K::Act; L]], acc: &
 /// column `i`'s `wb` weight bytes of each row. (Zipped `chunks_exact`, so
 /// that LLVM checks the lengths once, not per column.)
 #[inline(always)]
-fn quad_cols<'r>(q: [&'r [u8]; 4], wb: usize) -> impl Iterator<Item = [&'r [u8]; 4]> {
+fn quad_cols(q: [&[u8]; 4], wb: usize) -> impl Iterator<Item = [&[u8]; 4]> {
     let [r0, r1, r2, r3] = q;
     r0.chunks_exact(wb)
         .zip(r1.chunks_exact(wb))
