@@ -68,8 +68,10 @@ impl Sine for LibmSine {
     /// When every lane is below `2^28·π/2` in magnitude (the case of every
     /// SIREN pre-activation): `libm::sinf`'s algorithm written without
     /// branches (each case's reduced argument and both f64 kernels computed,
-    /// the right one selected by bit masks), so the lanes vectorise;
-    /// otherwise `libm::sinf` lane by lane. The same bits as `libm::sinf`
+    /// the right one selected by bit masks), so the lanes vectorise — and
+    /// when every lane is at most `9π/4` (nearly every call of the shipped
+    /// models), without the medium reduction's work; otherwise
+    /// `libm::sinf` lane by lane. The same bits as `libm::sinf`
     /// either way (`sine::tests::lanes_equal_libm_sampled`, and
     /// `lanes_equal_libm_all` over every f32). Always inlined, so that it
     /// takes the vector width of its caller (`crate::kernels`).
@@ -78,6 +80,13 @@ impl Sine for LibmSine {
         if x.iter().any(|v| v.to_bits() & 0x7fff_ffff >= MEDIUM_LIMIT) {
             for v in x.iter_mut() {
                 *v = libm::sinf(*v);
+            }
+            return;
+        }
+        if x.iter().all(|v| v.to_bits() & 0x7fff_ffff <= SMALL_LIMIT) {
+            // Every SIREN layer of the shipped models, nearly always.
+            for v in x.iter_mut() {
+                *v = libm_sinf_small(*v);
             }
             return;
         }
@@ -91,6 +100,66 @@ impl Sine for LibmSine {
 /// infinities and NaN above it too).
 const MEDIUM_LIMIT: u32 = 0x4dc9_0fdb;
 
+/// The largest `|x|` bits that `libm::sinf` reduces by a fixed multiple of
+/// `π/2` (`9π/4` rounded down; above it the medium reduction).
+const SMALL_LIMIT: u32 = 0x40e2_31d5;
+
+/// Thresholds on `|x|` of `libm::sinf`'s cases (libm compares the bits of
+/// `|x|`; for finite `x` the order of the bits is the order of the values):
+/// `π/4`, `3π/4`, `5π/4`, `7π/4`, `9π/4`.
+const T_PIO4: f64 = f32::from_bits(0x3f49_0fda) as f64;
+/// See [`T_PIO4`].
+const T_3PIO4: f64 = f32::from_bits(0x4016_cbe3) as f64;
+/// See [`T_PIO4`].
+const T_5PIO4: f64 = f32::from_bits(0x407b_53d1) as f64;
+/// See [`T_PIO4`].
+const T_7PIO4: f64 = f32::from_bits(0x40af_eddf) as f64;
+/// See [`T_PIO4`].
+const T_9PIO4: f64 = f32::from_bits(SMALL_LIMIT) as f64;
+/// `1·π/2` … `4·π/2` in f64, libm's `s1pio2` … `s4pio2`.
+const S1_PIO2: f64 = core::f64::consts::FRAC_PI_2;
+/// See [`S1_PIO2`].
+const S2_PIO2: f64 = 2. * core::f64::consts::FRAC_PI_2;
+/// See [`S1_PIO2`].
+const S3_PIO2: f64 = 3. * core::f64::consts::FRAC_PI_2;
+/// See [`S1_PIO2`].
+const S4_PIO2: f64 = 4. * core::f64::consts::FRAC_PI_2;
+
+/// [`libm_sinf_medium`] for `|x| ≤ 9π/4` (bits ≤ [`SMALL_LIMIT`]; larger
+/// `x` give wrong values): the same cases, with the reduced argument formed
+/// once instead of per case. Case `k` = the number of thresholds `π/4`,
+/// `3π/4`, `5π/4`, `7π/4` that `|x|` exceeds; `y = x − copysign(k·π/2, x)`,
+/// which is libm's `x ∓ k·π/2` operation for operation (`a − (−b)` is
+/// `a + b` exactly, and `k = 0` gives `x`: `x − 0 = x`; the one difference,
+/// `−0 − (−0) = +0`, is below `2^-12`, where `x` itself is returned);
+/// negated for `k = 2` (libm's `k_sinf(−(x ± π))`); the cosine kernel for
+/// odd `k`, negated for `x < 0` at `k = 1` and for `x > 0` at `k = 3`.
+#[inline(always)]
+fn libm_sinf_small(x: f32) -> f32 {
+    let x64 = x as f64;
+    let ax = if x64 < 0.0 { -x64 } else { x64 };
+    let mn = mask(x64 < 0.0);
+    let (c1, c2, c3, c4) = (
+        mask(ax <= T_PIO4),
+        mask(ax <= T_3PIO4),
+        mask(ax <= T_5PIO4),
+        mask(ax <= T_7PIO4),
+    );
+    let kpio2 = pick(
+        c1,
+        0.0,
+        pick(c2, S1_PIO2, pick(c3, S2_PIO2, pick(c4, S3_PIO2, S4_PIO2))),
+    );
+    let y = x64 - f64::from_bits(kpio2.to_bits() | (x64.to_bits() & SIGN));
+    let k2 = c3 & !c2;
+    let y = f64::from_bits(y.to_bits() ^ (k2 & SIGN));
+    let k1 = c2 & !c1;
+    let k3 = c4 & !c3;
+    let use_cos = k1 | k3;
+    let negate = (k1 & mn) | (k3 & !mn);
+    sinf_tail(x, y, use_cos, negate)
+}
+
 /// `libm::sinf` (libm 0.2.16, FreeBSD's `s_sinf.c`) for `|x| < 2^28·π/2`,
 /// written without branches: every case's reduced argument is computed and
 /// the right one selected, then both kernels (`k_sinf`, `k_cosf`, the same
@@ -103,31 +172,10 @@ const MEDIUM_LIMIT: u32 = 0x4dc9_0fdb;
 /// `k_cosf(y)`, `k_sinf(−y)` or `−k_cosf(y)`.
 #[inline(always)]
 fn libm_sinf_medium(x: f32) -> f32 {
-    const S1_PIO2: f64 = core::f64::consts::FRAC_PI_2;
-    const S2_PIO2: f64 = 2. * core::f64::consts::FRAC_PI_2;
-    const S3_PIO2: f64 = 3. * core::f64::consts::FRAC_PI_2;
-    const S4_PIO2: f64 = 4. * core::f64::consts::FRAC_PI_2;
     const TOINT: f64 = 1.5 / f64::EPSILON;
     const INV_PIO2: f64 = f64::from_bits(0x3fe4_5f30_6dc9_c883);
     const PIO2_1: f64 = f64::from_bits(0x3ff9_21fb_5000_0000);
     const PIO2_1T: f64 = f64::from_bits(0x3e51_10b4_611a_6263);
-    // The kernels' coefficients (libm's `k_sinf.rs` S1..S4, `k_cosf.rs` C0..C3).
-    const KS3: f64 = f64::from_bits(0xbf2a00f9e2cae774); // -0.000198393348360966317347
-    const KS4: f64 = f64::from_bits(0x3ec6cd878c3b46a7); // 0.0000027183114939898219064
-    const KS1: f64 = f64::from_bits(0xbfc5555554cbac77); // -0.166666666416265235595
-    const KS2: f64 = f64::from_bits(0x3f811110896efbb2); // 0.0083333293858894631756
-    const KC2: f64 = f64::from_bits(0xbf56c087e80f1e27); // -0.00138867637746099294692
-    const KC3: f64 = f64::from_bits(0x3ef99342e0ee5069); // 0.0000243904487962774090654
-    const KC0: f64 = f64::from_bits(0xbfdffffffd0c5e81); // -0.499999997251031003120
-    const KC1: f64 = f64::from_bits(0x3fa55553e1053a42); // 0.0416666233237390631894
-                                                         // Thresholds on |x| (libm compares the bits of |x|; for finite x the
-                                                         // order of the bits is the order of the values).
-    const T_PIO4: f64 = f32::from_bits(0x3f49_0fda) as f64;
-    const T_3PIO4: f64 = f32::from_bits(0x4016_cbe3) as f64;
-    const T_5PIO4: f64 = f32::from_bits(0x407b_53d1) as f64;
-    const T_7PIO4: f64 = f32::from_bits(0x40af_eddf) as f64;
-    const T_9PIO4: f64 = f32::from_bits(0x40e2_31d5) as f64;
-    const TINY: f32 = f32::from_bits(0x3980_0000);
     let x64 = x as f64;
     let ax = if x64 < 0.0 { -x64 } else { x64 };
     let neg = x64 < 0.0;
@@ -180,6 +228,26 @@ fn libm_sinf_medium(x: f32) -> f32 {
             pick_bits(c3, 0, pick_bits(c4, !mn, pick_bits(c5, 0, q3))),
         ),
     );
+    sinf_tail(x, y, use_cos, negate)
+}
+
+/// The end of [`libm_sinf_medium`] and [`libm_sinf_small`]: both kernels on
+/// the reduced argument `y` (libm's `k_sinf.rs`, `k_cosf.rs`: the same f64
+/// polynomials in the same order), the cosine where `use_cos` is all ones,
+/// negated where `negate` is, rounded once to f32; `x` itself where
+/// `|x| < 2^-12`.
+#[inline(always)]
+fn sinf_tail(x: f32, y: f64, use_cos: u64, negate: u64) -> f32 {
+    // The kernels' coefficients (libm's `k_sinf.rs` S1..S4, `k_cosf.rs` C0..C3).
+    const KS3: f64 = f64::from_bits(0xbf2a00f9e2cae774); // -0.000198393348360966317347
+    const KS4: f64 = f64::from_bits(0x3ec6cd878c3b46a7); // 0.0000027183114939898219064
+    const KS1: f64 = f64::from_bits(0xbfc5555554cbac77); // -0.166666666416265235595
+    const KS2: f64 = f64::from_bits(0x3f811110896efbb2); // 0.0083333293858894631756
+    const KC2: f64 = f64::from_bits(0xbf56c087e80f1e27); // -0.00138867637746099294692
+    const KC3: f64 = f64::from_bits(0x3ef99342e0ee5069); // 0.0000243904487962774090654
+    const KC0: f64 = f64::from_bits(0xbfdffffffd0c5e81); // -0.499999997251031003120
+    const KC1: f64 = f64::from_bits(0x3fa55553e1053a42); // 0.0416666233237390631894
+    const TINY: f32 = f32::from_bits(0x3980_0000);
     // k_sinf and k_cosf (libm's `k_sinf.rs`, `k_cosf.rs`), both, in f64.
     let z = y * y;
     let w = z * z;
@@ -322,7 +390,31 @@ mod tests {
         }
     }
 
-    /// Every f32 (about a minute): `cargo test -p gpecnet-core --release --lib lanes_equal_libm_all -- --ignored`.
+    #[test]
+    fn small_path_equals_libm() {
+        // `libm_sinf_small` directly, every 61st pattern up to 9π/4 of both
+        // signs, and every pattern around its case thresholds.
+        let check = |b: u32| {
+            let x = f32::from_bits(b);
+            let (want, got) = (libm::sinf(x), libm_sinf_small(x));
+            assert_eq!(want.to_bits(), got.to_bits(), "{x:e} ({b:#x})");
+        };
+        for sign in [0, 0x8000_0000u32] {
+            (0..=SMALL_LIMIT).step_by(61).for_each(|b| check(b | sign));
+            for edge in [
+                0x3980_0000u32,
+                0x3f49_0fda,
+                0x4016_cbe3,
+                0x407b_53d1,
+                0x40af_eddf,
+            ] {
+                (edge - 20_000..=edge + 20_000).for_each(|b| check(b | sign));
+            }
+            (SMALL_LIMIT - 20_000..=SMALL_LIMIT).for_each(|b| check(b | sign));
+        }
+    }
+
+    /// Every f32 (1–8 minutes): `cargo test -p gpecnet-core --release --lib lanes_equal_libm_all -- --ignored`.
     #[test]
     #[ignore]
     fn lanes_equal_libm_all() {
