@@ -53,10 +53,19 @@ pub const VAL_CHUNK: usize = 512;
 
 /// Pin candle's CPU matmul parallelism to `n` threads (see the module docs). Must be called
 /// before the first tensor operation of the process to also size rayon's global pool.
+///
+/// Unless the caller set it, `CANDLE_NUM_THREADS` is set to 1: candle's own pool for its
+/// elementwise ops (the gradient accumulators' adds) then stays serial. Its workers and its
+/// barrier spin, which on a busy 2-core machine cost more than they save (a paper-size epoch
+/// at 2 threads: 8.8 s serial against 10.4 s pooled, `docs/host-speed.md`); every element is
+/// computed on its own, so the bits do not change.
 pub fn set_num_threads(n: usize) {
     let n = n.max(1).to_string();
     if std::env::var("RAYON_NUM_THREADS").ok().as_deref() != Some(n.as_str()) {
         std::env::set_var("RAYON_NUM_THREADS", n);
+    }
+    if std::env::var_os("CANDLE_NUM_THREADS").is_none() {
+        std::env::set_var("CANDLE_NUM_THREADS", "1");
     }
 }
 
