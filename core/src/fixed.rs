@@ -598,8 +598,15 @@ fn latent_with(
     let n = 2 * layer.in_dim();
     #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
     {
-        // Two rows per pass with the `SMLALD` kernel (the packed 16-column
-        // product below is the faster portable form).
+        // 16 latent columns (the shipped models): the unrolled kernel that
+        // starts from the partial sums.
+        if let Ok(z16) = <&[i16; 16]>::try_from(z) {
+            if latent16(w, (n, 2 * skip), z16, part, shifts, out, &g) {
+                return;
+            }
+        }
+        // Otherwise two rows per pass with the `SMLALD` row kernel (the
+        // packed 16-column product below is the faster portable form).
         let inits = part.iter().zip(shifts).map(|(&p, &s)| (p, s as i8));
         rows_with(
             w,
@@ -640,6 +647,60 @@ fn latent_with(
             }
         }
     }
+}
+
+/// [`latent_with`] for exactly 16 latent columns on a Cortex-M4/M7: per
+/// chunk of up to `kernels::ROW_CHUNK` rows, `buf_j = part_j + Σ_{i<16}
+/// q_j,lo/2+i · z_i` by `kernels::latent_rows_q15` (one unrolled `asm!`
+/// row loop), then `out_j = g(buf_j, s_j)` in a loop of its own. Out of
+/// line, so that the loops get the registers that the caller (the whole
+/// prediction, inlined) keeps busy. Returns `false`, having written
+/// nothing, unless `part`, `shifts` and `w` hold a row for every output
+/// and the 16 columns lie inside a row (`lo + 32 ≤ n`); a chunk the kernel
+/// refuses (alignment) takes the portable [`dot1`]. The same exact `i64`
+/// sums as [`rows_with`], so the same outputs.
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(never)]
+fn latent16(
+    w: &[u8],
+    (n, lo): (usize, usize),
+    z: &[i16; 16],
+    part: &[i64],
+    shifts: &[u8],
+    out: &mut [i16],
+    g: impl Fn(i64, i8) -> i16,
+) -> bool {
+    let rows = out.len();
+    if part.len() < rows
+        || shifts.len() < rows
+        || rows.saturating_mul(n) > w.len()
+        || lo.saturating_add(32) > n
+    {
+        return false;
+    }
+    let chunk = crate::kernels::ROW_CHUNK;
+    let chunks = out
+        .chunks_mut(chunk)
+        .zip(part.chunks(chunk))
+        .zip(shifts.chunks(chunk))
+        .zip(w.chunks(chunk.saturating_mul(n)));
+    for (((oc, pc), sc), wc) in chunks {
+        let pc = pc.get(..oc.len()).unwrap_or(&[]);
+        let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
+        let acc = crate::kernels::latent_rows_q15(wc, n, lo, z, pc, &mut buf);
+        if acc.len() == oc.len() {
+            for ((o, &a), &s) in oc.iter_mut().zip(acc.iter()).zip(sc) {
+                *o = g(a, s as i8);
+            }
+        } else {
+            let rows = oc.iter_mut().zip(pc).zip(sc).zip(wc.chunks_exact(n));
+            for (((o, &p), &s), row) in rows {
+                let r = row.get(lo..lo + 32).unwrap_or(&[]);
+                *o = g(dot1(r, z, p), s as i8);
+            }
+        }
+    }
+    true
 }
 
 impl LaneArith for Q15 {
