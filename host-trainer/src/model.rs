@@ -374,7 +374,7 @@ pub fn linear_sine(x: &Tensor, w: &Tensor, b: &Tensor, w0: f32) -> candle_core::
 
 /// [`Linear`] then [`SineOp`] in one node of the graph. Forward: [`Linear`]'s `h = x Wᵀ + b`,
 /// then `sin(h · w0 + 0)`; `h` is kept in the op for the backward pass. Backward, from the
-/// accumulated `dy`: `G = 0 + (((0 + dy · cos(h · w0 + 0)) · w0) + 0)` — [`SineBackward`]'s
+/// accumulated `dy`: `G = 0 + (((0 + dy · cos(h · w0 + 0)) · w0) + 0)` — `SineBackward`'s
 /// operations followed by the zero-filled accumulator candle would add `h`'s gradient to —
 /// then [`Linear`]'s backward from `G`. The same bits as the two ops, without the graph node of
 /// `h`, its accumulator (an allocation, a fill and an add over `[rows, out]`) and a scan.
