@@ -525,6 +525,10 @@ fn dense_with(
 
 /// One fixed-point dense layer (see the module docs).
 fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
+    #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+    if layer.activation() == Activation::Sine && dense_sine(layer, x, out) {
+        return;
+    }
     if cfg!(not(all(target_arch = "arm", target_feature = "dsp")))
         && x.len() & 7 == 0
         && layer.activation() == Activation::Sine
@@ -601,7 +605,8 @@ fn latent_with(
         // 16 latent columns (the shipped models): the unrolled kernel that
         // starts from the partial sums.
         if let Ok(z16) = <&[i16; 16]>::try_from(z) {
-            if latent16(w, (n, 2 * skip), z16, part, shifts, out, &g) {
+            let sine = layer.activation() == Activation::Sine;
+            if latent16(w, (n, 2 * skip), z16, part, shifts, out, sine, &g) {
                 return;
             }
         }
@@ -649,8 +654,103 @@ fn latent_with(
     }
 }
 
+/// Zero biases for [`sine_rows`] when the sums already hold them (the
+/// decoder's latent columns start from the partial sums, bias included).
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+const ZERO_BIAS: [u8; 4 * LATENT_CHUNK] = [0; 4 * LATENT_CHUNK];
+
+/// `out_j = activate_q(Sine, sums_j + B_j, s_j)` for `j < out.len()`
+/// (`B_j`: the i32 LE bias at `bias[4j..]`, `s_j = shifts[j] as i8`) on a
+/// Cortex-M4/M7: runs of rows by the asm loop `kernels::sine_rows_q15`
+/// (the same integer steps as [`sine_phase`] and [`sin_q15`], see there);
+/// a row it stops before (a shift outside −31..=32, which it does not
+/// take) by [`activate_q`]. Rows past the end of `sums`, `bias` or
+/// `shifts` are left as they are.
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(always)]
+fn sine_rows(sums: &[i64], bias: &[u8], shifts: &[u8], out: &mut [i16]) {
+    let mut j = 0;
+    while j < out.len() {
+        let (Some(sm), Some(bi), Some(sh), Some(o)) = (
+            sums.get(j..),
+            bias.get(4 * j..),
+            shifts.get(j..),
+            out.get_mut(j..),
+        ) else {
+            return;
+        };
+        j += crate::kernels::sine_rows_q15(sm, bi, sh, o, &SINE_PAIRS);
+        let (Some(o), Some(&a), Some(&[b0, b1, b2, b3]), Some(&s)) = (
+            out.get_mut(j),
+            sums.get(j),
+            bias.get(4 * j..4 * j + 4),
+            shifts.get(j),
+        ) else {
+            return;
+        };
+        let b = i64::from(i32::from_le_bytes([b0, b1, b2, b3]));
+        *o = activate_q(Activation::Sine, a + b, s as i8);
+        j += 1;
+    }
+}
+
+/// A `Sine` layer of [`dense_q`] on a Cortex-M4/M7: per chunk of up to
+/// `kernels::ROW_CHUNK` rows the row kernel's sums (as in [`rows_with`]:
+/// `kernels::dot_rows_q15`, [`dot_rows_rest`] for the columns it leaves,
+/// [`dot_row`] for an odd last row), then the activation of the kernel's
+/// rows by [`sine_rows`] (bias added there). Out of line. Returns `false`,
+/// having written nothing, unless the layer holds a weight row, a bias and
+/// a shift for every output and `x` fits a row; the caller then takes the
+/// generic path. The same exact `i64` sums and the same activation steps,
+/// so the same outputs.
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(never)]
+fn dense_sine(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) -> bool {
+    let (w, bias, shifts) = layer.tensors_q();
+    let n = 2 * layer.in_dim();
+    let rows = out.len();
+    if n == 0
+        || 2 * x.len() > n
+        || rows.saturating_mul(n) > w.len()
+        || bias.len() / 4 < rows
+        || shifts.len() < rows
+    {
+        return false;
+    }
+    let chunk = crate::kernels::ROW_CHUNK;
+    let chunks = out
+        .chunks_mut(chunk)
+        .zip(w.chunks(chunk.saturating_mul(n)))
+        .zip(bias.chunks(4 * chunk))
+        .zip(shifts.chunks(chunk));
+    for (((oc, wc), bc), sc) in chunks {
+        let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
+        let (acc, k) = crate::kernels::dot_rows_q15(wc, n, 0, x, oc.len(), &mut buf);
+        if k < x.len() && !acc.is_empty() {
+            dot_rows_rest(wc, (n, 0), x, k, acc);
+        }
+        let done = acc.len();
+        sine_rows(acc, bc, sc, oc.get_mut(..done).unwrap_or(&mut []));
+        // An odd last row, or every row when the kernel did nothing.
+        for (j, o) in oc.iter_mut().enumerate().skip(done) {
+            let (Some(&[b0, b1, b2, b3]), Some(&s)) = (bc.get(4 * j..4 * j + 4), sc.get(j)) else {
+                return true;
+            };
+            let b = i64::from(i32::from_le_bytes([b0, b1, b2, b3]));
+            *o = activate_q(Activation::Sine, dot_row(wc, (n, 0), x, j, b), s as i8);
+        }
+    }
+    true
+}
+
+/// Rows per kernel call of [`latent16`]: 64 (a 512-byte sum buffer), so
+/// that the 48 rows of the shipped decoders take one call per sample (two
+/// 32-row chunks cost ~115 instructions more per sample).
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+const LATENT_CHUNK: usize = 64;
+
 /// [`latent_with`] for exactly 16 latent columns on a Cortex-M4/M7: per
-/// chunk of up to `kernels::ROW_CHUNK` rows, `buf_j = part_j + Σ_{i<16}
+/// chunk of up to [`LATENT_CHUNK`] rows, `buf_j = part_j + Σ_{i<16}
 /// q_j,lo/2+i · z_i` by `kernels::latent_rows_q15` (one unrolled `asm!`
 /// row loop), then `out_j = g(buf_j, s_j)` in a loop of its own. Out of
 /// line, so that the loops get the registers that the caller (the whole
@@ -668,6 +768,7 @@ fn latent16(
     part: &[i64],
     shifts: &[u8],
     out: &mut [i16],
+    sine: bool,
     g: impl Fn(i64, i8) -> i16,
 ) -> bool {
     let rows = out.len();
@@ -678,7 +779,7 @@ fn latent16(
     {
         return false;
     }
-    let chunk = crate::kernels::ROW_CHUNK;
+    let chunk = LATENT_CHUNK;
     let chunks = out
         .chunks_mut(chunk)
         .zip(part.chunks(chunk))
@@ -686,17 +787,18 @@ fn latent16(
         .zip(w.chunks(chunk.saturating_mul(n)));
     for (((oc, pc), sc), wc) in chunks {
         let pc = pc.get(..oc.len()).unwrap_or(&[]);
-        let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
+        let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
         let acc = crate::kernels::latent_rows_q15(wc, n, lo, z, pc, &mut buf);
-        if acc.len() == oc.len() {
+        if acc.len() == oc.len() && sine {
+            sine_rows(acc, &ZERO_BIAS, sc, oc);
+        } else if acc.len() == oc.len() {
             for ((o, &a), &s) in oc.iter_mut().zip(acc.iter()).zip(sc) {
                 *o = g(a, s as i8);
             }
         } else {
-            let rows = oc.iter_mut().zip(pc).zip(sc).zip(wc.chunks_exact(n));
-            for (((o, &p), &s), row) in rows {
-                let r = row.get(lo..lo + 32).unwrap_or(&[]);
-                *o = g(dot1(r, z, p), s as i8);
+            for (j, (o, &s)) in oc.iter_mut().zip(sc).enumerate() {
+                let p = pc.get(j).copied().unwrap_or(0);
+                *o = g(dot_row(wc, (n, lo), &z[..], j, p), s as i8);
             }
         }
     }
@@ -908,6 +1010,89 @@ mod tests {
             a
         } else {
             ((i128::from(a) + (1i128 << (s - 1))) >> s) as i64
+        }
+    }
+
+    /// The phase steps of `kernels::sine_rows_q15` (Cortex-M4/M7 asm), in
+    /// Rust with the Armv7-M register-shift rule (`LSL`/`LSR` by a register
+    /// use its low byte; an amount of 32 or more gives 0): for `1 ≤ s ≤
+    /// 32` `t = lo >> (s − 1)`, `((hi << (32 − s)) | (t >> 1)) + (t & 1)`;
+    /// for `−31 ≤ s ≤ 0` `lo << −s`; the 64-bit sum first gets the
+    /// sign-extended i32 bias (`ADDS`/`ADC … ASR #31`).
+    fn asm_phase(sum: i64, bias: i32, s: i32) -> u32 {
+        let lsl = |v: u32, a: i32| {
+            let a = (a as u32) & 0xff;
+            if a >= 32 {
+                0
+            } else {
+                v << a
+            }
+        };
+        let lsr = |v: u32, a: i32| {
+            let a = (a as u32) & 0xff;
+            if a >= 32 {
+                0
+            } else {
+                v >> a
+            }
+        };
+        let (lo, c) = (sum as u32).overflowing_add(bias as u32);
+        let hi = ((sum >> 32) as u32)
+            .wrapping_add((bias >> 31) as u32)
+            .wrapping_add(u32::from(c));
+        if s > 0 {
+            let t = lsr(lo, s - 1);
+            (lsl(hi, 32 - s) | (t >> 1)).wrapping_add(t & 1)
+        } else {
+            lsl(lo, -s)
+        }
+    }
+
+    #[test]
+    fn sine_rows_phase_steps_match_reference() {
+        let mut r = crate::prng::Xoshiro128PlusPlus::seed_from_u64(13);
+        let bound = (1i64 << 47) - 1;
+        for s in -31i8..=32 {
+            let want = |a: i64| {
+                if s >= 0 {
+                    rshr_ref(a, s) as u32
+                } else {
+                    (a as u32).wrapping_shl((-(s as i32)) as u32)
+                }
+            };
+            let check = |sum: i64, bias: i32| {
+                let a = sum + i64::from(bias);
+                assert_eq!(
+                    asm_phase(sum, bias, s.into()),
+                    want(a),
+                    "{sum} {bias} s {s}"
+                );
+                assert_eq!(sine_phase(a, s), want(a), "{sum} {bias} s {s}");
+            };
+            let h = if s > 0 { 1i64 << (s - 1) } else { 1 };
+            let edges = [
+                (0i64, 0i32),
+                (bound, i32::MAX),
+                (-bound, i32::MIN),
+                (bound - i64::from(i32::MAX), i32::MAX),
+                (-bound - i64::from(i32::MIN), i32::MIN),
+                ((1 << 32) - 1, 1),
+                (-(1 << 32), -1),
+                (-1, 0),
+                (0, -1),
+                (h, 0),
+                (h - 1, 0),
+                (-h, 0),
+                (-h - 1, 0),
+                (h, -1),
+            ];
+            for (sum, bias) in edges {
+                check(sum, bias);
+            }
+            for _ in 0..20_000 {
+                let raw = (u64::from(r.next_u32()) << 32 | u64::from(r.next_u32())) as i64;
+                check(raw >> (17 + r.next_u32() % 47), r.next_u32() as i32);
+            }
         }
     }
 

@@ -366,7 +366,7 @@ macro_rules! q15_latent_row {
 }
 
 /// `part_j + Σ_{i<16} q_j,i · z_i` for the rows `j < part.len()` (at most
-/// [`ROW_CHUNK`]) of i16 LE weights `w[j·n + lo ..]` (`n`: the row stride
+/// `N`, the length of `buf`) of i16 LE weights `w[j·n + lo ..]` (`n`: the row stride
 /// in bytes): the decoder's first layer over its 16 latent columns, the
 /// feature columns' exact partial sum `part_j` (bias included) being the
 /// start value. Written into the caller's uninitialised `buf`; returns the
@@ -383,18 +383,18 @@ macro_rules! q15_latent_row {
 /// 2^47`, no wrap-around in the 64-bit `SMLALD`; integer addition is
 /// associative, so starting from `part_j` equals adding it afterwards).
 #[inline(always)]
-pub(crate) fn latent_rows_q15<'b>(
+pub(crate) fn latent_rows_q15<'b, const N: usize>(
     w: &[u8],
     n: usize,
     lo: usize,
     z: &[i16; 16],
     part: &[i64],
-    buf: &'b mut [MaybeUninit<i64>; ROW_CHUNK],
+    buf: &'b mut [MaybeUninit<i64>; N],
 ) -> &'b mut [i64] {
     let rows = part.len();
     let p0 = w.as_ptr().wrapping_add(lo);
     let ok = rows != 0
-        && rows <= ROW_CHUNK
+        && rows <= N
         && (z.as_ptr() as usize) & 3 == 0
         && (p0 as usize | n) & 3 == 0
         && lo.saturating_add(32) <= n
@@ -408,8 +408,8 @@ pub(crate) fn latent_rows_q15<'b>(
     // `[j·n + lo, j·n + lo + 32)` of `w` (inside `w`: lo + 32 ≤ n and
     // rows·n ≤ w.len()) with `LDRD` at 4-byte aligned addresses (`w + lo`
     // and `n` multiples of 4, checked above); `part[..rows]` with `LDRD`
-    // (an `&[i64]`: 8-byte aligned). Writes `buf[..rows]` (rows ≤
-    // ROW_CHUNK; `STRD` at the array's 8-byte aligned addresses) and
+    // (an `&[i64]`: 8-byte aligned). Writes `buf[..rows]` (rows ≤ N;
+    // `STRD` at the array's 8-byte aligned addresses) and
     // nothing else; no stack. Every register written is a declared
     // operand; the flags are clobbered (asm! assumes so). `rows ≥ 1`, so
     // the count reaches 0 after `rows` passes.
@@ -433,10 +433,132 @@ pub(crate) fn latent_rows_q15<'b>(
             options(nostack),
         );
     }
-    // SAFETY: the kernel above has written `buf[..rows]` (rows ≤
-    // ROW_CHUNK); `MaybeUninit<i64>` has the layout of `i64`; the slice
-    // reborrows `buf` mutably for `'b`.
+    // SAFETY: the kernel above has written `buf[..rows]` (rows ≤ N);
+    // `MaybeUninit<i64>` has the layout of `i64`; the slice reborrows `buf`
+    // mutably for `'b`.
     unsafe { core::slice::from_raw_parts_mut(out, rows) }
+}
+
+/// [`sine_rows_q15`]'s row loop as asm text (see there): label 2 per row,
+/// 3 the `s ≤ 0` phase, 4 the sine, 8 the exit.
+macro_rules! q15_sine_rows {
+    () => {
+        concat!(
+            "2:\n",
+            // The shift; leave (at 8) unless −31 ≤ s ≤ 32.
+            "ldrsb {s}, [{sh}], #1\n",
+            "add {t}, {s}, #31\n",
+            "cmp {t}, #63\n",
+            "bhi 8f\n",
+            // acc = sum + bias (64-bit, the bias sign-extended).
+            "ldrd {lo}, {hi}, [{ap}], #8\n",
+            "ldr {b}, [{bp}], #4\n",
+            "adds {lo}, {lo}, {b}\n",
+            "adc {hi}, {hi}, {b}, asr #31\n",
+            "cmp {s}, #0\n",
+            "ble 3f\n",
+            // 1 ≤ s ≤ 32: bits s .. s + 31 of acc plus bit s − 1.
+            "rsb {t}, {s}, #32\n",
+            "lsl {hi}, {hi}, {t}\n",
+            "sub {t}, {s}, #1\n",
+            "lsr {t}, {lo}, {t}\n",
+            "and {b}, {t}, #1\n",
+            "orr {hi}, {hi}, {t}, lsr #1\n",
+            "add {hi}, {hi}, {b}\n",
+            "b 4f\n",
+            // −31 ≤ s ≤ 0: the low word shifted left by −s.
+            "3:\n",
+            "rsb {t}, {s}, #0\n",
+            "lsl {hi}, {lo}, {t}\n",
+            // sin_q15(phase = hi).
+            "4:\n",
+            "bic {lo}, {hi}, #0xC0000000\n",
+            "lsls {t}, {hi}, #1\n",
+            "it mi\n",
+            "rsbmi {lo}, {lo}, #0x40000000\n",
+            "lsrs {t}, {lo}, #22\n",
+            "ldr {b}, [{tp}, {t}, lsl #2]\n",
+            "ubfx {lo}, {lo}, #6, #16\n",
+            "lsrs {t}, {b}, #16\n",
+            "mul {lo}, {t}, {lo}\n",
+            "add {lo}, {lo}, #32768\n",
+            "asrs {lo}, {lo}, #16\n",
+            "uxtah {lo}, {lo}, {b}\n",
+            "sub {lo}, {lo}, {lo}, lsr #15\n",
+            "eor {lo}, {lo}, {hi}, asr #31\n",
+            "sub {lo}, {lo}, {hi}, asr #31\n",
+            "strh {lo}, [{op}], #2\n",
+            "subs {cnt}, {cnt}, #1\n",
+            "bne 2b\n",
+            "8:",
+        )
+    };
+}
+
+/// `out_j = sin_q15(phase(sums_j + B_j, s_j))` (the `Sine` activation of
+/// [`crate::fixed`]: `sine_phase`, then `sin_q15` with the `(a, b − a)`
+/// word table `tab`) for the rows `j` from 0 while `−31 ≤ s_j ≤ 32`, where
+/// `B_j` is the i32 LE bias at `bias[4j..]` (any alignment: `LDR`) and
+/// `s_j = shifts[j] as i8`; returns how many rows it did (it stops before
+/// the first row with another shift, or at the end of the shortest of
+/// `sums`, `bias / 4`, `shifts`, `out`).
+///
+/// One `asm!` loop (11 registers) instead of Rust's per-row loop, which
+/// kept the table address, the shift dispatch and three iterator ends in
+/// its way: ~31 instructions per row for `s ≤ 0` and ~36 for `s > 0`
+/// against ~34 and ~48. Every step is the Rust one on the same integers:
+/// `acc = sum + B` in 64 bits (`ADDS`/`ADC` with the sign-extended bias);
+/// for `1 ≤ s ≤ 32` the phase is `(lo >> s) | (hi << (32 − s))` plus bit
+/// `s − 1` of `lo` (for `s = 32`: `hi + bit 31`, which is `rshr(acc, 32)
+/// mod 2^32`; `LSL` by 0 is the identity and `lo >> 31 >> 1` is 0), for
+/// `s ≤ 0` it is `lo << −s`; then the quadrant fold, the table word, the
+/// interpolation `a + ((d·frac + 2^15) >> 16)` (`d·frac < 2^24`: no
+/// overflow), `v − (v >> 15)` and the sign as in `sin_q15`.
+#[inline(always)]
+pub(crate) fn sine_rows_q15(
+    sums: &[i64],
+    bias: &[u8],
+    shifts: &[u8],
+    out: &mut [i16],
+    tab: &[u32; 257],
+) -> usize {
+    let rows = sums
+        .len()
+        .min(bias.len() / 4)
+        .min(shifts.len())
+        .min(out.len());
+    if rows == 0 {
+        return 0;
+    }
+    let left: usize;
+    // SAFETY: per row `j < rows` (the loop counts `rows` down and stops at
+    // 0, or leaves earlier) it reads `shifts[j]` (`LDRSB`), `sums[j]`
+    // (`LDRD`, an `&[i64]`: 8-byte aligned), the 4 bytes `bias[4j..4j + 4]`
+    // (`LDR`, unaligned allowed on the Cortex-M4/M7 for normal memory:
+    // `CCR.UNALIGN_TRP` is 0 and never set) and one word of `tab` at index
+    // `p >> 22 ≤ 256` (`p ≤ 2^30` after the fold) with `LDR` (a `&[u32;
+    // 257]`: aligned), and writes `out[j]` (`STRH`, an `&mut [i16]`:
+    // 2-byte aligned). Nothing else is written; no stack. Every register
+    // written is a declared operand; the flags are clobbered (asm! assumes
+    // so). The `IT` block covers one instruction inside the asm.
+    unsafe {
+        asm!(
+            q15_sine_rows!(),
+            sh = inout(reg) shifts.as_ptr() => _,
+            ap = inout(reg) sums.as_ptr() => _,
+            bp = inout(reg) bias.as_ptr() => _,
+            op = inout(reg) out.as_mut_ptr() => _,
+            tp = in(reg) tab.as_ptr(),
+            cnt = inout(reg) rows => left,
+            s = out(reg) _,
+            t = out(reg) _,
+            lo = out(reg) _,
+            hi = out(reg) _,
+            b = out(reg) _,
+            options(nostack),
+        );
+    }
+    rows - left
 }
 
 /// `sqrt(x)` with the FPU's `VSQRT.F32`, which IEEE 754 (and the Armv7-M
