@@ -654,13 +654,9 @@ fn latent_with(
     }
 }
 
-/// Zero biases for [`sine_rows`] when the sums already hold them (the
-/// decoder's latent columns start from the partial sums, bias included).
-#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
-const ZERO_BIAS: [u8; 4 * LATENT_CHUNK] = [0; 4 * LATENT_CHUNK];
-
 /// `out_j = activate_q(Sine, sums_j + B_j, s_j)` for `j < out.len()`
-/// (`B_j`: the i32 LE bias at `bias[4j..]`, `s_j = shifts[j] as i8`) on a
+/// (`B_j`: the i32 LE bias at `bias[4j..]`, or 0 for `None` when the sums
+/// hold it, as the decoder's latent rows do; `s_j = shifts[j] as i8`) on a
 /// Cortex-M4/M7: runs of rows by the asm loop `kernels::sine_rows_q15`
 /// (the same integer steps as [`sine_phase`] and [`sin_q15`], see there);
 /// a row it stops before (a shift outside −31..=32, which it does not
@@ -668,28 +664,32 @@ const ZERO_BIAS: [u8; 4 * LATENT_CHUNK] = [0; 4 * LATENT_CHUNK];
 /// `shifts` are left as they are.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(always)]
-fn sine_rows(sums: &[i64], bias: &[u8], shifts: &[u8], out: &mut [i16]) {
+fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16]) {
     let mut j = 0;
     while j < out.len() {
-        let (Some(sm), Some(bi), Some(sh), Some(o)) = (
-            sums.get(j..),
-            bias.get(4 * j..),
-            shifts.get(j..),
-            out.get_mut(j..),
-        ) else {
+        let bi = match bias {
+            Some(b) => match b.get(4 * j..) {
+                Some(b) => Some(b),
+                None => return,
+            },
+            None => None,
+        };
+        let (Some(sm), Some(sh), Some(o)) = (sums.get(j..), shifts.get(j..), out.get_mut(j..))
+        else {
             return;
         };
         j += crate::kernels::sine_rows_q15(sm, bi, sh, o, &SINE_PAIRS);
-        let (Some(o), Some(&a), Some(&[b0, b1, b2, b3]), Some(&s)) = (
-            out.get_mut(j),
-            sums.get(j),
-            bias.get(4 * j..4 * j + 4),
-            shifts.get(j),
-        ) else {
+        let b = match bias {
+            Some(b) => match b.get(4 * j..4 * j + 4) {
+                Some(&[b0, b1, b2, b3]) => i32::from_le_bytes([b0, b1, b2, b3]),
+                _ => return,
+            },
+            None => 0,
+        };
+        let (Some(o), Some(&a), Some(&s)) = (out.get_mut(j), sums.get(j), shifts.get(j)) else {
             return;
         };
-        let b = i64::from(i32::from_le_bytes([b0, b1, b2, b3]));
-        *o = activate_q(Activation::Sine, a + b, s as i8);
+        *o = activate_q(Activation::Sine, a + i64::from(b), s as i8);
         j += 1;
     }
 }
@@ -730,7 +730,7 @@ fn dense_sine(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) -> bool {
             dot_rows_rest(wc, (n, 0), x, k, acc);
         }
         let done = acc.len();
-        sine_rows(acc, bc, sc, oc.get_mut(..done).unwrap_or(&mut []));
+        sine_rows(acc, Some(bc), sc, oc.get_mut(..done).unwrap_or(&mut []));
         // An odd last row, or every row when the kernel did nothing.
         for (j, o) in oc.iter_mut().enumerate().skip(done) {
             let (Some(&[b0, b1, b2, b3]), Some(&s)) = (bc.get(4 * j..4 * j + 4), sc.get(j)) else {
@@ -752,8 +752,9 @@ const LATENT_CHUNK: usize = 64;
 /// [`latent_with`] for exactly 16 latent columns on a Cortex-M4/M7: per
 /// chunk of up to [`LATENT_CHUNK`] rows, `buf_j = part_j + Σ_{i<16}
 /// q_j,lo/2+i · z_i` by `kernels::latent_rows_q15` (one unrolled `asm!`
-/// row loop), then `out_j = g(buf_j, s_j)` in a loop of its own. Out of
-/// line, so that the loops get the registers that the caller (the whole
+/// row loop), then `out_j = g(buf_j, s_j)` in a loop of its own, or, when
+/// `sine` says the layer's activation is `Sine` (`g` is then
+/// `activate_q(Sine, ..)`), [`sine_rows`] without a bias. Out of line, so that the loops get the registers that the caller (the whole
 /// prediction, inlined) keeps busy. Returns `false`, having written
 /// nothing, unless `part`, `shifts` and `w` hold a row for every output
 /// and the 16 columns lie inside a row (`lo + 32 ≤ n`); a chunk the kernel
@@ -790,7 +791,7 @@ fn latent16(
         let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
         let acc = crate::kernels::latent_rows_q15(wc, n, lo, z, pc, &mut buf);
         if acc.len() == oc.len() && sine {
-            sine_rows(acc, &ZERO_BIAS, sc, oc);
+            sine_rows(acc, None, sc, oc);
         } else if acc.len() == oc.len() {
             for ((o, &a), &s) in oc.iter_mut().zip(acc.iter()).zip(sc) {
                 *o = g(a, s as i8);

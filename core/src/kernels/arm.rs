@@ -439,10 +439,32 @@ pub(crate) fn latent_rows_q15<'b, const N: usize>(
     unsafe { core::slice::from_raw_parts_mut(out, rows) }
 }
 
-/// [`sine_rows_q15`]'s row loop as asm text (see there): label 2 per row,
-/// 3 the `s ≤ 0` phase, 4 the sine, 8 the exit.
-macro_rules! q15_sine_rows {
+/// [`sine_rows_q15`]'s row sum with a bias: `acc = sum + B` (64-bit `LDRD`,
+/// the i32 bias by `LDR`, sign-extended into `ADDS`/`ADC … ASR #31`).
+macro_rules! q15_acc_bias {
     () => {
+        concat!(
+            "ldrd {lo}, {hi}, [{ap}], #8\n",
+            "ldr {b}, [{bp}], #4\n",
+            "adds {lo}, {lo}, {b}\n",
+            "adc {hi}, {hi}, {b}, asr #31\n",
+        )
+    };
+}
+
+/// [`sine_rows_q15`]'s row sum without a bias (the sums hold it already):
+/// `acc = sum` (`LDRD`).
+macro_rules! q15_acc_plain {
+    () => {
+        "ldrd {lo}, {hi}, [{ap}], #8\n"
+    };
+}
+
+/// [`sine_rows_q15`]'s row loop as asm text (see there), `$acc` one of
+/// [`q15_acc_bias`], [`q15_acc_plain`]: label 2 per row, 3 the `s ≤ 0`
+/// phase, 4 the sine, 8 the exit.
+macro_rules! q15_sine_rows {
+    ($acc:ident) => {
         concat!(
             "2:\n",
             // The shift; leave (at 8) unless −31 ≤ s ≤ 32.
@@ -450,11 +472,7 @@ macro_rules! q15_sine_rows {
             "add {t}, {s}, #31\n",
             "cmp {t}, #63\n",
             "bhi 8f\n",
-            // acc = sum + bias (64-bit, the bias sign-extended).
-            "ldrd {lo}, {hi}, [{ap}], #8\n",
-            "ldr {b}, [{bp}], #4\n",
-            "adds {lo}, {lo}, {b}\n",
-            "adc {hi}, {hi}, {b}, asr #31\n",
+            $acc!(),
             "cmp {s}, #0\n",
             "ble 3f\n",
             // 1 ≤ s ≤ 32: bits s .. s + 31 of acc plus bit s − 1.
@@ -498,10 +516,11 @@ macro_rules! q15_sine_rows {
 /// `out_j = sin_q15(phase(sums_j + B_j, s_j))` (the `Sine` activation of
 /// [`crate::fixed`]: `sine_phase`, then `sin_q15` with the `(a, b − a)`
 /// word table `tab`) for the rows `j` from 0 while `−31 ≤ s_j ≤ 32`, where
-/// `B_j` is the i32 LE bias at `bias[4j..]` (any alignment: `LDR`) and
-/// `s_j = shifts[j] as i8`; returns how many rows it did (it stops before
-/// the first row with another shift, or at the end of the shortest of
-/// `sums`, `bias / 4`, `shifts`, `out`).
+/// `B_j` is the i32 LE bias at `bias[4j..]` (any alignment: `LDR`), or 0
+/// when `bias` is `None` (the sums hold it: 3 instructions less per row),
+/// and `s_j = shifts[j] as i8`; returns how many rows it did (it stops
+/// before the first row with another shift, or at the end of the shortest
+/// of `sums`, `bias / 4`, `shifts`, `out`).
 ///
 /// One `asm!` loop (11 registers) instead of Rust's per-row loop, which
 /// kept the table address, the shift dispatch and three iterator ends in
@@ -517,14 +536,14 @@ macro_rules! q15_sine_rows {
 #[inline(always)]
 pub(crate) fn sine_rows_q15(
     sums: &[i64],
-    bias: &[u8],
+    bias: Option<&[u8]>,
     shifts: &[u8],
     out: &mut [i16],
     tab: &[u32; 257],
 ) -> usize {
     let rows = sums
         .len()
-        .min(bias.len() / 4)
+        .min(bias.map_or(usize::MAX, |b| b.len() / 4))
         .min(shifts.len())
         .min(out.len());
     if rows == 0 {
@@ -541,22 +560,43 @@ pub(crate) fn sine_rows_q15(
     // 2-byte aligned). Nothing else is written; no stack. Every register
     // written is a declared operand; the flags are clobbered (asm! assumes
     // so). The `IT` block covers one instruction inside the asm.
-    unsafe {
-        asm!(
-            q15_sine_rows!(),
-            sh = inout(reg) shifts.as_ptr() => _,
-            ap = inout(reg) sums.as_ptr() => _,
-            bp = inout(reg) bias.as_ptr() => _,
-            op = inout(reg) out.as_mut_ptr() => _,
-            tp = in(reg) tab.as_ptr(),
-            cnt = inout(reg) rows => left,
-            s = out(reg) _,
-            t = out(reg) _,
-            lo = out(reg) _,
-            hi = out(reg) _,
-            b = out(reg) _,
-            options(nostack),
-        );
+    if let Some(bias) = bias {
+        // SAFETY: see just above.
+        unsafe {
+            asm!(
+                q15_sine_rows!(q15_acc_bias),
+                sh = inout(reg) shifts.as_ptr() => _,
+                ap = inout(reg) sums.as_ptr() => _,
+                bp = inout(reg) bias.as_ptr() => _,
+                op = inout(reg) out.as_mut_ptr() => _,
+                tp = in(reg) tab.as_ptr(),
+                cnt = inout(reg) rows => left,
+                s = out(reg) _,
+                t = out(reg) _,
+                lo = out(reg) _,
+                hi = out(reg) _,
+                b = out(reg) _,
+                options(nostack),
+            );
+        }
+    } else {
+        // SAFETY: as above, without the bias (no `bias` read).
+        unsafe {
+            asm!(
+                q15_sine_rows!(q15_acc_plain),
+                sh = inout(reg) shifts.as_ptr() => _,
+                ap = inout(reg) sums.as_ptr() => _,
+                op = inout(reg) out.as_mut_ptr() => _,
+                tp = in(reg) tab.as_ptr(),
+                cnt = inout(reg) rows => left,
+                s = out(reg) _,
+                t = out(reg) _,
+                lo = out(reg) _,
+                hi = out(reg) _,
+                b = out(reg) _,
+                options(nostack),
+            );
+        }
     }
     rows - left
 }
