@@ -780,6 +780,23 @@ fn latent16(
     {
         return false;
     }
+    // Up to LATENT_CHUNK rows (the shipped models): one kernel call, no
+    // chunk walk (~120 instructions less per sample).
+    if let (true, Some(pc), Some(sc)) = (rows <= LATENT_CHUNK, part.get(..rows), shifts.get(..rows))
+    {
+        let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
+        let acc = crate::kernels::latent_rows_q15(w, n, lo, z, pc, &mut buf);
+        if acc.len() == rows {
+            if sine {
+                sine_rows(acc, None, sc, out);
+            } else {
+                for ((o, &a), &s) in out.iter_mut().zip(acc.iter()).zip(sc) {
+                    *o = g(a, s as i8);
+                }
+            }
+            return true;
+        }
+    }
     let chunk = LATENT_CHUNK;
     let chunks = out
         .chunks_mut(chunk)
