@@ -98,8 +98,8 @@
 //! with a 128-sample buffer (`cargo xtask profile` measures both; see
 //! [`engine`]).
 #![no_std]
-// `unsafe` only in the private `kernels` module (inline assembly for
-// Cortex-M4/M7), allowed there alone.
+// `unsafe` only in the private `kernels` module (Cortex-M4/M7 inline
+// assembly, the x86-64 AVX2 dispatch), allowed there alone.
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 // No panicking helpers in library code; slice indexing is used only where
