@@ -411,10 +411,14 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
 }
 
 /// Whether a profiled function is part of the dense layers (the portable loops, the DSP
-/// kernels, the partial sums): the functions that do the MACs.
+/// kernels, the partial sums, the f32 row loop `float::accumulate`, the Q15 decoder's latent
+/// columns `fixed::latent16`): the functions that do the MACs.
 pub(crate) fn is_dense(function: &str) -> bool {
     let f = short_name(function);
-    f.contains("dense") || f.contains("partial") || function.contains("kernels::")
+    ["dense", "partial", "accumulate", "latent"]
+        .iter()
+        .any(|k| f.contains(k))
+        || function.contains("kernels::")
 }
 
 /// The per-function rows of one profile: a summary row of the dense layers (their share of
@@ -530,6 +534,10 @@ mod tests {
             "<gpecnet_core::float::Float<S> as gpecnet_core::engine::Backend>::partial"
         ));
         assert!(is_dense("gpecnet_core::kernels::smlald_rows"));
+        assert!(is_dense("gpecnet_core::float::accumulate"));
+        assert!(is_dense(
+            "gpecnet_core::fixed::latent16::<&<gpecnet_core::fixed::Q15 as gpecnet_core::engine::Backend>::latent::{closure#2}>"
+        ));
         assert!(!is_dense("gpecnet_core::sine::sin_q15"));
         assert!(!is_dense(
             "gpecnet_core::engine::Engine<B,_>::predict_point"
