@@ -311,7 +311,16 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         );
         let dec = self.model.decoder();
         let ez = in_exp(dec);
-        for zi in self.z.0[..zdim].iter_mut() {
+        // Two draws at a time (the same stream order as one `next()` per
+        // element), an odd last element alone.
+        let mut pairs = self.z.0[..zdim].chunks_exact_mut(2);
+        for p in &mut pairs {
+            let g = self.gauss.next_pair();
+            for (zi, &gi) in p.iter_mut().zip(&g) {
+                *zi = B::from_f32(sigma * gi, ez);
+            }
+        }
+        for zi in pairs.into_remainder() {
             *zi = B::from_f32(sigma * self.gauss.next(), ez);
         }
         let Some(l0) = dec.layer(0) else {
