@@ -50,7 +50,29 @@
 //!      no member keeps its value. All assignments of an iteration use the
 //!      centres of the previous iteration.
 //!
-//!    There is no early exit; `iters == 0` returns the initialisation.
+//!    `iters == 0` returns the initialisation.
+//!
+//! ## Exact shortcuts
+//!
+//! The implementation takes two shortcuts, each provably a no-op on the
+//! result (every output bit is the one of the procedure above):
+//!
+//! - **Early exit.** An iteration is a deterministic function of the centres
+//!   it starts from (the samples are fixed, the sums and counts start from
+//!   zero). If after an update every centre has exactly the bits it had
+//!   before (`to_bits` equal; a centre without members keeps its value by
+//!   definition), the next iteration starts from the same bits, so it makes
+//!   the same assignment and writes the same centres again, and so does
+//!   every later one. The remaining iterations are then skipped. Nothing
+//!   else stops early: `iters` is an upper bound that is always reached
+//!   unless the centres reached such a fixed point.
+//! - **Partial distance.** In the assignment and in the farthest-point
+//!   minimum, a centre is skipped as soon as `dx * dx` (with
+//!   `dx = s[0] - c[0]`) is not `< best`: then `d(s, c) < best` is false too.
+//!   `dy * dy` is `+0` or more (or NaN), and f32 addition with round to
+//!   nearest is monotonic, so `d = dx*dx + dy*dy >= dx*dx` unless `d` is
+//!   NaN; a NaN in `dx*dx`, `d` or `best` makes both comparisons false. The
+//!   distances that are compared are still computed exactly as in step 1.
 //!
 //! With finite samples of ordinary magnitude everything stays finite. With
 //! magnitudes near `f32::MAX` a distance or a sum can overflow to infinity
@@ -60,9 +82,10 @@
 //!
 //! # Cost and memory
 //!
-//! Distance evaluations: `n·(k-1)·k/2` for [`Init::Farthest`] (the nearest
-//! chosen centre is recomputed rather than stored, since `n` is unbounded and
-//! there is no heap), `0` for [`Init::First`], plus `n·k` per iteration.
+//! Distance evaluations (at most; see *Exact shortcuts*): `n·(k-1)·k/2` for
+//! [`Init::Farthest`] (the nearest chosen centre is recomputed rather than
+//! stored, since `n` is unbounded and there is no heap), `0` for
+//! [`Init::First`], plus `n·k` per iteration that runs.
 //! Stack: per-centre sums and counts for [`MAX_CENTERS`] centres,
 //! `MAX_CENTERS · (8 + size_of::<usize>())` bytes (768 B on a 32-bit MCU,
 //! 1 KiB on a 64-bit host), plus a few scalars. No heap, no `unsafe`, no
@@ -131,31 +154,50 @@ pub fn sq_dist(a: [f32; 2], b: [f32; 2]) -> f32 {
 }
 
 /// Index of the centre nearest to `s` (strict `<`, lowest index on ties).
+///
+/// Centre 0 is always taken first (even if its distance is NaN or `+inf`),
+/// then only strictly closer ones, exactly as in step 3 of the module docs.
+/// A centre whose `dx²` alone is not `< best_d` is skipped without its `y`
+/// part: its full distance could not be `< best_d` either (module docs,
+/// *Exact shortcuts*).
 #[inline]
 fn nearest(s: [f32; 2], centers: &[[f32; 2]]) -> usize {
+    let Some((c0, rest)) = centers.split_first() else {
+        return 0;
+    };
     let mut best = 0;
-    let mut best_d = f32::INFINITY;
-    for (j, c) in centers.iter().enumerate() {
-        let d = sq_dist(s, *c);
-        // The first centre is always taken (even if its distance is NaN or
-        // +inf), then only strictly closer ones.
-        if j == 0 || d < best_d {
-            best = j;
-            best_d = d;
+    let mut best_d = sq_dist(s, *c0);
+    for (j, c) in rest.iter().enumerate() {
+        let dx = s[0] - c[0];
+        let dx2 = dx * dx;
+        if dx2 < best_d {
+            let dy = s[1] - c[1];
+            let d = dx2 + dy * dy;
+            if d < best_d {
+                best = j + 1;
+                best_d = d;
+            }
         }
     }
     best
 }
 
 /// Smallest distance from `s` to any of `centers` (exact, order-independent
-/// for non-NaN distances; `+inf` for an empty slice).
+/// for non-NaN distances; `+inf` for an empty slice). Same partial-distance
+/// skip as [`nearest`]: the minimum is replaced only on a strict `<`, which a
+/// skipped centre cannot satisfy.
 #[inline]
 fn nearest_dist(s: [f32; 2], centers: &[[f32; 2]]) -> f32 {
     let mut m = f32::INFINITY;
     for c in centers {
-        let d = sq_dist(s, *c);
-        if d < m {
-            m = d;
+        let dx = s[0] - c[0];
+        let dx2 = dx * dx;
+        if dx2 < m {
+            let dy = s[1] - c[1];
+            let d = dx2 + dy * dy;
+            if d < m {
+                m = d;
+            }
         }
     }
     m
@@ -218,7 +260,8 @@ pub fn kmeans_reduce(
     let mut sums = [[0.0f32; 2]; MAX_CENTERS];
     let mut counts = [0usize; MAX_CENTERS];
     for _ in 0..iters {
-        for (s, c) in sums.iter_mut().zip(counts.iter_mut()) {
+        // Only the first k accumulators are ever used (k <= MAX_CENTERS).
+        for (s, c) in sums.iter_mut().zip(counts.iter_mut()).take(k) {
             *s = [0.0; 2];
             *c = 0;
         }
@@ -230,11 +273,21 @@ pub fn kmeans_reduce(
                 *count += 1;
             }
         }
+        let mut moved = false;
         for ((c, sum), count) in centers.iter_mut().zip(&sums).zip(&counts) {
             if *count > 0 {
                 let cf = *count as f32;
-                *c = [sum[0] / cf, sum[1] / cf];
+                let new = [sum[0] / cf, sum[1] / cf];
+                moved |=
+                    (new[0].to_bits() != c[0].to_bits()) | (new[1].to_bits() != c[1].to_bits());
+                *c = new;
             }
+        }
+        // A fixed point (same bits in, same bits out): every remaining
+        // iteration would reproduce these centres exactly (module docs,
+        // *Exact shortcuts*).
+        if !moved {
+            break;
         }
     }
     Ok(())
@@ -381,6 +434,193 @@ mod tests {
         // k == MAX_CENTERS is accepted.
         let mut c = [[7.0f32; 2]; MAX_CENTERS];
         assert!(kmeans_reduce(&big, &mut c, 1, Init::Farthest).is_ok());
+    }
+
+    /// The documented algorithm written out as plainly as possible (no
+    /// shortcut, no early exit, `Vec`-free but otherwise naive).
+    fn reference(samples: &[[f32; 2]], k: usize, iters: u8, init: Init) -> [[f32; 2]; MAX_CENTERS] {
+        let d = |a: [f32; 2], b: [f32; 2]| {
+            (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1])
+        };
+        let mut c = [[0.0f32; 2]; MAX_CENTERS];
+        match init {
+            Init::First => c[..k].copy_from_slice(&samples[..k]),
+            Init::Farthest => {
+                c[0] = samples[0];
+                for chosen in 1..k {
+                    let mut best_i = 0;
+                    let mut best_m = f32::NAN;
+                    for (i, s) in samples.iter().enumerate() {
+                        let mut m = f32::INFINITY;
+                        for cj in &c[..chosen] {
+                            let dd = d(*s, *cj);
+                            if dd < m {
+                                m = dd;
+                            }
+                        }
+                        if i == 0 || m > best_m {
+                            best_i = i;
+                            best_m = m;
+                        }
+                    }
+                    c[chosen] = samples[best_i];
+                }
+            }
+        }
+        for _ in 0..iters {
+            let mut member = [usize::MAX; 512];
+            for (i, s) in samples.iter().enumerate() {
+                let mut best = 0;
+                for j in 1..k {
+                    if d(*s, c[j]) < d(*s, c[best]) {
+                        best = j;
+                    }
+                }
+                member[i] = best;
+            }
+            let prev = c;
+            for j in 0..k {
+                let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
+                for (i, s) in samples.iter().enumerate() {
+                    if member[i] == j {
+                        sx += s[0];
+                        sy += s[1];
+                        count += 1;
+                    }
+                }
+                c[j] = if count == 0 {
+                    prev[j]
+                } else {
+                    [sx / count as f32, sy / count as f32]
+                };
+            }
+        }
+        c
+    }
+
+    /// SplitMix64: a small deterministic generator for the random cases.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        fn below(&mut self, n: usize) -> usize {
+            (self.next() % n as u64) as usize
+        }
+        /// Uniform in [0, 1).
+        fn unit(&mut self) -> f32 {
+            (self.next() >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// One random sample set of one of several shapes, written into `buf`.
+    fn sample_set<'a>(rng: &mut Rng, buf: &'a mut [[f32; 2]; 512]) -> &'a [[f32; 2]] {
+        let n = match rng.below(4) {
+            0 => 1 + rng.below(8),
+            1 => 80,
+            2 => 1 + rng.below(100),
+            _ => 100 + rng.below(412),
+        };
+        let shape = rng.below(7);
+        let mut blobs = [[0.0f32; 2]; 6];
+        for b in &mut blobs {
+            *b = [rng.unit() * 800.0, rng.unit() * 600.0];
+        }
+        let nb = 1 + rng.below(6);
+        let big = f32::MAX / 2.0;
+        for s in buf[..n].iter_mut() {
+            *s = match shape {
+                // Gaussian-ish blobs in pixels (like predicted endpoints).
+                0 => {
+                    let b = blobs[rng.below(nb)];
+                    let r = 40.0 * rng.unit();
+                    [b[0] + r * (rng.unit() - 0.5), b[1] + r * (rng.unit() - 0.5)]
+                }
+                // A coarse grid: many exact ties and duplicates, signed zeros.
+                1 => {
+                    let z = if rng.below(2) == 0 { 0.0 } else { -0.0 };
+                    [rng.below(4) as f32 + z, rng.below(3) as f32 - 1.0]
+                }
+                // All identical.
+                2 => [3.5, -2.25],
+                // Huge magnitudes: differences and sums overflow to inf,
+                // centres can become inf or NaN.
+                3 => [
+                    big * (rng.below(5) as f32 - 2.0),
+                    big * (rng.below(3) as f32 - 1.0),
+                ],
+                // Huge mixed with ordinary values.
+                4 => {
+                    if rng.below(4) == 0 {
+                        [
+                            big * (rng.unit() * 2.0 - 1.0),
+                            big * (rng.unit() * 2.0 - 1.0),
+                        ]
+                    } else {
+                        [rng.unit() * 10.0, rng.unit() * 10.0]
+                    }
+                }
+                // Tiny scale (products underflow, subnormals).
+                5 => [(rng.unit() - 0.5) * 1e-20, (rng.unit() - 0.5) * 1e-19],
+                // Very anisotropic: x spread huge, y small (dx² decides).
+                _ => [(rng.unit() - 0.5) * 1e6, (rng.unit() - 0.5) * 3.0],
+            };
+        }
+        &buf[..n]
+    }
+
+    #[test]
+    fn matches_plain_reference_bit_for_bit() {
+        let mut rng = Rng(0x6b6d_6561_6e73);
+        let mut buf = [[0.0f32; 2]; 512];
+        let (mut cases, mut converged_early, mut non_finite) = (0usize, 0usize, 0usize);
+        for _ in 0..3000 {
+            let samples = sample_set(&mut rng, &mut buf);
+            let n = samples.len();
+            let kmax = n.min(MAX_CENTERS);
+            let k = match rng.below(4) {
+                0 => 1,
+                1 => kmax,
+                2 => kmax.min(20),
+                _ => 1 + rng.below(kmax),
+            };
+            for init in [Init::First, Init::Farthest] {
+                for iters in 0..=6u8 {
+                    let want = reference(samples, k, iters, init);
+                    let mut got = [[f32::NAN; 2]; MAX_CENTERS];
+                    kmeans_reduce(samples, &mut got[..k], iters, init).unwrap();
+                    for j in 0..k {
+                        assert!(
+                            got[j][0].to_bits() == want[j][0].to_bits()
+                                && got[j][1].to_bits() == want[j][1].to_bits(),
+                            "n={n} k={k} iters={iters} {init:?} centre {j}: {:?} != {:?}",
+                            got[j],
+                            want[j]
+                        );
+                    }
+                    non_finite += want[..k].iter().flatten().any(|v| !v.is_finite()) as usize;
+                    // A fixed point before the last iteration: the early exit fires.
+                    if iters >= 2 {
+                        let one_less = reference(samples, k, iters - 1, init);
+                        converged_early += (one_less[..k].iter().flatten().map(|v| v.to_bits()))
+                            .eq(want[..k].iter().flatten().map(|v| v.to_bits()))
+                            as usize;
+                    }
+                    cases += 1;
+                }
+            }
+        }
+        // The random sets exercise the early exit, the overflowing path and
+        // plenty of cases where neither applies.
+        assert!(cases == 3000 * 14, "{cases}");
+        assert!(converged_early > 2000, "{converged_early}");
+        assert!(cases - converged_early > 2000, "{converged_early}");
+        assert!(non_finite > 100, "{non_finite}");
     }
 
     #[test]
