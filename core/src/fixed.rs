@@ -526,8 +526,11 @@ fn dense_with(
 /// One fixed-point dense layer (see the module docs).
 fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
     #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
-    if layer.activation() == Activation::Sine && dense_sine(layer, x, out) {
-        return;
+    if layer.activation() == Activation::Sine {
+        let (w, bias, shifts) = layer.tensors_q();
+        if dense_sine(w, 2 * layer.in_dim(), x, bias, shifts, out) {
+            return;
+        }
     }
     if cfg!(not(all(target_arch = "arm", target_feature = "dsp")))
         && x.len() & 7 == 0
@@ -605,8 +608,7 @@ fn latent_with(
         // 16 latent columns (the shipped models): the unrolled kernel that
         // starts from the partial sums.
         if let Ok(z16) = <&[i16; 16]>::try_from(z) {
-            let sine = layer.activation() == Activation::Sine;
-            if latent16(w, (n, 2 * skip), z16, part, shifts, out, sine, &g) {
+            if latent16(w, (n, 2 * skip), z16, part, shifts, out, layer.activation()) {
                 return;
             }
         }
@@ -694,20 +696,21 @@ fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16]) 
     }
 }
 
-/// A `Sine` layer of [`dense_q`] on a Cortex-M4/M7: per chunk of up to
+/// A `Sine` layer of [`dense_q`] on a Cortex-M4/M7 (its weights `w`, row
+/// stride `n` bytes, i32 LE `bias`, `shifts`): for at most
 /// `kernels::ROW_CHUNK` rows the row kernel's sums (as in [`rows_with`]:
 /// `kernels::dot_rows_q15`, [`dot_rows_rest`] for the columns it leaves,
 /// [`dot_row`] for an odd last row), then the activation of the kernel's
-/// rows by [`sine_rows`] (bias added there). Out of line. Returns `false`,
-/// having written nothing, unless the layer holds a weight row, a bias and
-/// a shift for every output and `x` fits a row; the caller then takes the
-/// generic path. The same exact `i64` sums and the same activation steps,
-/// so the same outputs.
+/// rows by [`sine_rows`] (bias added there); more rows are taken in chunks
+/// of `ROW_CHUNK`, each by a call of this function (one level deep, so one
+/// copy of the code). Out of line. Returns `false`, having written
+/// nothing, unless the layer holds a weight row, a bias and a shift for
+/// every output and `x` fits a row; the caller then takes the generic
+/// path. The same exact `i64` sums and the same activation steps, so the
+/// same outputs.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
-fn dense_sine(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) -> bool {
-    let (w, bias, shifts) = layer.tensors_q();
-    let n = 2 * layer.in_dim();
+fn dense_sine(w: &[u8], n: usize, x: &[i16], bias: &[u8], shifts: &[u8], out: &mut [i16]) -> bool {
     let rows = out.len();
     if n == 0
         || 2 * x.len() > n
@@ -718,27 +721,47 @@ fn dense_sine(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) -> bool {
         return false;
     }
     let chunk = crate::kernels::ROW_CHUNK;
-    let chunks = out
-        .chunks_mut(chunk)
-        .zip(w.chunks(chunk.saturating_mul(n)))
-        .zip(bias.chunks(4 * chunk))
-        .zip(shifts.chunks(chunk));
-    for (((oc, wc), bc), sc) in chunks {
-        let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
-        let (acc, k) = crate::kernels::dot_rows_q15(wc, n, 0, x, oc.len(), &mut buf);
-        if k < x.len() && !acc.is_empty() {
-            dot_rows_rest(wc, (n, 0), x, k, acc);
+    if rows > chunk {
+        // Chunks of ROW_CHUNK rows, each by a call of this function (which
+        // then takes the path below): one copy of the row loops.
+        let mut start = 0;
+        while start < rows {
+            let end = rows.min(start + chunk);
+            if let (Some(wc), Some(bc), Some(sc), Some(oc)) = (
+                w.get(start * n..),
+                bias.get(4 * start..),
+                shifts.get(start..end),
+                out.get_mut(start..end),
+            ) {
+                dense_sine(wc, n, x, bc, sc, oc);
+            }
+            start = end;
         }
-        let done = acc.len();
-        sine_rows(acc, Some(bc), sc, oc.get_mut(..done).unwrap_or(&mut []));
-        // An odd last row, or every row when the kernel did nothing.
-        for (j, o) in oc.iter_mut().enumerate().skip(done) {
-            let (Some(&[b0, b1, b2, b3]), Some(&s)) = (bc.get(4 * j..4 * j + 4), sc.get(j)) else {
-                return true;
-            };
-            let b = i64::from(i32::from_le_bytes([b0, b1, b2, b3]));
-            *o = activate_q(Activation::Sine, dot_row(wc, (n, 0), x, j, b), s as i8);
-        }
+        return true;
+    }
+    // At most ROW_CHUNK rows (the tiny models' layers): the row kernel's
+    // sums, the columns it leaves, [`sine_rows`] for its rows, then an odd
+    // last row (or every row, when the kernel did nothing) by [`dot_row`]
+    // and [`activate_q`].
+    let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
+    let (acc, k) = crate::kernels::dot_rows_q15(w, n, 0, x, out.len(), &mut buf);
+    if k < x.len() && !acc.is_empty() {
+        dot_rows_rest(w, (n, 0), x, k, acc);
+    }
+    let done = acc.len();
+    sine_rows(
+        acc,
+        Some(bias),
+        shifts,
+        out.get_mut(..done).unwrap_or(&mut []),
+    );
+    for (j, o) in out.iter_mut().enumerate().skip(done) {
+        let (Some(&[b0, b1, b2, b3]), Some(&s)) = (bias.get(4 * j..4 * j + 4), shifts.get(j))
+        else {
+            return true;
+        };
+        let b = i64::from(i32::from_le_bytes([b0, b1, b2, b3]));
+        *o = activate_q(Activation::Sine, dot_row(w, (n, 0), x, j, b), s as i8);
     }
     true
 }
@@ -749,17 +772,19 @@ fn dense_sine(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) -> bool {
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 const LATENT_CHUNK: usize = 64;
 
-/// [`latent_with`] for exactly 16 latent columns on a Cortex-M4/M7: per
-/// chunk of up to [`LATENT_CHUNK`] rows, `buf_j = part_j + Σ_{i<16}
-/// q_j,lo/2+i · z_i` by `kernels::latent_rows_q15` (one unrolled `asm!`
-/// row loop), then `out_j = g(buf_j, s_j)` in a loop of its own, or, when
-/// `sine` says the layer's activation is `Sine` (`g` is then
-/// `activate_q(Sine, ..)`), [`sine_rows`] without a bias. Out of line, so that the loops get the registers that the caller (the whole
-/// prediction, inlined) keeps busy. Returns `false`, having written
-/// nothing, unless `part`, `shifts` and `w` hold a row for every output
-/// and the 16 columns lie inside a row (`lo + 32 ≤ n`); a chunk the kernel
-/// refuses (alignment) takes the portable [`dot1`]. The same exact `i64`
-/// sums as [`rows_with`], so the same outputs.
+/// [`latent_with`] for exactly 16 latent columns on a Cortex-M4/M7: for at
+/// most [`LATENT_CHUNK`] rows, `buf_j = part_j + Σ_{i<16} q_j,lo/2+i · z_i`
+/// by `kernels::latent_rows_q15` (one unrolled `asm!` row loop), then
+/// `out_j = activate_q(act, buf_j, s_j)` in a loop of its own, or, for
+/// `act == Sine`, [`sine_rows`] without a bias; more rows are taken in
+/// chunks of `LATENT_CHUNK`, each by a call of this function (one level
+/// deep). Out of line and not generic (one copy for every activation), so
+/// that the loops get the registers that the caller (the whole prediction,
+/// inlined) keeps busy. Returns `false`, having written nothing, unless
+/// `part`, `shifts` and `w` hold a row for every output and the 16 columns
+/// lie inside a row (`lo + 32 ≤ n`); a chunk the kernel refuses
+/// (alignment) takes the portable [`dot_row`]. The same exact `i64` sums
+/// as [`rows_with`], so the same outputs.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
 fn latent16(
@@ -769,8 +794,7 @@ fn latent16(
     part: &[i64],
     shifts: &[u8],
     out: &mut [i16],
-    sine: bool,
-    g: impl Fn(i64, i8) -> i16,
+    act: Activation,
 ) -> bool {
     let rows = out.len();
     if part.len() < rows
@@ -780,44 +804,41 @@ fn latent16(
     {
         return false;
     }
-    // Up to LATENT_CHUNK rows (the shipped models): one kernel call, no
-    // chunk walk (~120 instructions less per sample).
-    if let (true, Some(pc), Some(sc)) = (rows <= LATENT_CHUNK, part.get(..rows), shifts.get(..rows))
-    {
-        let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
-        let acc = crate::kernels::latent_rows_q15(w, n, lo, z, pc, &mut buf);
-        if acc.len() == rows {
-            if sine {
-                sine_rows(acc, None, sc, out);
-            } else {
-                for ((o, &a), &s) in out.iter_mut().zip(acc.iter()).zip(sc) {
-                    *o = g(a, s as i8);
-                }
+    if rows > LATENT_CHUNK {
+        // Chunks of LATENT_CHUNK rows, each by a call of this function
+        // (which then takes the path below): one copy of the row loops.
+        let mut start = 0;
+        while start < rows {
+            let end = rows.min(start + LATENT_CHUNK);
+            if let (Some(wc), Some(pc), Some(sc), Some(oc)) = (
+                w.get(start * n..),
+                part.get(start..end),
+                shifts.get(start..end),
+                out.get_mut(start..end),
+            ) {
+                latent16(wc, (n, lo), z, pc, sc, oc, act);
             }
-            return true;
+            start = end;
         }
+        return true;
     }
-    let chunk = LATENT_CHUNK;
-    let chunks = out
-        .chunks_mut(chunk)
-        .zip(part.chunks(chunk))
-        .zip(shifts.chunks(chunk))
-        .zip(w.chunks(chunk.saturating_mul(n)));
-    for (((oc, pc), sc), wc) in chunks {
-        let pc = pc.get(..oc.len()).unwrap_or(&[]);
-        let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
-        let acc = crate::kernels::latent_rows_q15(wc, n, lo, z, pc, &mut buf);
-        if acc.len() == oc.len() && sine {
-            sine_rows(acc, None, sc, oc);
-        } else if acc.len() == oc.len() {
-            for ((o, &a), &s) in oc.iter_mut().zip(acc.iter()).zip(sc) {
-                *o = g(a, s as i8);
-            }
-        } else {
-            for (j, (o, &s)) in oc.iter_mut().zip(sc).enumerate() {
-                let p = pc.get(j).copied().unwrap_or(0);
-                *o = g(dot_row(wc, (n, lo), &z[..], j, p), s as i8);
-            }
+    // At most LATENT_CHUNK rows (the shipped decoders' 48): the kernel's
+    // sums, then the activation; rows the kernel refuses (alignment) take
+    // the portable [`dot_row`].
+    let (Some(part), Some(shifts)) = (part.get(..rows), shifts.get(..rows)) else {
+        return true;
+    };
+    let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
+    let acc = crate::kernels::latent_rows_q15(w, n, lo, z, part, &mut buf);
+    if acc.len() != rows {
+        for (j, ((o, &p), &s)) in out.iter_mut().zip(part).zip(shifts).enumerate() {
+            *o = activate_q(act, dot_row(w, (n, lo), &z[..], j, p), s as i8);
+        }
+    } else if act == Activation::Sine {
+        sine_rows(acc, None, shifts, out);
+    } else {
+        for ((o, &a), &s) in out.iter_mut().zip(acc.iter()).zip(shifts) {
+            *o = activate_q(act, a, s as i8);
         }
     }
     true

@@ -76,6 +76,24 @@ macro_rules! q15_loops {
     };
 }
 
+/// [`q15_loops`] for a block count `m` that is a positive multiple of 4
+/// (rows of `16·j` inputs, every shipped layer): 4 blocks per iteration and
+/// nothing else, so per row pair the 4 instructions of [`q15_loops`]'s
+/// second loop entry (`subs`/`blt`, `adds`/`beq`) are not paid.
+macro_rules! q15_loops_x4 {
+    ($block:ident) => {
+        concat!(
+            "2:\n",
+            $block!(),
+            $block!(),
+            $block!(),
+            $block!(),
+            "subs {m}, {m}, #4\n",
+            "bne 2b",
+        )
+    };
+}
+
 /// [`dot_rows_q15`]'s 4-input block for word-aligned rows: one `LDRD` of four
 /// activations, per row one `LDRD` of four weights and two `SMLALD` (7
 /// instructions, 8 MACs).
@@ -127,6 +145,9 @@ macro_rules! q15_block_ldr {
 /// little-endian order), step `p0`/`p1` to the next pair and count down.
 macro_rules! q15_rows {
     ($block:ident) => {
+        q15_rows!($block, q15_loops)
+    };
+    ($block:ident, $loops:ident) => {
         concat!(
             "sub sp, sp, #24\n",
             "str {m}, [sp]\n",
@@ -142,7 +163,7 @@ macro_rules! q15_rows {
             "mov {b1}, #0\n",
             "ldr {m}, [sp]\n",
             "ldr {xp}, [sp, #4]\n",
-            q15_loops!($block),
+            $loops!($block),
             "\n9:\n",
             "ldr {w0}, [sp, #8]\n",
             "strd {a0}, {a1}, [{w0}], #8\n",
@@ -246,7 +267,8 @@ pub(crate) const ROW_CHUNK: usize = 32;
 /// out of registers, the alignment test, ~45 instructions) is paid once
 /// per call here; per row pair the frame bookkeeping is 17 instructions.
 /// Aligned rows (`w + lo` and `n` multiples of 4, tested once) take the
-/// `LDRD` block, any others the `LDR` block.
+/// `LDRD` block, any others the `LDR` block; aligned rows of `16·j` inputs
+/// loop 4 blocks at a time without a tail ([`q15_loops_x4`]).
 #[inline(always)]
 pub(crate) fn dot_rows_q15<'b>(
     w: &[u8],
@@ -271,7 +293,30 @@ pub(crate) fn dot_rows_q15<'b>(
     let p0 = w.as_ptr().wrapping_add(lo);
     // n ≥ lo + 2·x.len() ≥ 2k (checked above).
     let adv = n.wrapping_sub(2 * k);
-    if (p0 as usize | n) & 3 == 0 {
+    // The one `asm!` call of every path, `$text` its program: the operands
+    // (on entry: blocks per row, `x`, the first row's first column, row
+    // pairs, the output pointer, `adv`, `n`) are the same for all.
+    macro_rules! rows_asm {
+        ($text:expr) => {
+            asm!(
+                $text,
+                m = inout(reg) k / 4 => _,
+                xp = inout(reg) x.as_ptr() => _,
+                p0 = inout(reg) p0 => _,
+                p1 = out(reg) _,
+                x0 = inout(reg) even / 2 => _,
+                x1 = inout(reg) out => _,
+                w0 = inout(reg) adv => _,
+                w1 = inout(reg) n => _,
+                a0 = out(reg) _,
+                a1 = out(reg) _,
+                b0 = out(reg) _,
+                b1 = out(reg) _,
+            )
+        };
+    }
+    let aligned = (p0 as usize | n) & 3 == 0;
+    if aligned && k % 16 == 0 {
         // SAFETY: reads `x[..k]` with `LDRD` at 4-byte aligned addresses
         // (`x` is 4-byte aligned, checked above, and each row restarts at
         // `x`), and for each row `j < even` the bytes `[j·n + lo, j·n + lo +
@@ -284,46 +329,18 @@ pub(crate) fn dot_rows_q15<'b>(
         // before the end (no `nostack`: the compiler keeps the stack
         // pointer aligned and nothing lives below it). Every register
         // written is a declared operand; the flags are clobbered (asm!
-        // assumes so).
-        unsafe {
-            asm!(
-                q15_rows!(q15_block_ldrd),
-                m = inout(reg) k / 4 => _,
-                xp = inout(reg) x.as_ptr() => _,
-                p0 = inout(reg) p0 => _,
-                p1 = out(reg) _,
-                x0 = inout(reg) even / 2 => _,
-                x1 = inout(reg) out => _,
-                w0 = inout(reg) adv => _,
-                w1 = inout(reg) n => _,
-                a0 = out(reg) _,
-                a1 = out(reg) _,
-                b0 = out(reg) _,
-                b1 = out(reg) _,
-            );
-        }
+        // assumes so). `k / 4` is a positive multiple of 4 here (`k ≠ 0`
+        // and `k % 16 == 0`), which `q15_loops_x4` needs to end.
+        unsafe { rows_asm!(q15_rows!(q15_block_ldrd, q15_loops_x4)) }
+    } else if aligned {
+        // SAFETY: as just above (`q15_loops` takes any `k / 4 ≥ 1`).
+        unsafe { rows_asm!(q15_rows!(q15_block_ldrd)) }
     } else {
         // SAFETY: as above, except that the weights are read with `LDR`,
         // which the Cortex-M4/M7 allow unaligned on normal memory (flash and
         // SRAM; `CCR.UNALIGN_TRP` is 0 out of reset and the firmware never
         // sets it).
-        unsafe {
-            asm!(
-                q15_rows!(q15_block_ldr),
-                m = inout(reg) k / 4 => _,
-                xp = inout(reg) x.as_ptr() => _,
-                p0 = inout(reg) p0 => _,
-                p1 = out(reg) _,
-                x0 = inout(reg) even / 2 => _,
-                x1 = inout(reg) out => _,
-                w0 = inout(reg) adv => _,
-                w1 = inout(reg) n => _,
-                a0 = out(reg) _,
-                a1 = out(reg) _,
-                b0 = out(reg) _,
-                b1 = out(reg) _,
-            );
-        }
+        unsafe { rows_asm!(q15_rows!(q15_block_ldr)) }
     }
     // SAFETY: the kernel above has written `buf[..even]` (even ≤
     // ROW_CHUNK); `MaybeUninit<i64>` has the layout of `i64`; the slice
@@ -460,36 +477,15 @@ macro_rules! q15_acc_plain {
     };
 }
 
-/// [`sine_rows_q15`]'s row loop as asm text (see there), `$acc` one of
-/// [`q15_acc_bias`], [`q15_acc_plain`]: label 2 per row, 3 the `s ≤ 0`
-/// phase, 4 the sine, 8 the exit.
-macro_rules! q15_sine_rows {
-    ($acc:ident) => {
+/// [`sine_rows_q15`]'s sine of the phase in `{hi}`, its store and the row
+/// count as asm text: `sin_q15(phase)` (quadrant fold, table word,
+/// interpolation, `v − (v >> 15)`, sign), `STRH`, then back to label 2
+/// while rows are left (falls through after the last). The interpolation's
+/// `d·frac + 2^15` is one `MLA` with `{rnd}` = 2^15 (the same wrapping
+/// multiply and add as `MUL` then `ADD`).
+macro_rules! q15_sine_tail {
+    () => {
         concat!(
-            "2:\n",
-            // The shift; leave (at 8) unless −31 ≤ s ≤ 32.
-            "ldrsb {s}, [{sh}], #1\n",
-            "add {t}, {s}, #31\n",
-            "cmp {t}, #63\n",
-            "bhi 8f\n",
-            $acc!(),
-            "cmp {s}, #0\n",
-            "ble 3f\n",
-            // 1 ≤ s ≤ 32: bits s .. s + 31 of acc plus bit s − 1.
-            "rsb {t}, {s}, #32\n",
-            "lsl {hi}, {hi}, {t}\n",
-            "sub {t}, {s}, #1\n",
-            "lsr {t}, {lo}, {t}\n",
-            "and {b}, {t}, #1\n",
-            "orr {hi}, {hi}, {t}, lsr #1\n",
-            "add {hi}, {hi}, {b}\n",
-            "b 4f\n",
-            // −31 ≤ s ≤ 0: the low word shifted left by −s.
-            "3:\n",
-            "rsb {t}, {s}, #0\n",
-            "lsl {hi}, {lo}, {t}\n",
-            // sin_q15(phase = hi).
-            "4:\n",
             "bic {lo}, {hi}, #0xC0000000\n",
             "lsls {t}, {hi}, #1\n",
             "it mi\n",
@@ -498,8 +494,7 @@ macro_rules! q15_sine_rows {
             "ldr {b}, [{tp}, {t}, lsl #2]\n",
             "ubfx {lo}, {lo}, #6, #16\n",
             "lsrs {t}, {b}, #16\n",
-            "mul {lo}, {t}, {lo}\n",
-            "add {lo}, {lo}, #32768\n",
+            "mla {lo}, {t}, {lo}, {rnd}\n",
             "asrs {lo}, {lo}, #16\n",
             "uxtah {lo}, {lo}, {b}\n",
             "sub {lo}, {lo}, {lo}, lsr #15\n",
@@ -508,6 +503,46 @@ macro_rules! q15_sine_rows {
             "strh {lo}, [{op}], #2\n",
             "subs {cnt}, {cnt}, #1\n",
             "bne 2b\n",
+        )
+    };
+}
+
+/// [`sine_rows_q15`]'s row loop as asm text (see there), `$acc` one of
+/// [`q15_acc_bias`], [`q15_acc_plain`]: label 2 per row, 3 the `s ≤ 0`
+/// phase, 8 the exit. Each sign of the shift checks its own end of the
+/// range `−31 ..= 32` (two compares per row instead of a range test and a
+/// sign test) and has its own copy of [`q15_sine_tail`] (no branch from the
+/// `s > 0` phase to a shared tail). A row outside the range leaves with its
+/// count not yet taken (the pointers it advanced are discarded).
+macro_rules! q15_sine_rows {
+    ($acc:ident) => {
+        concat!(
+            "2:\n",
+            "ldrsb {s}, [{sh}], #1\n",
+            $acc!(),
+            "cmp {s}, #0\n",
+            "ble 3f\n",
+            // 1 ≤ s; leave unless s ≤ 32. Then bits s .. s + 31 of acc plus
+            // bit s − 1.
+            "cmp {s}, #32\n",
+            "bhi 8f\n",
+            "rsb {t}, {s}, #32\n",
+            "lsl {hi}, {hi}, {t}\n",
+            "sub {t}, {s}, #1\n",
+            "lsr {t}, {lo}, {t}\n",
+            "and {b}, {t}, #1\n",
+            "orr {hi}, {hi}, {t}, lsr #1\n",
+            "add {hi}, {hi}, {b}\n",
+            q15_sine_tail!(),
+            "b 8f\n",
+            // s ≤ 0; leave unless −31 ≤ s. Then the low word shifted left
+            // by −s.
+            "3:\n",
+            "cmn {s}, #31\n",
+            "blt 8f\n",
+            "rsb {t}, {s}, #0\n",
+            "lsl {hi}, {lo}, {t}\n",
+            q15_sine_tail!(),
             "8:",
         )
     };
@@ -522,9 +557,9 @@ macro_rules! q15_sine_rows {
 /// before the first row with another shift, or at the end of the shortest
 /// of `sums`, `bias / 4`, `shifts`, `out`).
 ///
-/// One `asm!` loop (11 registers) instead of Rust's per-row loop, which
+/// One `asm!` loop (12 registers) instead of Rust's per-row loop, which
 /// kept the table address, the shift dispatch and three iterator ends in
-/// its way: ~31 instructions per row for `s ≤ 0` and ~36 for `s > 0`
+/// its way: ~29 instructions per row for `s ≤ 0` and ~33 for `s > 0`
 /// against ~34 and ~48. Every step is the Rust one on the same integers:
 /// `acc = sum + B` in 64 bits (`ADDS`/`ADC` with the sign-extended bias);
 /// for `1 ≤ s ≤ 32` the phase is `(lo >> s) | (hi << (32 − s))` plus bit
@@ -570,6 +605,7 @@ pub(crate) fn sine_rows_q15(
                 bp = inout(reg) bias.as_ptr() => _,
                 op = inout(reg) out.as_mut_ptr() => _,
                 tp = in(reg) tab.as_ptr(),
+                rnd = in(reg) 1u32 << 15,
                 cnt = inout(reg) rows => left,
                 s = out(reg) _,
                 t = out(reg) _,
@@ -588,6 +624,7 @@ pub(crate) fn sine_rows_q15(
                 ap = inout(reg) sums.as_ptr() => _,
                 op = inout(reg) out.as_mut_ptr() => _,
                 tp = in(reg) tab.as_ptr(),
+                rnd = in(reg) 1u32 << 15,
                 cnt = inout(reg) rows => left,
                 s = out(reg) _,
                 t = out(reg) _,
