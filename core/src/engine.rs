@@ -321,7 +321,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             }
         }
         for zi in pairs.into_remainder() {
-            *zi = B::from_f32(sigma * self.gauss.next(), ez);
+            *zi = B::from_f32(sigma * self.gauss.next_alone(), ez);
         }
         let Some(l0) = dec.layer(0) else {
             return Err(PredictError::NonFiniteOutput);

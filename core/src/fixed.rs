@@ -401,7 +401,7 @@ fn rows_with<T>(
     let chunk = crate::kernels::ROW_CHUNK;
     for (oc, wc) in out.chunks_mut(chunk).zip(w.chunks(chunk.saturating_mul(n))) {
         let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
-        let (acc, k) = crate::kernels::dot_rows_q15(wc, n, lo, x, oc.len(), &mut buf);
+        let (acc, k) = crate::kernels::dot_rows_q15(wc, n, lo, x, oc.len(), &mut buf, false);
         if k < x.len() && !acc.is_empty() {
             dot_rows_rest(wc, (n, lo), x, k, acc);
         }
@@ -528,7 +528,8 @@ fn dense_q(layer: &Layer<'_>, x: &[i16], out: &mut [i16]) {
     #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
     if layer.activation() == Activation::Sine {
         let (w, bias, shifts) = layer.tensors_q();
-        if dense_sine(w, 2 * layer.in_dim(), x, bias, shifts, out) {
+        let short = layer.short_shifts();
+        if dense_sine(w, 2 * layer.in_dim(), x, (bias, shifts, short), out) {
             return;
         }
     }
@@ -608,7 +609,8 @@ fn latent_with(
         // 16 latent columns (the shipped models): the unrolled kernel that
         // starts from the partial sums.
         if let Ok(z16) = <&[i16; 16]>::try_from(z) {
-            if latent16(w, (n, 2 * skip), z16, part, shifts, out, layer.activation()) {
+            let mode = (layer.activation(), layer.short_shifts());
+            if latent16(w, (n, 2 * skip), z16, part, shifts, out, mode) {
                 return;
             }
         }
@@ -662,11 +664,12 @@ fn latent_with(
 /// Cortex-M4/M7: runs of rows by the asm loop `kernels::sine_rows_q15`
 /// (the same integer steps as [`sine_phase`] and [`sin_q15`], see there);
 /// a row it stops before (a shift outside −31..=32, which it does not
-/// take) by [`activate_q`]. Rows past the end of `sums`, `bias` or
-/// `shifts` are left as they are.
+/// take) by [`activate_q`]. `short`: every shift is in −31..=32 (the
+/// layer's `short_shifts`), so the loop skips its range check. Rows past
+/// the end of `sums`, `bias` or `shifts` are left as they are.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(always)]
-fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16]) {
+fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16], short: bool) {
     let mut j = 0;
     while j < out.len() {
         let bi = match bias {
@@ -680,7 +683,7 @@ fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16]) 
         else {
             return;
         };
-        j += crate::kernels::sine_rows_q15(sm, bi, sh, o, &SINE_PAIRS);
+        j += crate::kernels::sine_rows_q15(sm, bi, sh, o, &SINE_PAIRS, short);
         let b = match bias {
             Some(b) => match b.get(4 * j..4 * j + 4) {
                 Some(&[b0, b1, b2, b3]) => i32::from_le_bytes([b0, b1, b2, b3]),
@@ -697,7 +700,8 @@ fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16]) 
 }
 
 /// A `Sine` layer of [`dense_q`] on a Cortex-M4/M7 (its weights `w`, row
-/// stride `n` bytes, i32 LE `bias`, `shifts`): for at most
+/// stride `n` bytes, then its i32 LE `bias`, `shifts` and whether all of
+/// them are in −31..=32, `short`): for at most
 /// `kernels::ROW_CHUNK` rows the row kernel's sums (as in [`rows_with`]:
 /// `kernels::dot_rows_q15`, [`dot_rows_rest`] for the columns it leaves,
 /// [`dot_row`] for an odd last row), then the activation of the kernel's
@@ -710,7 +714,13 @@ fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16]) 
 /// same outputs.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
-fn dense_sine(w: &[u8], n: usize, x: &[i16], bias: &[u8], shifts: &[u8], out: &mut [i16]) -> bool {
+fn dense_sine(
+    w: &[u8],
+    n: usize,
+    x: &[i16],
+    (bias, shifts, short): (&[u8], &[u8], bool),
+    out: &mut [i16],
+) -> bool {
     let rows = out.len();
     if n == 0
         || 2 * x.len() > n
@@ -733,7 +743,7 @@ fn dense_sine(w: &[u8], n: usize, x: &[i16], bias: &[u8], shifts: &[u8], out: &m
                 shifts.get(start..end),
                 out.get_mut(start..end),
             ) {
-                dense_sine(wc, n, x, bc, sc, oc);
+                dense_sine(wc, n, x, (bc, sc, short), oc);
             }
             start = end;
         }
@@ -744,7 +754,7 @@ fn dense_sine(w: &[u8], n: usize, x: &[i16], bias: &[u8], shifts: &[u8], out: &m
     // last row (or every row, when the kernel did nothing) by [`dot_row`]
     // and [`activate_q`].
     let mut buf = [core::mem::MaybeUninit::uninit(); crate::kernels::ROW_CHUNK];
-    let (acc, k) = crate::kernels::dot_rows_q15(w, n, 0, x, out.len(), &mut buf);
+    let (acc, k) = crate::kernels::dot_rows_q15(w, n, 0, x, out.len(), &mut buf, true);
     if k < x.len() && !acc.is_empty() {
         dot_rows_rest(w, (n, 0), x, k, acc);
     }
@@ -754,6 +764,7 @@ fn dense_sine(w: &[u8], n: usize, x: &[i16], bias: &[u8], shifts: &[u8], out: &m
         Some(bias),
         shifts,
         out.get_mut(..done).unwrap_or(&mut []),
+        short,
     );
     for (j, o) in out.iter_mut().enumerate().skip(done) {
         let (Some(&[b0, b1, b2, b3]), Some(&s)) = (bias.get(4 * j..4 * j + 4), shifts.get(j))
@@ -776,7 +787,8 @@ const LATENT_CHUNK: usize = 64;
 /// most [`LATENT_CHUNK`] rows, `buf_j = part_j + Σ_{i<16} q_j,lo/2+i · z_i`
 /// by `kernels::latent_rows_q15` (one unrolled `asm!` row loop), then
 /// `out_j = activate_q(act, buf_j, s_j)` in a loop of its own, or, for
-/// `act == Sine`, [`sine_rows`] without a bias; more rows are taken in
+/// `act == Sine`, [`sine_rows`] without a bias (`short`: the layer's
+/// shifts are all in −31..=32); more rows are taken in
 /// chunks of `LATENT_CHUNK`, each by a call of this function (one level
 /// deep). Out of line and not generic (one copy for every activation), so
 /// that the loops get the registers that the caller (the whole prediction,
@@ -794,7 +806,7 @@ fn latent16(
     part: &[i64],
     shifts: &[u8],
     out: &mut [i16],
-    act: Activation,
+    (act, short): (Activation, bool),
 ) -> bool {
     let rows = out.len();
     if part.len() < rows
@@ -816,7 +828,7 @@ fn latent16(
                 shifts.get(start..end),
                 out.get_mut(start..end),
             ) {
-                latent16(wc, (n, lo), z, pc, sc, oc, act);
+                latent16(wc, (n, lo), z, pc, sc, oc, (act, short));
             }
             start = end;
         }
@@ -830,18 +842,39 @@ fn latent16(
     };
     let mut buf = [core::mem::MaybeUninit::uninit(); LATENT_CHUNK];
     let acc = crate::kernels::latent_rows_q15(w, n, lo, z, part, &mut buf);
-    if acc.len() != rows {
-        for (j, ((o, &p), &s)) in out.iter_mut().zip(part).zip(shifts).enumerate() {
-            *o = activate_q(act, dot_row(w, (n, lo), &z[..], j, p), s as i8);
-        }
-    } else if act == Activation::Sine {
-        sine_rows(acc, None, shifts, out);
+    if acc.len() == rows && act == Activation::Sine {
+        sine_rows(acc, None, shifts, out, short);
     } else {
-        for ((o, &a), &s) in out.iter_mut().zip(acc.iter()).zip(shifts) {
-            *o = activate_q(act, a, s as i8);
-        }
+        latent_other(w, (n, lo), z, (part, acc), shifts, out, act);
     }
     true
+}
+
+/// The rest of [`latent16`]'s cases (none of the shipped models takes
+/// them), out of line and cold so that they do not grow the hot function:
+/// `out_j = activate_q(act, acc_j, s_j)` with the kernel's sums `acc`, or,
+/// when the kernel refused (`acc` shorter than `out`: alignment), with
+/// `part_j` plus the portable [`dot_row`].
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[inline(never)]
+#[cold]
+fn latent_other(
+    w: &[u8],
+    (n, lo): (usize, usize),
+    z: &[i16; 16],
+    (part, acc): (&[i64], &[i64]),
+    shifts: &[u8],
+    out: &mut [i16],
+    act: Activation,
+) {
+    let done = acc.len() == out.len();
+    for (j, ((o, &p), &s)) in out.iter_mut().zip(part).zip(shifts).enumerate() {
+        let a = match acc.get(j) {
+            Some(&a) if done => a,
+            _ => dot_row(w, (n, lo), &z[..], j, p),
+        };
+        *o = activate_q(act, a, s as i8);
+    }
 }
 
 impl LaneArith for Q15 {

@@ -154,6 +154,14 @@ impl Gaussian {
         c
     }
 
+    /// [`Gaussian::next`], out of line: for a caller that also inlines
+    /// [`Gaussian::next_pair`] (the engine's odd last latent element), so
+    /// that the Box–Muller step is not inlined twice there.
+    #[inline(never)]
+    pub(crate) fn next_alone(&mut self) -> f32 {
+        self.next()
+    }
+
     /// The next two draws of the stream, `[next(), next()]` (the same
     /// values in the same order, the same state afterwards), without the
     /// spare's store and reload when no spare is pending (the engine draws

@@ -363,3 +363,26 @@ fn accumulators_exact_at_extremes() {
         }
     }
 }
+
+/// `Layer::short_shifts` (every shift in −31..=32, which lets the
+/// Cortex-M4/M7 sine loop skip its per-row range check) is found per layer
+/// when the blob is read: a valid shift of 33..=62 or of −31 in one layer
+/// turns it off or leaves it on there and nowhere else.
+#[test]
+fn short_shifts_flag_per_layer() {
+    let short = |n: &[Vec<WireLayer>; 4]| -> Vec<bool> {
+        let b = encode(n).unwrap();
+        let m = Model::from_blob(&b).unwrap();
+        (0..2)
+            .map(|i| m.decoder().layer(i).unwrap().short_shifts())
+            .collect()
+    };
+    let mut n = nets();
+    let base = short(&n);
+    assert_eq!(base, [true, true], "the test nets' shifts are all short");
+    for (s, want) in [(32, true), (33, false), (62, false), (-31, true), (0, true)] {
+        n = nets();
+        scale(&mut n[1][0]).shifts[1] = s;
+        assert_eq!(short(&n), [want, true], "decoder layer 0, shift {s}");
+    }
+}

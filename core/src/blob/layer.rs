@@ -69,6 +69,8 @@ pub struct Layer<'a> {
     pub(super) shifts: &'a [u8],
     pub(super) in_exp: i8,
     pub(super) out_exp: i8,
+    /// Every shift in `-31..=32` (computed once when the blob is read).
+    pub(super) short_shifts: bool,
 }
 
 impl<'a> Layer<'a> {
@@ -141,6 +143,15 @@ impl<'a> Layer<'a> {
     #[inline]
     pub fn tensors_q(&self) -> (&'a [u8], &'a [u8], &'a [u8]) {
         (self.weights, self.bias, self.shifts)
+    }
+    #[doc(hidden)]
+    /// Fixed point: whether every requantisation shift is in `-31..=32`
+    /// (found once, when the blob is read): a `Sine` layer's phase is then
+    /// one 32-bit shift of one word of the accumulator, which the
+    /// Cortex-M4/M7 sine loop takes without a range check per row.
+    #[inline]
+    pub fn short_shifts(&self) -> bool {
+        self.short_shifts
     }
     /// Fixed point: requantisation shift of channel `j`, or 0 when out of range.
     #[inline]

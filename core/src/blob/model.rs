@@ -344,5 +344,6 @@ fn take_layer<'a>(
         shifts,
         in_exp,
         out_exp,
+        short_shifts: shifts.iter().all(|&s| (-31..=32).contains(&(s as i8))),
     })
 }

@@ -267,8 +267,10 @@ pub(crate) const ROW_CHUNK: usize = 32;
 /// out of registers, the alignment test, ~45 instructions) is paid once
 /// per call here; per row pair the frame bookkeeping is 17 instructions.
 /// Aligned rows (`w + lo` and `n` multiples of 4, tested once) take the
-/// `LDRD` block, any others the `LDR` block; aligned rows of `16·j` inputs
-/// loop 4 blocks at a time without a tail ([`q15_loops_x4`]).
+/// `LDRD` block, any others the `LDR` block; with `x4` (a literal at each
+/// call site, so that the other callers do not carry a third copy of the
+/// loop: only the `Sine` layers' hot path sets it), aligned rows of `16·j`
+/// inputs loop 4 blocks at a time without a tail ([`q15_loops_x4`]).
 #[inline(always)]
 pub(crate) fn dot_rows_q15<'b>(
     w: &[u8],
@@ -277,6 +279,7 @@ pub(crate) fn dot_rows_q15<'b>(
     x: &[i16],
     rows: usize,
     buf: &'b mut [MaybeUninit<i64>; ROW_CHUNK],
+    x4: bool,
 ) -> (&'b mut [i64], usize) {
     let rows = rows.min(ROW_CHUNK);
     let even = rows & !1;
@@ -316,7 +319,7 @@ pub(crate) fn dot_rows_q15<'b>(
         };
     }
     let aligned = (p0 as usize | n) & 3 == 0;
-    if aligned && k % 16 == 0 {
+    if x4 && aligned && k % 16 == 0 {
         // SAFETY: reads `x[..k]` with `LDRD` at 4-byte aligned addresses
         // (`x` is 4-byte aligned, checked above, and each row restarts at
         // `x`), and for each row `j < even` the bytes `[j·n + lo, j·n + lo +
@@ -513,19 +516,26 @@ macro_rules! q15_sine_tail {
 /// range `−31 ..= 32` (two compares per row instead of a range test and a
 /// sign test) and has its own copy of [`q15_sine_tail`] (no branch from the
 /// `s > 0` phase to a shared tail). A row outside the range leaves with its
-/// count not yet taken (the pointers it advanced are discarded).
+/// count not yet taken (the pointers it advanced are discarded). With
+/// `unchecked` (every shift known to be in the range) the two compares are
+/// left out.
 macro_rules! q15_sine_rows {
     ($acc:ident) => {
+        q15_sine_rows!($acc, "cmp {s}, #32\nbhi 8f\n", "cmn {s}, #31\nblt 8f\n")
+    };
+    ($acc:ident, unchecked) => {
+        q15_sine_rows!($acc, "", "")
+    };
+    ($acc:ident, $check_hi:expr, $check_lo:expr) => {
         concat!(
             "2:\n",
             "ldrsb {s}, [{sh}], #1\n",
             $acc!(),
             "cmp {s}, #0\n",
             "ble 3f\n",
-            // 1 ≤ s; leave unless s ≤ 32. Then bits s .. s + 31 of acc plus
+            // 1 ≤ s (≤ 32, or leave). Then bits s .. s + 31 of acc plus
             // bit s − 1.
-            "cmp {s}, #32\n",
-            "bhi 8f\n",
+            $check_hi,
             "rsb {t}, {s}, #32\n",
             "lsl {hi}, {hi}, {t}\n",
             "sub {t}, {s}, #1\n",
@@ -535,11 +545,10 @@ macro_rules! q15_sine_rows {
             "add {hi}, {hi}, {b}\n",
             q15_sine_tail!(),
             "b 8f\n",
-            // s ≤ 0; leave unless −31 ≤ s. Then the low word shifted left
-            // by −s.
+            // s ≤ 0 (≥ −31, or leave). Then the low word shifted left by
+            // −s.
             "3:\n",
-            "cmn {s}, #31\n",
-            "blt 8f\n",
+            $check_lo,
             "rsb {t}, {s}, #0\n",
             "lsl {hi}, {lo}, {t}\n",
             q15_sine_tail!(),
@@ -555,12 +564,15 @@ macro_rules! q15_sine_rows {
 /// when `bias` is `None` (the sums hold it: 3 instructions less per row),
 /// and `s_j = shifts[j] as i8`; returns how many rows it did (it stops
 /// before the first row with another shift, or at the end of the shortest
-/// of `sums`, `bias / 4`, `shifts`, `out`).
+/// of `sums`, `bias / 4`, `shifts`, `out`). `short` says that every shift
+/// is in −31..=32 (the layer's [`crate::blob::Layer::short_shifts`], found
+/// when the blob was read): the loop then leaves the per-row range check
+/// out (2 instructions per row).
 ///
 /// One `asm!` loop (12 registers) instead of Rust's per-row loop, which
 /// kept the table address, the shift dispatch and three iterator ends in
-/// its way: ~29 instructions per row for `s ≤ 0` and ~33 for `s > 0`
-/// against ~34 and ~48. Every step is the Rust one on the same integers:
+/// its way: ~27 instructions per row for `s ≤ 0` and ~31 for `s > 0` with
+/// `short` (2 more without), against ~34 and ~48. Every step is the Rust one on the same integers:
 /// `acc = sum + B` in 64 bits (`ADDS`/`ADC` with the sign-extended bias);
 /// for `1 ≤ s ≤ 32` the phase is `(lo >> s) | (hi << (32 − s))` plus bit
 /// `s − 1` of `lo` (for `s = 32`: `hi + bit 31`, which is `rshr(acc, 32)
@@ -575,6 +587,7 @@ pub(crate) fn sine_rows_q15(
     shifts: &[u8],
     out: &mut [i16],
     tab: &[u32; 257],
+    short: bool,
 ) -> usize {
     let rows = sums
         .len()
@@ -585,24 +598,15 @@ pub(crate) fn sine_rows_q15(
         return 0;
     }
     let left: usize;
-    // SAFETY: per row `j < rows` (the loop counts `rows` down and stops at
-    // 0, or leaves earlier) it reads `shifts[j]` (`LDRSB`), `sums[j]`
-    // (`LDRD`, an `&[i64]`: 8-byte aligned), the 4 bytes `bias[4j..4j + 4]`
-    // (`LDR`, unaligned allowed on the Cortex-M4/M7 for normal memory:
-    // `CCR.UNALIGN_TRP` is 0 and never set) and one word of `tab` at index
-    // `p >> 22 ≤ 256` (`p ≤ 2^30` after the fold) with `LDR` (a `&[u32;
-    // 257]`: aligned), and writes `out[j]` (`STRH`, an `&mut [i16]`:
-    // 2-byte aligned). Nothing else is written; no stack. Every register
-    // written is a declared operand; the flags are clobbered (asm! assumes
-    // so). The `IT` block covers one instruction inside the asm.
-    if let Some(bias) = bias {
-        // SAFETY: see just above.
-        unsafe {
+    // The one `asm!` call of every variant, `$text` its program, `$bias`
+    // the bias operand (or nothing).
+    macro_rules! sine_asm {
+        ($text:expr $(, $bias:tt)?) => {
             asm!(
-                q15_sine_rows!(q15_acc_bias),
+                $text,
                 sh = inout(reg) shifts.as_ptr() => _,
                 ap = inout(reg) sums.as_ptr() => _,
-                bp = inout(reg) bias.as_ptr() => _,
+                $(bp = inout(reg) $bias.as_ptr() => _,)?
                 op = inout(reg) out.as_mut_ptr() => _,
                 tp = in(reg) tab.as_ptr(),
                 rnd = in(reg) 1u32 << 15,
@@ -613,27 +617,27 @@ pub(crate) fn sine_rows_q15(
                 hi = out(reg) _,
                 b = out(reg) _,
                 options(nostack),
-            );
-        }
-    } else {
-        // SAFETY: as above, without the bias (no `bias` read).
-        unsafe {
-            asm!(
-                q15_sine_rows!(q15_acc_plain),
-                sh = inout(reg) shifts.as_ptr() => _,
-                ap = inout(reg) sums.as_ptr() => _,
-                op = inout(reg) out.as_mut_ptr() => _,
-                tp = in(reg) tab.as_ptr(),
-                rnd = in(reg) 1u32 << 15,
-                cnt = inout(reg) rows => left,
-                s = out(reg) _,
-                t = out(reg) _,
-                lo = out(reg) _,
-                hi = out(reg) _,
-                b = out(reg) _,
-                options(nostack),
-            );
-        }
+            )
+        };
+    }
+    // SAFETY (all four blocks): per row `j < rows` (the loop counts `rows`
+    // down and stops at 0, or leaves earlier) it reads `shifts[j]`
+    // (`LDRSB`), `sums[j]` (`LDRD`, an `&[i64]`: 8-byte aligned), with a
+    // bias the 4 bytes `bias[4j..4j + 4]` (`LDR`, unaligned allowed on the
+    // Cortex-M4/M7 for normal memory: `CCR.UNALIGN_TRP` is 0 and never set)
+    // and one word of `tab` at index `p >> 22 ≤ 256` (`p ≤ 2^30` after the
+    // fold, whatever the shift) with `LDR` (a `&[u32; 257]`: aligned), and
+    // writes `out[j]` (`STRH`, an `&mut [i16]`: 2-byte aligned). Nothing
+    // else is written; no stack. Every register written is a declared
+    // operand; the flags are clobbered (asm! assumes so). The `IT` block
+    // covers one instruction inside the asm. The shift only enters register
+    // shifts (the unchecked variant relies on `short` for the value, not
+    // for memory safety).
+    match (bias, short) {
+        (Some(bias), false) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_bias), bias) },
+        (Some(bias), true) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_bias, unchecked), bias) },
+        (None, false) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_plain)) },
+        (None, true) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_plain, unchecked)) },
     }
     rows - left
 }
