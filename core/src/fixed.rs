@@ -670,6 +670,11 @@ fn latent_with(
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(always)]
 fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16], short: bool) {
+    if short {
+        // The loop takes every row (no shift makes it stop).
+        crate::kernels::sine_rows_q15(sums, bias, shifts, out, &SINE_PAIRS, true);
+        return;
+    }
     let mut j = 0;
     while j < out.len() {
         let bi = match bias {
