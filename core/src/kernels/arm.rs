@@ -46,6 +46,14 @@
 use core::arch::asm;
 use core::mem::MaybeUninit;
 
+/// Four of `$block` (16 inputs of a row pair) as asm text: the body of
+/// both [`q15_loops`]' main loop and [`q15_loops_x4`].
+macro_rules! q15_block4 {
+    ($block:ident) => {
+        concat!($block!(), $block!(), $block!(), $block!())
+    };
+}
+
 /// The loops over one row pair of one of [`dot_rows_q15`]'s paths as asm text, `$block` being
 /// that path's 4-input block: with `m` = the number of 4-input blocks
 /// (≥ 1), 4 blocks per iteration (label 2) while at least 4 remain, then 1
@@ -59,10 +67,7 @@ macro_rules! q15_loops {
             "subs {m}, {m}, #4\n",
             "blt 3f\n",
             "2:\n",
-            $block!(),
-            $block!(),
-            $block!(),
-            $block!(),
+            q15_block4!($block),
             "subs {m}, {m}, #4\n",
             "bge 2b\n",
             "3:\n",
@@ -84,10 +89,7 @@ macro_rules! q15_loops_x4 {
     ($block:ident) => {
         concat!(
             "2:\n",
-            $block!(),
-            $block!(),
-            $block!(),
-            $block!(),
+            q15_block4!($block),
             "subs {m}, {m}, #4\n",
             "bne 2b",
         )
