@@ -87,12 +87,7 @@ macro_rules! q15_loops {
 /// second loop entry (`subs`/`blt`, `adds`/`beq`) are not paid.
 macro_rules! q15_loops_x4 {
     ($block:ident) => {
-        concat!(
-            "2:\n",
-            q15_block4!($block),
-            "subs {m}, {m}, #4\n",
-            "bne 2b",
-        )
+        concat!("2:\n", q15_block4!($block), "subs {m}, {m}, #4\n", "bne 2b",)
     };
 }
 
