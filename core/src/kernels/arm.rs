@@ -617,9 +617,9 @@ pub(crate) fn sine_rows_q15(
             )
         };
     }
-    // SAFETY (all four blocks): per row `j < rows` (the loop counts `rows`
-    // down and stops at 0, or leaves earlier) it reads `shifts[j]`
-    // (`LDRSB`), `sums[j]` (`LDRD`, an `&[i64]`: 8-byte aligned), with a
+    // What the four `unsafe` blocks below rely on: per row `j < rows` (the
+    // loop counts `rows` down and stops at 0, or leaves earlier) it reads
+    // `shifts[j]` (`LDRSB`), `sums[j]` (`LDRD`, an `&[i64]`: 8-byte aligned), with a
     // bias the 4 bytes `bias[4j..4j + 4]` (`LDR`, unaligned allowed on the
     // Cortex-M4/M7 for normal memory: `CCR.UNALIGN_TRP` is 0 and never set)
     // and one word of `tab` at index `p >> 22 ≤ 256` (`p ≤ 2^30` after the
@@ -631,9 +631,13 @@ pub(crate) fn sine_rows_q15(
     // shifts (the unchecked variant relies on `short` for the value, not
     // for memory safety).
     match (bias, short) {
+        // SAFETY: as above, with the bias read.
         (Some(bias), false) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_bias), bias) },
+        // SAFETY: as above, with the bias read; no range check.
         (Some(bias), true) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_bias, unchecked), bias) },
+        // SAFETY: as above, no bias read.
         (None, false) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_plain)) },
+        // SAFETY: as above, no bias read; no range check.
         (None, true) => unsafe { sine_asm!(q15_sine_rows!(q15_acc_plain, unchecked)) },
     }
     rows - left
