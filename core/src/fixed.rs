@@ -688,7 +688,7 @@ fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16], 
         else {
             return;
         };
-        j += crate::kernels::sine_rows_q15(sm, bi, sh, o, &SINE_PAIRS, short);
+        j += crate::kernels::sine_rows_q15(sm, bi, sh, o, &SINE_PAIRS, false);
         let b = match bias {
             Some(b) => match b.get(4 * j..4 * j + 4) {
                 Some(&[b0, b1, b2, b3]) => i32::from_le_bytes([b0, b1, b2, b3]),
