@@ -11,8 +11,12 @@
 
 use std::fmt;
 
-pub use gpecnet_core::blob::{Activation, Extensions, ModelConfig, NumericKind};
-use gpecnet_core::blob::{ModelInfo, Preamble, CRC32, FORMAT_VERSION, MAGIC, TENSOR_ALIGN};
+pub use gpecnet_core::blob::{
+    Activation, Extensions, Meta, ModelConfig, NumericKind, PositionUnit,
+};
+use gpecnet_core::blob::{
+    ModelInfo, Preamble, ALIGNED_FORMAT_VERSION, CRC32, MAGIC, META_FORMAT_VERSION, TENSOR_ALIGN,
+};
 pub use gpecnet_core::golden::GoldenInfo;
 use gpecnet_core::golden::{
     GoldenCaseWire, GoldenCaseWireV2, GoldenPreamble, GOLDEN_MAGIC, GOLDEN_VERSION,
@@ -213,13 +217,18 @@ pub struct BlobHead<'a> {
     /// Hyper-parameters.
     pub config: ModelConfig,
     /// The version-2 settings (heading frame, test-time sampling); `None` is all zeros
-    /// (raw orientation, plain sampling). Every blob is written in the newest format
-    /// version ([`FORMAT_VERSION`], 3: aligned tensors), which stores them either way.
+    /// (raw orientation, plain sampling). Versions 3 and 4 store them either way.
     pub extensions: Option<Extensions>,
+    /// The version-4 description (unit, period, training data, licence). `Some` writes
+    /// format version 4 ([`META_FORMAT_VERSION`]); `None` writes version 3
+    /// ([`ALIGNED_FORMAT_VERSION`]), byte for byte what this writer gave before version 4
+    /// existed (so re-exporting an old model reproduces its shipped bytes).
+    pub meta: Option<Meta<'a>>,
 }
 
-/// Serialises a blob in format version 3 ([`FORMAT_VERSION`]): preamble, model info,
-/// extensions, the networks in the blob's order (`encoder_past`, `decoder`,
+/// Serialises a blob in format version 4 (with [`BlobHead::meta`]) or 3 (without):
+/// preamble, model info, extensions, the meta record (version 4), the networks in the
+/// blob's order (`encoder_past`, `decoder`,
 /// `encoder_dest`, `predictor`, `point_head`), each weight and bias tensor after the
 /// padding that aligns it to [`TENSOR_ALIGN`] bytes from the blob's start, and the
 /// CRC-32; checked by `gpecnet-core`'s reader.
@@ -229,7 +238,11 @@ pub fn blob_bytes(head: &BlobHead<'_>, networks: [&[WireLayer]; 5]) -> Result<Ve
         &mut out,
         &Preamble {
             magic: MAGIC,
-            version: FORMAT_VERSION,
+            version: if head.meta.is_some() {
+                META_FORMAT_VERSION
+            } else {
+                ALIGNED_FORMAT_VERSION
+            },
         },
     )?;
     push(
@@ -241,6 +254,9 @@ pub fn blob_bytes(head: &BlobHead<'_>, networks: [&[WireLayer]; 5]) -> Result<Ve
         },
     )?;
     push(&mut out, &head.extensions.unwrap_or_default())?;
+    if let Some(meta) = &head.meta {
+        push(&mut out, meta)?;
+    }
     for net in networks {
         push(&mut out, &narrow::<u8>("layers in a network", net.len())?)?;
         for l in net {
@@ -343,9 +359,10 @@ pub fn golden_bytes(info: &GoldenInfo<'_>, cases: &[GoldenCase]) -> Result<Vec<u
 /// One layer's dims and raw tensors (weights, bias, shifts), for comparing two blobs.
 type LayerTensors = (usize, usize, Vec<u8>, Vec<u8>, Vec<u8>);
 
-/// Re-writes any readable blob (format version 1, 2 or 3) in the newest format with the same
-/// name, hyper-parameters, extensions and tensors, byte for byte: what `gpec-rewrite` runs
-/// over `weights/`. Writing a version-3 blob again gives the same bytes (the padding is
+/// Re-writes any readable blob (format version 1 to 4) in the newest format that holds what it
+/// says (version 4 when it states a unit, else 3) with the same name, hyper-parameters,
+/// extensions, description and tensors, byte for byte: what `gpec-rewrite` runs over
+/// `weights/`. Writing a version-3 or 4 blob again gives the same bytes (the padding is
 /// canonical).
 pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
     let model = gpecnet_core::Model::from_blob(blob).map_err(|e| WriteError::Rejected {
@@ -383,6 +400,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         name: model.name(),
         config: *model.config(),
         extensions: Some(*model.extensions()),
+        meta: (model.unit() != PositionUnit::Unknown).then_some(*model.meta()),
     };
     let out = blob_bytes(&head, [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]])?;
     // The same model, tensor for tensor (only the framing may differ).
@@ -409,6 +427,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
     if tensors(&model) != tensors(&again)
         || model.config() != again.config()
         || model.extensions() != again.extensions()
+        || model.meta() != again.meta()
     {
         return Err(WriteError::Shape(
             "rewritten blob differs from the original".into(),

@@ -13,35 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::network::Act;
 
-/// Which data set to train on.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum DatasetSpec {
-    /// Stanford Drone Dataset, TrajNet split, pixels (`"sdd"`): train on `sdd/train` minus the
-    /// validation scenes.
-    Sdd,
-    /// ETH/UCY leave-one-out (`"eth_ucy:<scene>"`, scene in eth|hotel|univ|zara1|zara2):
-    /// train on `<scene>/train`, validate on `<scene>/val`.
-    EthUcy(String),
-}
-
-impl DatasetSpec {
-    /// Parse `"sdd"` or `"eth_ucy:<scene>"`.
-    pub fn parse(s: &str) -> Result<Self> {
-        if s == "sdd" {
-            return Ok(Self::Sdd);
-        }
-        if let Some(scene) = s.strip_prefix("eth_ucy:") {
-            if crate::data::ETH_UCY_SCENES.contains(&scene) {
-                return Ok(Self::EthUcy(scene.to_string()));
-            }
-            bail!(
-                "unknown ETH/UCY scene {scene:?} (expected one of {:?})",
-                crate::data::ETH_UCY_SCENES
-            );
-        }
-        bail!("unknown dataset {s:?}: expected \"sdd\" or \"eth_ucy:<scene>\"")
-    }
-}
+pub use crate::data::DatasetSpec;
 
 /// Largest `k` (samples per window): `gpecnet_core::blob::MAX_TTS_SAMPLES`, the most
 /// samples a blob's predictor draws per window.
@@ -129,7 +101,7 @@ pub struct TrainConfig {
     /// the training windows, where `n_real` is the number of real training windows (SDD train
     /// minus the validation scenes, plus `train_extra` when enabled) before time reversal; the
     /// synthetic windows are then time-reversed like the real ones. Validation (and the test
-    /// set) are never augmented. 0 (the default) = no augmentation; `[0, 100]`, SDD only.
+    /// set) are never augmented. 0 (the default) = no augmentation; `[0, 100]`.
     /// Omitted from the TOML when 0, so unaugmented configs serialise as before.
     #[serde(skip_serializing_if = "is_zero_f32")]
     pub augment_pct: f32,
@@ -139,6 +111,11 @@ pub struct TrainConfig {
     /// must be the same file when a run is resumed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub synthetic_pool: Option<String>,
+    /// Metres per pixel applied to the synthetic pool (which `gpecnet synth` writes in SDD
+    /// pixels) when the data set is in metres; required there, so a pixel pool is never mixed
+    /// into a metre run unconverted, and refused for a pixel data set. 0 = unset.
+    #[serde(skip_serializing_if = "is_zero_f32")]
+    pub synthetic_metres_per_pixel: f32,
     /// PECNet's non-local social pooling ([`crate::social`]) before the predictor. Off by
     /// default (G-PECNet and every shipped model run without it); it needs the other
     /// pedestrians at inference, so such a model trains and evaluates on the host but cannot
@@ -283,6 +260,7 @@ impl Default for TrainConfig {
             threads: 0,
             augment_pct: 0.0,
             synthetic_pool: None,
+            synthetic_metres_per_pixel: 0.0,
             social_pooling: false,
             nonlocal_pools: 3,
             non_local_dim: 128,
@@ -322,7 +300,7 @@ impl TrainConfig {
 
     /// The parsed [`TrainConfig::dataset`].
     pub fn dataset_spec(&self) -> Result<DatasetSpec> {
-        DatasetSpec::parse(&self.dataset)
+        DatasetSpec::parse(&self.dataset).map_err(anyhow::Error::msg)
     }
 
     /// Thread count actually used (resolves `threads = 0`).
@@ -471,10 +449,25 @@ impl TrainConfig {
         if !(self.augment_pct.is_finite() && (0.0..=100.0).contains(&self.augment_pct)) {
             bail!("augment_pct must be in [0, 100], got {}", self.augment_pct);
         }
+        if self.include_train_extra && spec != DatasetSpec::Sdd {
+            bail!(
+                "include_train_extra needs dataset = \"sdd\" (train_extra is one SDD pixel scene)"
+            );
+        }
+        let mpp = self.synthetic_metres_per_pixel;
+        if !(mpp.is_finite() && mpp >= 0.0) {
+            bail!("synthetic_metres_per_pixel must be a finite number >= 0, got {mpp}");
+        }
+        if mpp > 0.0 && spec.unit() == crate::data::Unit::Pixels {
+            bail!(
+                "synthetic_metres_per_pixel is set but dataset {spec} is in pixels, like the pool"
+            );
+        }
         if self.augment_pct > 0.0 {
-            if spec != DatasetSpec::Sdd {
+            if spec.unit() == crate::data::Unit::Metres && mpp == 0.0 {
                 bail!(
-                    "augment_pct > 0 needs dataset = \"sdd\" (the synthetic pool is in SDD pixels)"
+                    "dataset {spec} is in metres but the synthetic pool is in SDD pixels: \
+                     set synthetic_metres_per_pixel (0.0377 = 7.84 m / 208.2 px, the RMS window spans of sdd-m and sdd)"
                 );
             }
             if self
@@ -576,9 +569,25 @@ mod tests {
         );
         assert!(TrainConfig::from_toml_str("augment_pct = -1").is_err());
         assert!(TrainConfig::from_toml_str("augment_pct = 101\nsynthetic_pool = \"p\"").is_err());
-        assert!(TrainConfig::from_toml_str(
-            "augment_pct = 5\nsynthetic_pool = \"p\"\ndataset = \"eth_ucy:zara1\""
-        )
-        .is_err());
+        // A pixel pool is never mixed into a metre data set unconverted, and the factor is
+        // refused where there is nothing to convert.
+        let metres = "augment_pct = 5\nsynthetic_pool = \"p\"\ndataset = \"eth_ucy:zara1\"";
+        let e = TrainConfig::from_toml_str(metres).unwrap_err().to_string();
+        assert!(e.contains("synthetic_metres_per_pixel"), "{e}");
+        let c =
+            TrainConfig::from_toml_str(&format!("{metres}\nsynthetic_metres_per_pixel = 0.0377"))
+                .unwrap();
+        assert!(c
+            .to_toml_string()
+            .unwrap()
+            .contains("synthetic_metres_per_pixel = 0.0377"));
+        assert!(TrainConfig::from_toml_str("synthetic_metres_per_pixel = 0.04").is_err());
+        assert!(
+            TrainConfig::from_toml_str("dataset = \"sdd-m\"\nsynthetic_metres_per_pixel = -1")
+                .is_err()
+        );
+        assert!(
+            TrainConfig::from_toml_str("dataset = \"sdd-m\"\ninclude_train_extra = true").is_err()
+        );
     }
 }

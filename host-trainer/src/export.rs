@@ -8,7 +8,7 @@ use gpecnet_blob_writer::{BlobHead, GoldenInfo, WireLayer};
 use gpecnet_core::blob::{Extensions, ModelConfig};
 
 use crate::network::{InferenceModel, Layer, Networks, Numeric};
-use crate::reference::{RefConfig, RefModel, SineKind};
+use crate::reference::{ModelMeta, RefConfig, RefModel, SineKind};
 
 /// The blob's `ModelConfig` for a model's hyper-parameters.
 pub(crate) fn wire_config(c: &RefConfig) -> Result<ModelConfig> {
@@ -35,9 +35,9 @@ pub(crate) fn wire_extensions(c: &RefConfig) -> Result<Extensions> {
     })
 }
 
-/// Serialises `model` as a blob of its numeric kind (format version 1, or 2 when it uses the
-/// heading frame, test-time sampling or a point head), CRC included, after checking its
-/// shapes; the embedded reader accepts what this returns.
+/// Serialises `model` as a blob of its numeric kind (format version 4 when its config carries
+/// a [`ModelMeta`], else 3), CRC included, after checking its shapes; the embedded reader
+/// accepts what this returns.
 pub fn blob_bytes<K: Numeric>(model: &InferenceModel<K>) -> Result<Vec<u8>> {
     model.validate()?;
     let c = &model.config;
@@ -50,6 +50,7 @@ pub fn blob_bytes<K: Numeric>(model: &InferenceModel<K>) -> Result<Vec<u8>> {
         } else {
             None
         },
+        meta: c.meta.as_ref().map(ModelMeta::wire),
     };
     let nets: [Vec<WireLayer>; 5] = model
         .nets
@@ -100,6 +101,7 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
             tts_samples: m.extensions().tts_samples as usize,
             tts_iters: m.extensions().tts_iters,
             tts_init: m.extensions().tts_init,
+            meta: ModelMeta::of_model(&m),
         },
         nets: Networks {
             encoder_past: net(m.encoder_past()),

@@ -149,12 +149,16 @@ struct QuantizeArgs {
     /// The fixed-point blob to write (its stem is the model name).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
-    /// Data root holding sdd/ (see shared/data/README.md).
+    /// Data root holding sdd/ and eth_ucy/ (see shared/data/README.md).
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
     data: PathBuf,
+    /// The data set to calibrate on (its training split) and evaluate on (its test split):
+    /// default the source card's `dataset`, else `sdd`. Must be in the blob's unit.
+    #[arg(long, value_name = "SPEC", value_parser = parse_dataset)]
+    dataset: Option<data::DatasetSpec>,
     #[command(flatten)]
     sampling: TestSampling,
-    /// Calibrate on every N-th SDD training window.
+    /// Calibrate on every N-th training window.
     #[arg(long, default_value_t = 4)]
     cal_stride: usize,
     /// Leave encoder_dest and predictor out (endpoint prediction only, about half the size).
@@ -172,10 +176,13 @@ fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
         a.cal_stride,
         8,
         a.endpoint_only,
+        a.dataset.as_ref(),
     )?;
     let (f, x) = (&c.test_f32, &c.test_fixed);
+    let ds = c.dataset.as_deref().unwrap_or("sdd");
+    let u = data::DatasetSpec::parse(ds).map_or("px", |s| s.unit().suffix());
     println!(
-        "{}: {} bytes; SDD test K={}: minADE/minFDE f32 {:.3}/{:.3} px, fixed {:.3}/{:.3} px",
+        "{}: {} bytes; {ds} test K={}: minADE/minFDE f32 {:.3}/{:.3} {u}, fixed {:.3}/{:.3} {u}",
         c.name, c.blob_bytes, c.k, f.min_ade, f.min_fde, x.min_ade, x.min_fde
     );
     println!("K=1: FDE f32 {:.3} px, fixed {:.3} px", f.fde_k1, x.fde_k1);
@@ -216,9 +223,19 @@ struct EvalArgs {
     /// The blob to evaluate.
     #[arg(long, value_name = "FILE", default_value = "weights/sdd-small.gpec")]
     blob: PathBuf,
-    /// Data root holding sdd/ (see shared/data/README.md).
+    /// Data root holding sdd/ and eth_ucy/ (see shared/data/README.md).
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
     data: PathBuf,
+    /// The data set whose test split is evaluated: `sdd` (pixels), `sdd-m` (SDD in metres
+    /// through the per-scene scales; also prints the pixel-equivalent numbers) or
+    /// `eth_ucy:<eth|hotel|univ|zara1|zara2>` (metres). A blob whose unit differs from the data
+    /// set's is refused before anything runs.
+    #[arg(long, value_name = "SPEC", default_value = "sdd", value_parser = parse_dataset)]
+    dataset: data::DatasetSpec,
+    /// The unit of a blob that does not state one (format version < 4). Without it such a
+    /// blob is taken as SDD pixels (what every shipped one is) and refused on metre data.
+    #[arg(long, value_enum, value_name = "UNIT")]
+    assume_unit: Option<UnitArg>,
     /// Sine to run (default: the one the blob's golden file names, else libm).
     #[arg(long, value_enum)]
     sine: Option<gpecnet_trainer::reference::SineKind>,
@@ -270,10 +287,40 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
     Ok(())
 }
 
+/// A unit on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum UnitArg {
+    /// Image pixels.
+    Px,
+    /// Metres.
+    M,
+}
+
+impl From<UnitArg> for data::Unit {
+    fn from(u: UnitArg) -> Self {
+        match u {
+            UnitArg::Px => data::Unit::Pixels,
+            UnitArg::M => data::Unit::Metres,
+        }
+    }
+}
+
+fn parse_dataset(s: &str) -> std::result::Result<data::DatasetSpec, String> {
+    data::DatasetSpec::parse(s)
+}
+
 fn cmd_eval(a: EvalArgs) -> Result<()> {
+    let target = gpecnet_trainer::ship::EvalTarget {
+        dataset: a.dataset.clone(),
+        assume_unit: a.assume_unit.map(Into::into),
+    };
+    if a.update_card && a.dataset != data::DatasetSpec::Sdd {
+        anyhow::bail!("--update-card applies to the SDD pixel cards only");
+    }
     let mut r = gpecnet_trainer::ship::eval_blob(
         &a.blob,
         &a.data,
+        &target,
         a.sine,
         a.sampling.k,
         a.sampling.seed,
@@ -309,7 +356,8 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         let o = serde_json::json!({
             "name": r.name,
             "blob": a.blob.display().to_string(),
-            "unit": "px",
+            "dataset": r.dataset,
+            "unit": r.unit.suffix(),
             "n": m.n,
             "k": m.k,
             "min_ade": m.min_ade,
@@ -330,14 +378,28 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
             "kde_nll": d.kde_nll,
             "hit20": d.hit20,
             "hit40": d.hit40,
+            "hits": r.hits.iter().map(|(radius, fraction)| serde_json::json!({"radius": radius, "fraction": fraction})).collect::<Vec<_>>(),
+            "min_ade_px": r.pixels.map(|p| p.metrics.min_ade),
+            "min_fde_px": r.pixels.map(|p| p.metrics.min_fde),
+            "point_ade_px": r.pixels.and_then(|p| p.point.map(|q| q.0)),
+            "point_fde_px": r.pixels.and_then(|p| p.point.map(|q| q.1)),
+            "cv_ade_px": r.pixels.map(|p| p.cv.ade_k1),
+            "cv_fde_px": r.pixels.map(|p| p.cv.fde_k1),
             "matches_card": r.matches_card,
             "svg": r.svg.as_ref().map(|p| p.display().to_string()),
         });
         println!("{o}");
     } else {
+        let u = r.unit.suffix();
         println!(
-            "model {} on the SDD test set ({} windows), through gpecnet-core, pixels",
-            r.name, m.n
+            "model {} on the {} test set ({} windows), through gpecnet-core, unit: {}",
+            r.name,
+            r.dataset,
+            m.n,
+            match r.unit {
+                data::Unit::Pixels => "pixels (px)",
+                data::Unit::Metres => "metres (m)",
+            }
         );
         println!("{:<44} {:>9} {:>9}", "", "ADE", "FDE");
         let row = |label: String, ade: f64, fde: f64| {
@@ -361,15 +423,34 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
             cvn.fde_k1,
         );
         println!(
-            "distribution of the K = {} endpoints: KDE NLL {:.3} nats (px), true endpoint within 20 px of a sample {:.2} %, within 40 px {:.2} %",
+            "distribution of the K = {} endpoints: KDE NLL {:.3} nats ({u}), true endpoint within {} {u} of a sample {:.2} %, within {} {u} {:.2} %",
             m.k,
             d.kde_nll,
-            100.0 * d.hit20,
-            100.0 * d.hit40
+            r.hits[0].0,
+            100.0 * r.hits[0].1,
+            r.hits[1].0,
+            100.0 * r.hits[1].1
         );
+        if let Some(p) = &r.pixels {
+            println!("the same in pixels, scene by scene (the pixel literature's unit):");
+            row(
+                format!("best of K = {} (px)", p.metrics.k),
+                p.metrics.min_ade,
+                p.metrics.min_fde,
+            );
+            if let Some((ade, fde)) = p.point {
+                row("point forecast (px)".into(), ade, fde);
+            }
+            row(
+                "constant velocity on sdd, chosen on val (px)".into(),
+                p.cv.ade_k1,
+                p.cv.fde_k1,
+            );
+        }
         println!(
-            "constant-velocity n: lowest FDE on {} SDD validation windows; val FDE for n = 1..7: {}",
+            "constant-velocity n: lowest FDE on {} {} validation windows; val FDE for n = 1..7: {}",
             r.n_val,
+            r.dataset,
             r.cv_val
                 .iter()
                 .map(|v| format!("{:.2}", v.fde_k1))
@@ -380,6 +461,9 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
             Some(true) => println!("model card: reproduced exactly"),
             Some(false) => {
                 println!("model card: NOT reproduced (different K, seed, sine or weights?)")
+            }
+            None if r.card_on_other_data => {
+                println!("model card: about another data set (not compared)")
             }
             None => println!("model card: none next to the blob"),
         }
@@ -485,7 +569,7 @@ struct TrainArgs {
     /// Override the config's heading_steps (new runs only; 0 = raw orientation).
     #[arg(long, value_name = "M")]
     heading_steps: Option<usize>,
-    /// Override the config's dataset (new runs only): `sdd` or `eth_ucy:<scene>`, one config
+    /// Override the config's dataset (new runs only): `sdd`, `sdd-m` or `eth_ucy:<scene>`, one config
     /// for every leave-one-scene-out split.
     #[arg(long, value_name = "SPEC")]
     dataset: Option<String>,

@@ -45,6 +45,50 @@ pub struct RefConfig {
     /// Its initialisation: 0 = first K samples, 1 = farthest point.
     #[serde(default)]
     pub tts_init: u8,
+    /// What the numbers mean (unit, period, training data, licence): written as the blob's
+    /// version-4 record; `None` for blobs before format version 4, which do not say.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meta: Option<ModelMeta>,
+}
+
+/// The owned form of a blob's version-4 description (`gpecnet_core::blob::Meta`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ModelMeta {
+    /// Unit of positions in and out.
+    pub unit: gpecnet_core::blob::PositionUnit,
+    /// Metres per pixel of a pixel model with one scale, else 0.
+    pub metres_per_pixel: f32,
+    /// Seconds between consecutive positions.
+    pub period_s: f32,
+    /// The training data in words.
+    pub data: String,
+    /// The licence(s) of that data.
+    pub licence: String,
+}
+
+impl ModelMeta {
+    /// The blob's borrowed record.
+    pub fn wire(&self) -> gpecnet_core::blob::Meta<'_> {
+        gpecnet_core::blob::Meta {
+            unit: self.unit,
+            metres_per_pixel: self.metres_per_pixel,
+            period_s: self.period_s,
+            data: &self.data,
+            licence: &self.licence,
+        }
+    }
+
+    /// The description a blob carries, `None` before format version 4.
+    pub fn of_model(m: &gpecnet_core::Model<'_>) -> Option<Self> {
+        let w = m.meta();
+        (w.unit != gpecnet_core::blob::PositionUnit::Unknown).then(|| Self {
+            unit: w.unit,
+            metres_per_pixel: w.metres_per_pixel,
+            period_s: w.period_s,
+            data: w.data.to_string(),
+            licence: w.licence.to_string(),
+        })
+    }
 }
 
 impl RefConfig {

@@ -11,7 +11,6 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
-use crate::config::DatasetSpec;
 use crate::core_eval::{evaluate_core, evaluate_point_core};
 use crate::data::{self, Dataset};
 use crate::eval::Metrics;
@@ -32,15 +31,13 @@ pub struct SelectRow {
 
 /// The validation windows of a run's config (raw coordinates).
 pub fn validation_set(cfg: &crate::config::TrainConfig, data_root: &Path) -> Result<Dataset> {
-    Ok(match cfg.dataset_spec()? {
-        DatasetSpec::Sdd => {
-            let all = data::load_sdd(data_root, data::SddSplit::Train)?;
-            data::split_by_scene(all, &cfg.val_scenes).1
-        }
-        DatasetSpec::EthUcy(scene) => {
-            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Val)?
-        }
-    })
+    let spec = cfg.dataset_spec()?;
+    Ok(data::load(
+        data_root,
+        &spec,
+        data::Split::Val,
+        &cfg.val_scenes,
+    )?)
 }
 
 /// Evaluates every `(sigma, tts)` of the grid; returns the rows and the point forecast's

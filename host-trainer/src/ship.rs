@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use crate::checkpoint::{load_model, Which};
 use crate::config::TrainConfig;
 use crate::core_eval::{evaluate_core, evaluate_reference};
-use crate::data::{default_sdd_val_scenes, load_sdd, split_by_scene, Dataset, SddSplit, PAST};
+use crate::data::{self, default_sdd_val_scenes, Dataset, DatasetSpec, Split, Unit, PAST};
 use crate::eval::{
     constant_velocity, constant_velocity_n, dist_metrics, evaluate_baseline,
     evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
@@ -71,6 +71,123 @@ pub struct ModelCard {
     /// Constant velocity with its window chosen on validation, on the test set.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_cv: Option<CvBaseline>,
+    /// The data set of the numbers (`sdd`, `sdd-m`, `eth_ucy:<scene>`); absent on cards
+    /// written before data sets had names, whose numbers are on `sdd`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<String>,
+}
+
+impl ModelCard {
+    /// The data set the card's numbers are on (`sdd` for cards that do not say).
+    pub fn dataset_spec(&self) -> Result<DatasetSpec> {
+        DatasetSpec::parse(self.dataset.as_deref().unwrap_or("sdd")).map_err(anyhow::Error::msg)
+    }
+}
+
+/// The data set a model card (JSON) is about: its `dataset` field, `sdd` when absent.
+pub fn card_dataset(card: &serde_json::Value) -> Result<DatasetSpec> {
+    DatasetSpec::parse(
+        card.get("dataset")
+            .and_then(|v| v.as_str())
+            .unwrap_or("sdd"),
+    )
+    .map_err(anyhow::Error::msg)
+}
+
+/// Why a blob may not be run on a data set: its positions are in another unit.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UnitError {
+    /// The blob states a unit (format version 4) other than the data set's.
+    #[error(
+        "model {model:?} takes and returns {blob} but the {dataset} data set is in {data}: \
+         refusing (every number would be meaningless); use a {data} model or the data set in {blob}"
+    )]
+    Mismatch {
+        /// The blob's model name.
+        model: String,
+        /// The blob's unit.
+        blob: Unit,
+        /// The data set.
+        dataset: String,
+        /// The data set's unit.
+        data: Unit,
+    },
+    /// A blob before format version 4 (no unit recorded) on a metre data set.
+    #[error(
+        "model {model:?} does not state its unit (blob format before version 4; every such \
+         shipped model is in SDD image pixels) and the {dataset} data set is in metres: \
+         refusing; pass --assume-unit m only if this blob was trained in metres"
+    )]
+    Unstated {
+        /// The blob's model name.
+        model: String,
+        /// The data set.
+        dataset: String,
+    },
+}
+
+/// The unit `model` works in, checked against `spec`'s: a stated unit must match; an
+/// unstated one (blobs before format version 4) is taken from `assume`, else as pixels on a
+/// pixel data set (what every such shipped blob is) and refused on a metre one.
+pub fn check_unit(
+    model: &gpecnet_core::Model<'_>,
+    spec: &DatasetSpec,
+    assume: Option<Unit>,
+) -> std::result::Result<Unit, UnitError> {
+    use gpecnet_core::blob::PositionUnit;
+    let data = spec.unit();
+    let stated = match model.unit() {
+        PositionUnit::Metre => Some(Unit::Metres),
+        PositionUnit::Pixel => Some(Unit::Pixels),
+        _ => None,
+    };
+    let unit = match (stated, assume) {
+        (Some(u), _) => u,
+        (None, Some(a)) => a,
+        (None, None) if data == Unit::Pixels => Unit::Pixels,
+        (None, None) => {
+            return Err(UnitError::Unstated {
+                model: model.name().to_string(),
+                dataset: spec.to_string(),
+            })
+        }
+    };
+    if unit != data || assume.is_some_and(|a| a != unit) {
+        return Err(UnitError::Mismatch {
+            model: model.name().to_string(),
+            blob: if unit != data {
+                unit
+            } else {
+                assume.unwrap_or(unit)
+            },
+            dataset: spec.to_string(),
+            data,
+        });
+    }
+    Ok(unit)
+}
+
+/// The validation windows commands select on for `spec`: the SDD validation scenes
+/// ([`default_sdd_val_scenes`]) or the ETH/UCY scene's `val/` folder.
+pub fn validation_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Dataset> {
+    Ok(data::load(
+        data_root,
+        spec,
+        Split::Val,
+        &default_sdd_val_scenes(),
+    )?)
+}
+
+/// The test windows of `spec`, refusing an empty set.
+pub fn test_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Dataset> {
+    let test = data::load(data_root, spec, Split::Test, &[])?;
+    if test.windows.is_empty() {
+        bail!(
+            "the {spec} test set under {} has no window",
+            data_root.display()
+        );
+    }
+    Ok(test)
 }
 
 /// The inference settings a format-2 blob carries (see `gpecnet_core::blob::Extensions`).
@@ -114,13 +231,11 @@ pub struct CvBaseline {
     pub test: Metrics,
 }
 
-/// [`CvBaseline`] on `test`, `n` chosen on the SDD validation scenes under `data_root`.
-pub fn cv_baseline(data_root: &Path, test: &Dataset) -> Result<CvBaseline> {
-    let (_, val) = split_by_scene(
-        load_sdd(data_root, SddSplit::Train)?,
-        &default_sdd_val_scenes(),
-    );
-    let (n, _) = select_cv_n(&val).context("no SDD validation window")?;
+/// [`CvBaseline`] on `test`, `n` chosen on the validation windows of `spec` under
+/// `data_root` ([`validation_windows`]).
+pub fn cv_baseline(data_root: &Path, spec: &DatasetSpec, test: &Dataset) -> Result<CvBaseline> {
+    let val = validation_windows(data_root, spec)?;
+    let (n, _) = select_cv_n(&val).with_context(|| format!("no {spec} validation window"))?;
     Ok(CvBaseline {
         n,
         test: evaluate_baseline_with(test, |w| constant_velocity_n(w, n)),
@@ -134,12 +249,13 @@ pub fn card_v2_rows(
     inf: Option<&Inference>,
     point: Option<&Metrics>,
     cv: Option<&CvBaseline>,
+    digits: usize,
 ) -> String {
     let mut s = String::new();
     if let (Some(p), Some(cv)) = (point, cv) {
         s += &format!(
-            "| point forecast (deterministic head), ADE / FDE | {:.2} / {:.2} | {:.2} / {:.2} (constant velocity, last {} steps, chosen on validation) |\n",
-            p.ade_k1, p.fde_k1, cv.test.ade_k1, cv.test.fde_k1, cv.n
+            "| point forecast (deterministic head), ADE / FDE | {:.d$} / {:.d$} | {:.d$} / {:.d$} (constant velocity, last {} steps, chosen on validation) |\n",
+            p.ade_k1, p.fde_k1, cv.test.ade_k1, cv.test.fde_k1, cv.n, d = digits
         );
     }
     if let Some(i) = inf {
@@ -186,11 +302,41 @@ pub fn model_from_run(run: &Path, name: &str) -> Result<(TrainConfig, RefModel, 
             tts_samples: 0,
             tts_iters: 0,
             tts_init: 0,
+            meta: Some(blob_meta(&cfg)?),
         },
         nets,
     };
     m.validate()?;
     Ok((cfg, m, epoch))
+}
+
+/// The version-4 description of a model trained with `cfg`: the data set's unit, the
+/// benchmarks' 0.4 s period, the training data in words and its licence.
+pub fn blob_meta(cfg: &TrainConfig) -> Result<crate::reference::ModelMeta> {
+    let spec = cfg.dataset_spec()?;
+    let mut data = spec.describe_training(&cfg.val_scenes);
+    if cfg.include_train_extra {
+        data.push_str(" plus sdd/train_extra");
+    }
+    if cfg.augment_pct > 0.0 {
+        data.push_str(&format!(
+            " plus {} % synthetic trajectories (gpecnet synth)",
+            cfg.augment_pct
+        ));
+    }
+    if cfg.time_reversal {
+        data.push_str(", with time-reversed copies");
+    }
+    Ok(crate::reference::ModelMeta {
+        unit: match spec.unit() {
+            crate::data::Unit::Pixels => gpecnet_core::blob::PositionUnit::Pixel,
+            crate::data::Unit::Metres => gpecnet_core::blob::PositionUnit::Metre,
+        },
+        metres_per_pixel: 0.0,
+        period_s: crate::data::PERIOD_S,
+        data,
+        licence: spec.licence().to_string(),
+    })
 }
 
 /// Paths of a shipped model's files.
@@ -220,13 +366,14 @@ pub fn ship(
     settings.apply(&mut model, k)?;
     let blob = blob_bytes(&model)?;
     let core_model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let test = load_sdd(data_root, SddSplit::Test)?;
+    let spec = cfg.dataset_spec()?;
+    let test = test_windows(data_root, &spec)?;
     eprintln!(
-        "evaluating {name} on {} SDD test windows through gpecnet-core (K = {k}) ...",
+        "evaluating {name} on {} {spec} test windows through gpecnet-core (K = {k}) ...",
         test.windows.len()
     );
     let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
-    let test_dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
+    let test_dist = dist_metrics(&test, &preds).context("empty test set")?;
     let (ref_metrics, _) = evaluate_reference(&model, sine, &test, k, base_seed)?;
     if metrics != ref_metrics {
         bail!("gpecnet-core and the reference path disagree: {metrics:?} vs {ref_metrics:?}");
@@ -261,7 +408,7 @@ pub fn ship(
         }
         None => None,
     };
-    let test_cv = Some(cv_baseline(data_root, &test)?).filter(|_| model.needs_v2());
+    let test_cv = Some(cv_baseline(data_root, &spec, &test)?).filter(|_| model.needs_v2());
     let card = ModelCard {
         name: name.to_string(),
         blob_crc: core_model.crc(),
@@ -284,6 +431,7 @@ pub fn ship(
         test_point,
         val_point: val_point.filter(|_| test_point.is_some()),
         test_cv,
+        dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
     };
     let [p_blob, p_golden, p_json, p_md] = artefact_paths(out_dir, name);
     write_atomic(&p_blob, &blob)?;
@@ -291,7 +439,7 @@ pub fn ship(
     write_atomic(&p_json, serde_json::to_string_pretty(&card)?.as_bytes())?;
     write_atomic(
         &p_md,
-        model_card_md(&card, test.windows.len(), run).as_bytes(),
+        model_card_md(&card, test.windows.len(), run, model.config.meta.as_ref()).as_bytes(),
     )?;
     Ok(card)
 }
@@ -348,12 +496,93 @@ impl CardMd {
     }
 }
 
+/// What a card says about the data and units of a blob: the unit suffix, the facts rows
+/// (unit and period, training data) and the licence section. `None` (blobs before format
+/// version 4) gives the SDD pixel text every card of those versions has.
+pub struct CardData {
+    /// Unit suffix of every number (`px` or `m`).
+    pub unit: &'static str,
+    /// The test set in words, e.g. `SDD test set (2829 windows, pixels)`.
+    pub test_set: String,
+    /// The `eval` flags that select this data set (empty for `sdd`).
+    pub dataset_flag: String,
+    /// Facts rows (each ends in a newline).
+    pub facts: String,
+    /// The licence section's text.
+    pub licence: String,
+}
+
+/// SDD's licence text on the cards.
+const SDD_LICENCE_TEXT: &str = "Trained on the Stanford Drone Dataset (Robicquet et al., ECCV 2016), TrajNet split, which is licensed under \
+**Creative Commons Attribution-NonCommercial-ShareAlike 3.0** (CC BY-NC-SA 3.0). These weights are derived \
+from it: attribution is required, **no commercial use**, and derivatives must be shared under the same licence.\n";
+
+impl CardData {
+    /// The card text for a blob of `meta` evaluated on `spec` (`n` test windows).
+    pub fn new(meta: Option<&crate::reference::ModelMeta>, spec: &DatasetSpec, n: usize) -> Self {
+        let Some(meta) = meta else {
+            return Self {
+                unit: "px",
+                test_set: format!("SDD test set ({n} windows, pixels)"),
+                dataset_flag: String::new(),
+                facts: "| training data | SDD TrajNet split, 30 train scenes minus the validation scenes, with time-reversed copies |\n".to_string(),
+                licence: SDD_LICENCE_TEXT.to_string(),
+            };
+        };
+        let unit = match spec.unit() {
+            Unit::Pixels => "px",
+            Unit::Metres => "m",
+        };
+        let words = match spec.unit() {
+            Unit::Pixels => "pixels",
+            Unit::Metres => "metres",
+        };
+        let mut licence = if spec.is_sdd() {
+            SDD_LICENCE_TEXT.to_string()
+        } else {
+            format!("Trained on {}. Licence: {}.\n", meta.data, meta.licence)
+        };
+        if meta.data.contains("synthetic") {
+            licence += "The synthetic trajectories come from `gpecnet synth` (this repository, MIT OR Apache-2.0).\n";
+        }
+        Self {
+            unit,
+            test_set: format!("{spec} test set ({n} windows, {words})"),
+            dataset_flag: if *spec == DatasetSpec::Sdd {
+                String::new()
+            } else {
+                format!(" --dataset {spec}")
+            },
+            facts: format!(
+                "| unit and clock | positions in {words} (`{}`), one every {} s (8 observed = {:.1} s, 12 predicted = {:.1} s) |\n\
+| training data | {} |\n\
+| data licence | {} |\n",
+                meta.unit.suffix(),
+                meta.period_s,
+                8.0 * meta.period_s,
+                12.0 * meta.period_s,
+                meta.data,
+                meta.licence
+            ),
+            licence,
+        }
+    }
+}
+
 /// The human-readable card of an f32 blob: `n` test windows, exported from the run folder `run`.
-pub fn model_card_md(c: &ModelCard, n: usize, run: &Path) -> String {
+pub fn model_card_md(
+    c: &ModelCard,
+    n: usize,
+    run: &Path,
+    meta: Option<&crate::reference::ModelMeta>,
+) -> String {
+    let spec = c.dataset_spec().unwrap_or(DatasetSpec::Sdd);
+    let data = CardData::new(meta, &spec, n);
+    let u = data.unit;
     let (m, cv) = (&c.test, &c.test_constant_velocity);
     let val = c.val.map_or("n/a".to_string(), |v| {
         format!(
-            "minADE {:.2} / minFDE {:.2} px (K = {})",
+            "minADE {:.2} / minFDE {:.2} {u} (K = {})",
             v.min_ade, v.min_fde, v.k
         )
     });
@@ -371,6 +600,16 @@ pub fn model_card_md(c: &ModelCard, n: usize, run: &Path) -> String {
         };
         format!(" --sigma {}{tts}", i.sigma)
     });
+    let digits = if u == "m" { 3 } else { 2 };
+    let f = |v: f64| format!("{v:.digits$}");
+    let dist = if u == "px" {
+        model_card_dist_rows(&c.test_dist, k)
+    } else {
+        format!(
+            "| KDE NLL of the true endpoint under the K = {k} samples (nats, m; log-density floored at −20) | {:.3} | – |\n",
+            c.test_dist.kde_nll
+        )
+    };
     CardMd::new(
         &format!("`{name}`"),
         "G-PECNet endpoint predictor (PECNet CVAE with SIREN sine MLPs), exported for `gpecnet-core`.",
@@ -385,37 +624,32 @@ pub fn model_card_md(c: &ModelCard, n: usize, run: &Path) -> String {
     .fact("parameters", c.parameters)
     .fact(&format!("MACs, K = {k} endpoints{macs_note}"), c.endpoint_macs)
     .fact("sine for the numbers below", format!("`{}`", c.sine.core_name()))
-    .fact("training data", "SDD TrajNet split, 30 train scenes minus the validation scenes, with time-reversed copies")
+    .text(&data.facts)
     .fact("model selection", format!("epoch {} by validation minFDE ({val}); the test set was never used in training or selection", c.epoch))
     .fact("produced by", format!("`gpecnet export --run {} --name {name}{flags}`", run.display()))
     .section(
-        &format!("SDD test set ({n} windows, pixels), through `gpecnet-core`"),
+        &format!("{}, through `gpecnet-core`", data.test_set),
         &format!(
-            "Latent seed of window `i` = {} + i. Reproduce: `cargo run --release -p gpecnet-trainer -- eval --blob weights/{name}.gpec`.\n\n",
-            c.base_seed
+            "Latent seed of window `i` = {} + i. Reproduce: `cargo run --release -p gpecnet-trainer -- eval --blob weights/{name}.gpec{}`.\n\n",
+            c.base_seed, data.dataset_flag
         ),
     )
     .table(&["metric", "this model", "constant velocity"])
     .row(&[
         &format!("minADE / minFDE, best of K = {k}"),
-        &format!("{:.2} / {:.2}", m.min_ade, m.min_fde),
+        &format!("{} / {}", f(m.min_ade), f(m.min_fde)),
         "–",
     ])
     .row(&[
         "ADE / FDE, K = 1 (first sample)",
-        &format!("{:.2} / {:.2}", m.ade_k1, m.fde_k1),
-        &format!("{:.2} / {:.2}", cv.ade_k1, cv.fde_k1),
+        &format!("{} / {}", f(m.ade_k1), f(m.fde_k1)),
+        &format!("{} / {}", f(cv.ade_k1), f(cv.fde_k1)),
     ])
-    .row(&["mean FDE over the K samples", &format!("{:.2}", m.mean_fde), "–"])
-    .text(&model_card_dist_rows(&c.test_dist, k))
-    .text(&card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref()))
+    .row(&["mean FDE over the K samples", &f(m.mean_fde), "–"])
+    .text(&dist)
+    .text(&card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref(), digits))
     .section("Configuration", &format!("```toml\n{}```\n", c.config_toml))
-    .section(
-        "Data licence",
-        "Trained on the Stanford Drone Dataset (Robicquet et al., ECCV 2016), TrajNet split, which is licensed under \
-**Creative Commons Attribution-NonCommercial-ShareAlike 3.0** (CC BY-NC-SA 3.0). These weights are derived \
-from it: attribution is required, **no commercial use**, and derivatives must be shared under the same licence.\n",
-    )
+    .section("Data licence", &data.licence)
     .finish()
 }
 
@@ -477,6 +711,10 @@ pub fn model_card_dist_rows(d: &DistMetrics, k: usize) -> String {
 pub struct EvalReport {
     /// Model name from the blob.
     pub name: String,
+    /// The data set evaluated (`sdd`, `sdd-m`, `eth_ucy:<scene>`).
+    pub dataset: String,
+    /// The unit of every number (checked against the blob's).
+    pub unit: Unit,
     /// Metrics through gpecnet-core.
     pub metrics: Metrics,
     /// Constant-velocity baseline (last step, `n = 1`) on the same windows.
@@ -495,6 +733,13 @@ pub struct EvalReport {
     pub cv_val: Vec<Metrics>,
     /// Number of validation windows `cv_n` was chosen on.
     pub n_val: usize,
+    /// Fractions of windows with a sample within each radius of the true endpoint (dataset
+    /// units: 20 and 40 px, or 0.5 and 1 m).
+    pub hits: [(f64, f64); 2],
+    /// SDD in metres only: the same results in pixels, scene by scene.
+    pub pixels: Option<PixelEquivalent>,
+    /// The blob's card is about another data set (so it was not compared).
+    pub card_on_other_data: bool,
     /// `Some(true)` when the blob's model card exists and its numbers (ADE/FDE and the
     /// distribution metrics) are reproduced exactly.
     pub matches_card: Option<bool>,
@@ -519,11 +764,46 @@ pub fn sine_of_blob(blob_path: &Path) -> Option<SineKind> {
     }
 }
 
-/// Evaluates a blob through `gpecnet-core` on the SDD test set, compares with
-/// its model card, and draws `n_draw` predictions (every `stride`-th window).
+/// SDD-in-metres results converted back to pixels scene by scene (every error divided by
+/// its scene's metres per pixel), so they compare with the pixel literature.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PixelEquivalent {
+    /// Best-of-K metrics in pixels.
+    pub metrics: Metrics,
+    /// The point forecast's (ADE, FDE) in pixels.
+    pub point: Option<(f64, f64)>,
+    /// Constant velocity with the validation-chosen window, on the pixel test set.
+    pub cv: Metrics,
+}
+
+/// What a blob is evaluated on: a data set, and the unit to assume for a blob that states
+/// none ([`check_unit`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalTarget {
+    /// The data set (its test split is evaluated, its validation split picks the CV window).
+    pub dataset: DatasetSpec,
+    /// Unit of a blob before format version 4.
+    pub assume_unit: Option<Unit>,
+}
+
+impl Default for EvalTarget {
+    fn default() -> Self {
+        Self {
+            dataset: DatasetSpec::Sdd,
+            assume_unit: None,
+        }
+    }
+}
+
+/// Evaluates a blob through `gpecnet-core` on the test split of `target`'s data set (after
+/// [`check_unit`]: a blob in another unit is refused before anything runs), compares with
+/// its model card when the card is about the same data set, and draws `n_draw` predictions
+/// (every `stride`-th window).
+#[allow(clippy::too_many_arguments)]
 pub fn eval_blob(
     blob_path: &Path,
     data_root: &Path,
+    target: &EvalTarget,
     sine: Option<SineKind>,
     k: usize,
     base_seed: u64,
@@ -534,36 +814,31 @@ pub fn eval_blob(
         std::fs::read(blob_path).with_context(|| format!("reading {}", blob_path.display()))?;
     let model = gpecnet_core::Model::from_blob(&blob)
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
-    let test = load_sdd(data_root, SddSplit::Test)?;
-    if test.windows.is_empty() {
-        bail!(
-            "the SDD test set under {} has no window",
-            data_root.display()
-        );
-    }
-    let (_, val) = split_by_scene(
-        load_sdd(data_root, SddSplit::Train)?,
-        &default_sdd_val_scenes(),
-    );
-    let (cv_n, cv_val) = select_cv_n(&val).with_context(|| {
-        format!(
-            "no SDD validation window (scenes {:?}) under {}",
-            default_sdd_val_scenes(),
-            data_root.display()
-        )
-    })?;
+    let spec = &target.dataset;
+    let unit = check_unit(&model, spec, target.assume_unit)
+        .with_context(|| format!("evaluating {}", blob_path.display()))?;
+    let test = test_windows(data_root, spec)?;
+    let val = validation_windows(data_root, spec)?;
+    let (cv_n, cv_val) = select_cv_n(&val)
+        .with_context(|| format!("no {spec} validation window under {}", data_root.display()))?;
     let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json"))
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok());
-    let (metrics, dist, preds, matches_card, point) = if model.numeric()
+    // A card is only compared on its own data set.
+    let card_on_other_data = card
+        .as_ref()
+        .is_some_and(|c| card_dataset(c).ok().as_ref() != Some(spec));
+    let card = card.filter(|_| !card_on_other_data);
+    let (metrics, dist, preds, matches_card, point_preds) = if model.numeric()
         == gpecnet_core::NumericKind::F32
     {
         let sine = sine
             .or_else(|| sine_of_blob(blob_path))
             .unwrap_or(SineKind::Libm);
         let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
-        let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
-        let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?.map(|p| p.0);
+        let dist = dist_metrics(&test, &preds).context("empty test set")?;
+        let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?;
+        let point_m = point.as_ref().map(|p| p.0);
         let matches = card.map(|v| {
             let want_point: Option<Metrics> = card_field(&v, "test_point");
             let want_dist: Option<DistMetrics> = card_field(&v, "test_dist");
@@ -575,7 +850,7 @@ pub fn eval_blob(
                     && c.sine == sine
                     && c.test == metrics
             }) && want_dist == Some(dist)
-                && want_point == point
+                && want_point == point_m
         });
         (metrics, dist, preds, matches, point)
     } else {
@@ -586,9 +861,9 @@ pub fn eval_blob(
             );
         }
         let (metrics, preds) = crate::quantize::evaluate_core_fixed(&blob, &test, k, base_seed)?;
-        let dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
-        let point =
-            crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?.map(|p| p.0);
+        let dist = dist_metrics(&test, &preds).context("empty test set")?;
+        let point = crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?;
+        let point_m = point.as_ref().map(|p| p.0);
         let matches = card.map(|c| {
             let want_point: Option<Metrics> = card_field(&c, "test_fixed_point");
             let want: Option<Metrics> = card_field(&c, "test_fixed");
@@ -597,9 +872,31 @@ pub fn eval_blob(
                 && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
                 && want == Some(metrics)
                 && want_dist == Some(dist)
-                && want_point == point
+                && want_point == point_m
         });
         (metrics, dist, preds, matches, point)
+    };
+    let point = point_preds.as_ref().map(|p| (p.0.ade_k1, p.0.fde_k1));
+    let pixels = if *spec == DatasetSpec::SddMetres {
+        Some(pixel_equivalent(
+            data_root,
+            &test,
+            &preds,
+            point_preds.as_ref().map(|p| p.1.as_slice()),
+        )?)
+    } else {
+        None
+    };
+    let hit_radii: [f64; 2] = match unit {
+        Unit::Pixels => [20.0, 40.0],
+        Unit::Metres => [0.5, 1.0],
+    };
+    let hits = {
+        let mut acc = crate::eval::DistAccumulator::new();
+        for (w, p) in test.windows.iter().zip(&preds) {
+            acc.add(w, p);
+        }
+        hit_radii.map(|r| (r, acc.within(r)))
     };
     let svg = match svg {
         Some(path) => {
@@ -611,15 +908,16 @@ pub fn eval_blob(
                 .step_by(stride)
                 .take(n_draw)
                 .collect();
+            let u = unit.suffix();
             let title = format!(
-                "{} on SDD test (K = {k}, through gpecnet-core): minADE {:.2} px, minFDE {:.2} px",
+                "{} on {spec} test (K = {k}, through gpecnet-core): minADE {:.2} {u}, minFDE {:.2} {u}",
                 model.name(),
                 metrics.min_ade,
                 metrics.min_fde
             );
             write_atomic(
                 path,
-                crate::draw::predictions_svg(&title, "px", &items, 4).as_bytes(),
+                crate::draw::predictions_svg(&title, u, &items, 4).as_bytes(),
             )?;
             Some(path.to_path_buf())
         }
@@ -627,16 +925,56 @@ pub fn eval_blob(
     };
     Ok(EvalReport {
         name: model.name().to_string(),
+        dataset: spec.to_string(),
+        unit,
         metrics,
         constant_velocity: evaluate_baseline(&test, constant_velocity),
         dist,
-        point: point.map(|p| (p.ade_k1, p.fde_k1)),
+        hits,
+        point,
         cv_n,
         cv: evaluate_baseline_with(&test, |w| constant_velocity_n(w, cv_n)),
         cv_val,
         n_val: val.windows.len(),
+        pixels,
         matches_card,
+        card_on_other_data,
         svg,
+    })
+}
+
+/// [`PixelEquivalent`] of SDD-in-metres predictions: each window's errors divided by its
+/// scene's metres per pixel; constant velocity (window chosen on the SDD validation scenes)
+/// on the pixel test set itself.
+pub fn pixel_equivalent(
+    data_root: &Path,
+    test: &Dataset,
+    preds: &[crate::eval::Prediction],
+    point: Option<&[crate::eval::Prediction]>,
+) -> Result<PixelEquivalent> {
+    let scales = data::sdd_metres_per_pixel(data_root)?;
+    let convert = |preds: &[crate::eval::Prediction]| -> Result<Metrics> {
+        let mut acc = crate::eval::MetricsAccumulator::new();
+        for (w, p) in test.windows.iter().zip(preds) {
+            let s = scales
+                .get(&w.scene)
+                .with_context(|| format!("no metres-per-pixel factor for scene {}", w.scene))?;
+            acc.add_scaled(w, p, 1.0 / *s as f32 as f64)?;
+        }
+        Ok(acc.finish())
+    };
+    let px_test = test_windows(data_root, &DatasetSpec::Sdd)?;
+    let cv = cv_baseline(data_root, &DatasetSpec::Sdd, &px_test)?;
+    Ok(PixelEquivalent {
+        metrics: convert(preds)?,
+        point: match point {
+            Some(p) => {
+                let m = convert(p)?;
+                Some((m.ade_k1, m.fde_k1))
+            }
+            None => None,
+        },
+        cv: cv.test,
     })
 }
 
@@ -713,7 +1051,7 @@ pub fn update_card_dist(
             Some("fast-f32") => SineKind::Fast,
             other => bail!("{}: unknown source_sine {other:?}", p_json.display()),
         };
-        let test = load_sdd(data_root, SddSplit::Test)?;
+        let test = data::load_sdd(data_root, data::SddSplit::Test)?;
         let (m, preds) = evaluate_core(&src, sine, &test, k, base_seed)?;
         let want = get("test_f32").context("fixed-point card without test_f32")?;
         if m != want {

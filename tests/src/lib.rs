@@ -225,6 +225,7 @@ pub fn random_siren(
             tts_samples: 0,
             tts_iters: 0,
             tts_init: 0,
+            meta: None,
         },
         nets: Networks {
             encoder_past: net(with(16, enc, fdim)),

@@ -1,6 +1,6 @@
 //! The values before the networks (magic, format version, numeric kind,
-//! name, hyper-parameters, version-2 extensions), the trailing CRC-32 and
-//! the postcard helper every part of the reader uses.
+//! name, hyper-parameters, version-2 extensions, version-4 description), the
+//! trailing CRC-32 and the postcard helper every part of the reader uses.
 
 use serde::{Deserialize, Serialize};
 
@@ -8,15 +8,22 @@ use super::BlobError;
 
 /// The four bytes every blob starts with.
 pub const MAGIC: [u8; 4] = *b"GPEC";
-/// The newest format version this reader understands (it also reads versions 1 and 2).
+/// The newest format version this reader understands (it also reads versions 1 to 3).
 ///
 /// Version 2 adds [`Extensions`] after [`ModelInfo`] and a fifth network, the
 /// point-forecast head, after the predictor. Version 3 keeps version 2's
 /// values and puts a padding byte string before every weight and bias
 /// tensor so that the tensor's first byte lies at a multiple of
 /// [`TENSOR_ALIGN`](super::TENSOR_ALIGN) from the blob's start (the word
-/// loads of the Cortex-M kernels' fast paths); the writer emits version 3.
-pub const FORMAT_VERSION: u16 = 3;
+/// loads of the Cortex-M kernels' fast paths). Version 4 adds [`Meta`] after
+/// the extensions: the unit of positions, the sample period, the training
+/// data and its licence. The writer emits version 4 when it is given a
+/// [`Meta`] and version 3 otherwise.
+pub const FORMAT_VERSION: u16 = 4;
+/// The first format version that describes its unit, clock and data ([`Meta`]).
+pub const META_FORMAT_VERSION: u16 = 4;
+/// Longest [`Meta::data`] or [`Meta::licence`] text (bytes).
+pub const MAX_META_TEXT: usize = 512;
 /// The first format version whose tensors are aligned (padding before each
 /// weight and bias tensor).
 pub const ALIGNED_FORMAT_VERSION: u16 = 3;
@@ -119,6 +126,64 @@ pub struct Extensions {
     pub tts_iters: u8,
     /// Its initialisation: 0 = the first `K` samples, 1 = farthest-point.
     pub tts_init: u8,
+}
+
+/// The unit of the positions a model takes and returns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PositionUnit {
+    /// Not recorded: every blob before format version 4 reads as this. The
+    /// shipped SDD models of those versions are in SDD image pixels.
+    Unknown,
+    /// Metres in a ground-plane world frame.
+    Metre,
+    /// Image pixels ([`Meta::metres_per_pixel`] gives the scale when one
+    /// scale applies to every scene, else it is 0).
+    Pixel,
+}
+
+impl PositionUnit {
+    /// Short suffix for printing: `"m"`, `"px"` or `"?"`.
+    pub fn suffix(self) -> &'static str {
+        match self {
+            PositionUnit::Unknown => "?",
+            PositionUnit::Metre => "m",
+            PositionUnit::Pixel => "px",
+        }
+    }
+}
+
+/// Version-4 description of what a model's numbers mean, between
+/// [`Extensions`] and the networks. Blobs before version 4 read as
+/// [`Meta::UNKNOWN`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Meta<'a> {
+    /// Unit of every position in and out.
+    pub unit: PositionUnit,
+    /// For [`PositionUnit::Pixel`]: metres per pixel when one scale applies
+    /// (finite, > 0), else 0. Always 0 for the other units.
+    pub metres_per_pixel: f32,
+    /// Seconds between consecutive positions of the history and of the
+    /// forecast (0.4 for the benchmarks); finite and > 0 in version 4, 0 when
+    /// unknown (older versions).
+    pub period_s: f32,
+    /// The training data in words (data sets, scenes), UTF-8, at most
+    /// [`MAX_META_TEXT`] bytes.
+    pub data: &'a str,
+    /// The licence(s) of that data (e.g. `CC BY-NC-SA 3.0` for SDD), at most
+    /// [`MAX_META_TEXT`] bytes; empty when none is stated.
+    pub licence: &'a str,
+}
+
+impl Meta<'static> {
+    /// What a blob before format version 4 says: nothing.
+    pub const UNKNOWN: Meta<'static> = Meta {
+        unit: PositionUnit::Unknown,
+        metres_per_pixel: 0.0,
+        period_s: 0.0,
+        data: "",
+        licence: "",
+    };
 }
 
 fn map_postcard(e: postcard::Error) -> BlobError {

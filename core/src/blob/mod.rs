@@ -7,6 +7,7 @@
 //! ```text
 //! Preamble { magic: [u8; 4] = "GPEC", version: u16 }
 //! ModelInfo { numeric: NumericKind, name: &str, config: ModelConfig }
+//! Extensions (version 2 on), Meta { unit, metres_per_pixel, period_s, data, licence } (version 4 on)
 //! Network × 4  (encoder_past, decoder, encoder_dest, predictor), each:
 //!     n_layers: u8, then n_layers × LayerWire { in_dim: u16, out_dim: u16,
 //!         activation: Activation, weights: &[u8], bias: &[u8] }
@@ -41,8 +42,9 @@ mod validate;
 
 pub use error::{BlobError, NetworkId};
 pub use header::{
-    Activation, Extensions, ModelConfig, NumericKind, ALIGNED_FORMAT_VERSION, FORMAT_VERSION,
-    MAGIC, MAX_FUTURE, MAX_LAYERS, MAX_PAST, MAX_TTS_SAMPLES, MIN_FORMAT_VERSION,
+    Activation, Extensions, Meta, ModelConfig, NumericKind, PositionUnit, ALIGNED_FORMAT_VERSION,
+    FORMAT_VERSION, MAGIC, MAX_FUTURE, MAX_LAYERS, MAX_META_TEXT, MAX_PAST, MAX_TTS_SAMPLES,
+    META_FORMAT_VERSION, MIN_FORMAT_VERSION,
 };
 #[doc(hidden)]
 pub use header::{ModelInfo, Preamble, CRC32};

@@ -4,9 +4,9 @@
 use super::header::take;
 use super::validate::validate;
 use super::{
-    Activation, BlobError, Extensions, Layer, ModelConfig, ModelInfo, NumericKind, Preamble,
-    ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS, MIN_FORMAT_VERSION,
-    TENSOR_ALIGN,
+    Activation, BlobError, Extensions, Layer, Meta, ModelConfig, ModelInfo, NumericKind,
+    PositionUnit, Preamble, ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS,
+    META_FORMAT_VERSION, MIN_FORMAT_VERSION, TENSOR_ALIGN,
 };
 
 /// A validated network: up to [`MAX_LAYERS`] layers whose widths chain.
@@ -68,7 +68,8 @@ impl<'a> Network<'a> {
 /// hyper-parameter and every weight (finite); afterwards inference cannot
 /// fail on the model's account. The view holds only slices into the blob
 /// (about 1.5 KiB on a 32-bit target: five networks of up to eight layer
-/// descriptors), so a blob in flash stays in flash.
+/// descriptors, and the version-4 [`Meta`] of 28 bytes), so a blob in flash
+/// stays in flash.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Model<'a> {
     pub(super) name: &'a str,
@@ -80,6 +81,7 @@ pub struct Model<'a> {
     pub(super) predictor: Network<'a>,
     pub(super) point_head: Network<'a>,
     pub(super) ext: Extensions,
+    pub(super) meta: Meta<'a>,
     pub(super) crc: u32,
 }
 
@@ -200,6 +202,25 @@ impl<'a> Model<'a> {
     pub fn extensions(&self) -> &Extensions {
         &self.ext
     }
+    /// The version-4 description ([`Meta::UNKNOWN`] for older blobs).
+    pub fn meta(&self) -> &Meta<'a> {
+        &self.meta
+    }
+    /// The unit of positions in and out ([`PositionUnit::Unknown`] for blobs
+    /// before format version 4).
+    pub fn unit(&self) -> PositionUnit {
+        self.meta.unit
+    }
+    /// Seconds between consecutive history and forecast positions, `None`
+    /// when the blob does not say (before format version 4).
+    pub fn period_s(&self) -> Option<f32> {
+        (self.meta.period_s > 0.0).then_some(self.meta.period_s)
+    }
+    /// Metres per pixel of a pixel model with one scale, else `None`.
+    pub fn metres_per_pixel(&self) -> Option<f32> {
+        (self.meta.unit == PositionUnit::Pixel && self.meta.metres_per_pixel > 0.0)
+            .then_some(self.meta.metres_per_pixel)
+    }
     /// The widest layer of any network: the scratch width a predictor needs.
     pub fn max_width(&self) -> usize {
         self.networks()
@@ -254,6 +275,13 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         Extensions::default()
     };
+    let meta: Meta = if pre.version >= META_FORMAT_VERSION {
+        let meta = take(&mut cur)?;
+        check_meta(&meta)?;
+        meta
+    } else {
+        Meta::UNKNOWN
+    };
     let mut nets = [Network::EMPTY; 5];
     let n_nets = if v2 { 5 } else { 4 };
     for net in nets.iter_mut().take(n_nets) {
@@ -280,10 +308,34 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         predictor,
         point_head,
         ext,
+        meta,
         crc: 0,
     };
     validate(&model)?;
     Ok(model)
+}
+
+/// The rules of a version-4 [`Meta`] (`weights/FORMAT.md`): a stated unit
+/// (metre or pixel), a period in `(0, 60]` seconds, a metres-per-pixel factor
+/// that is 0 or finite and positive (and 0 for a metre model), and texts of
+/// at most [`MAX_META_TEXT`](super::MAX_META_TEXT) bytes; else
+/// [`BlobError::BadConfig`].
+fn check_meta(m: &Meta<'_>) -> Result<(), BlobError> {
+    let mpp = m.metres_per_pixel;
+    let ok = match m.unit {
+        PositionUnit::Unknown => false,
+        PositionUnit::Metre => mpp == 0.0,
+        PositionUnit::Pixel => mpp == 0.0 || (mpp.is_finite() && mpp > 0.0),
+    } && m.period_s.is_finite()
+        && m.period_s > 0.0
+        && m.period_s <= 60.0
+        && m.data.len() <= super::MAX_META_TEXT
+        && m.licence.len() <= super::MAX_META_TEXT;
+    if ok {
+        Ok(())
+    } else {
+        Err(BlobError::BadConfig)
+    }
 }
 
 /// A version-3 tensor: `pad: &[u8]`, then `tensor: &[u8]`. The padding is

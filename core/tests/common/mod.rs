@@ -144,6 +144,7 @@ pub fn write(
         name,
         config,
         extensions,
+        meta: None,
     };
     let [a, b, c, d] = nets;
     blob_bytes(&head, [a, b, c, d, point_head]).map_err(|e| match e {

@@ -17,18 +17,24 @@
 //!
 //! Files: `window.rs` (units, windows, data sets, the validation split, model-space samples),
 //! `error.rs` ([`DataError`]), `rows.rs` (the shared `frame ped_id x y` row reader and file
-//! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark).
+//! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark), `scales.rs` (SDD's
+//! metres-per-pixel table), `spec.rs` (dataset names and their train/val/test splits: the one
+//! entry point the commands use, [`load`]).
 
 mod error;
 mod eth_ucy;
 mod rows;
+mod scales;
 mod sdd;
+mod spec;
 mod window;
 
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit};
 pub use rows::{default_data_root, read_rows, Row};
+pub use scales::sdd_metres_per_pixel;
 pub use sdd::{load_sdd, parse_sdd_file, SddSplit};
+pub use spec::{load, DatasetSpec, LoadError, Split, DATASET_NAMES};
 pub use window::{
     default_sdd_val_scenes, denormalize_point, normalize, split_by_scene, time_reversed, Dataset,
     Sample, Unit, Window,
@@ -40,6 +46,10 @@ pub const PAST: usize = 8;
 pub const FUTURE: usize = 12;
 /// Total window length, [`PAST`] + [`FUTURE`].
 pub const WINDOW: usize = PAST + FUTURE;
+
+/// Seconds between consecutive positions of a window (2.5 Hz): the sample period of every
+/// model trained on these data sets.
+pub const PERIOD_S: f32 = 0.4;
 
 /// Frame-index step between consecutive SDD annotations (12 frames at 30 fps = 0.4 s).
 pub const SDD_FRAME_STEP: i64 = 12;

@@ -60,13 +60,18 @@ pub struct QuantCard {
     /// Constant velocity with its window chosen on validation, on SDD test.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_cv: Option<crate::ship::CvBaseline>,
+    /// The data set of the calibration and the numbers (absent: `sdd`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<String>,
 }
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`).
 pub const GOLDEN_STRIDE: usize = 10;
 
 /// `gpecnet quantize`: quantizes the f32 blob `src` (calibrating on every
-/// `cal_stride`-th SDD training window, `cal_k` latent samples each) and
+/// `cal_stride`-th training window of `dataset` — for the SDD-based sets the whole of
+/// `sdd/train`, validation scenes included, as every shipped fixed-point model was —
+/// `cal_k` latent samples each; `None` takes the source card's data set, else `sdd`) and
 /// writes `<out>.gpec/.golden/.json/.md`, the numbers computed through
 /// `gpecnet-core` and cross-checked bit for bit against the integer reference.
 ///
@@ -85,8 +90,9 @@ pub fn quantize_blob_with(
     cal_stride: usize,
     cal_k: usize,
     endpoint_only: bool,
+    dataset: Option<&crate::data::DatasetSpec>,
 ) -> Result<QuantCard> {
-    use crate::data::{load_sdd, SddSplit};
+    use crate::data::{DatasetSpec, Split};
     let name = out
         .file_stem()
         .and_then(|s| s.to_str())
@@ -105,22 +111,35 @@ pub fn quantize_blob_with(
     if src_model.numeric() != NumericKind::F32 {
         bail!("{} is not an f32 blob", src.display());
     }
+    let spec = match dataset {
+        Some(d) => d.clone(),
+        None => match std::fs::read(src.with_extension("json")) {
+            Ok(b) => {
+                crate::ship::card_dataset(&serde_json::from_slice(&b).with_context(|| {
+                    format!("{}: not a model card", src.with_extension("json").display())
+                })?)?
+            }
+            Err(_) => DatasetSpec::Sdd,
+        },
+    };
+    crate::ship::check_unit(&src_model, &spec, None)
+        .with_context(|| format!("quantizing {}", src.display()))?;
     let mut model = crate::export::read_blob(&src_bytes)?;
     if endpoint_only {
         model.nets.encoder_dest.clear();
         model.nets.predictor.clear();
     }
-    let train = load_sdd(data_root, SddSplit::Train)?;
+    let train = crate::data::load(data_root, &spec, Split::Train, &[])?;
     // Every `cal_stride`-th training window (what `quantize_with_data` calibrates on).
     let cal_windows = train.windows.len().div_ceil(cal_stride.max(1));
-    eprintln!("calibrating on {cal_windows} SDD training windows (K = {cal_k}) ...");
+    eprintln!("calibrating on {cal_windows} {spec} training windows (K = {cal_k}) ...");
     let q = quantize_with_data(&model, &train, cal_stride, cal_k, &name)?;
     let blob = crate::export::blob_bytes(&q)?;
     let core = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow!("{e}"))?;
-    let test = load_sdd(data_root, SddSplit::Test)?;
+    let test = crate::ship::test_windows(data_root, &spec)?;
     let sine = crate::ship::sine_of_blob(src).unwrap_or(crate::reference::SineKind::Libm);
     eprintln!(
-        "evaluating f32 and fixed point on {} SDD test windows (K = {k}) ...",
+        "evaluating f32 and fixed point on {} {spec} test windows (K = {k}) ...",
         test.windows.len()
     );
     let (test_f32, pf) = crate::core_eval::evaluate_core(&src_bytes, sine, &test, k, base_seed)?;
@@ -157,7 +176,7 @@ pub fn quantize_blob_with(
     }
     let inference = crate::ship::Inference::of(&model);
     let test_cv = match inference {
-        Some(_) => Some(crate::ship::cv_baseline(data_root, &test)?),
+        Some(_) => Some(crate::ship::cv_baseline(data_root, &spec, &test)?),
         None => None,
     };
     let c = core.config();
@@ -187,6 +206,7 @@ pub fn quantize_blob_with(
         test_f32_point: test_f32_point.map(|p| p.0),
         test_fixed_point: test_fixed_point.map(|p| p.0),
         test_cv,
+        dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
     };
     let dir = out.parent().unwrap_or(std::path::Path::new("."));
     let path = |ext: &str| dir.join(format!("{name}.{ext}"));
@@ -196,7 +216,8 @@ pub fn quantize_blob_with(
         &path("json"),
         serde_json::to_string_pretty(&card)?.as_bytes(),
     )?;
-    let md = quant_card_md(&card, &exponents(&q), q.nets.predictor.is_empty());
+    let data = crate::ship::CardData::new(q.config.meta.as_ref(), &spec, test.windows.len());
+    let md = quant_card_md(&card, &exponents(&q), q.nets.predictor.is_empty(), &data);
     crate::rundir::write_atomic(&path("md"), md.as_bytes())?;
     Ok(card)
 }
@@ -246,7 +267,7 @@ fn quant_card_v2_rows(c: &QuantCard) -> String {
         );
     }
     if c.inference.is_some() {
-        let rows = crate::ship::card_v2_rows(c.inference.as_ref(), None, None);
+        let rows = crate::ship::card_v2_rows(c.inference.as_ref(), None, None, 2);
         s += &rows.replace(" | – |\n", " | same | – |\n");
     }
     s
@@ -273,7 +294,12 @@ fn exponents(q: &QModel) -> Vec<String> {
 
 /// The human-readable card of a fixed-point blob: `exps` from [`exponents`];
 /// `endpoint_only` when the trajectory predictor was left out.
-fn quant_card_md(c: &QuantCard, exps: &[String], endpoint_only: bool) -> String {
+fn quant_card_md(
+    c: &QuantCard,
+    exps: &[String],
+    endpoint_only: bool,
+    data: &crate::ship::CardData,
+) -> String {
     let (f, x) = (&c.test_f32, &c.test_fixed);
     let (name, src, k) = (&c.name, &c.source, c.k);
     let (nets, flag) = if endpoint_only {
@@ -309,9 +335,14 @@ power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit 
         ),
     )
     .fact("parameters", c.parameters)
+    .text(if data.unit == "px" && c.dataset.is_none() { "" } else { &data.facts })
     .fact(
         "calibration",
-        format!("{} SDD training windows, margin {MARGIN}", c.calibration_windows),
+        format!(
+            "{} {} training windows, margin {MARGIN}",
+            c.calibration_windows,
+            c.dataset.as_deref().map_or("SDD", |d| d)
+        ),
     )
     .fact("exponents (in→out per layer)", exps.join("; "))
     .fact(
@@ -324,10 +355,7 @@ power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit 
         format!("`gpecnet quantize --blob weights/{src} --out weights/{name}.gpec{flag}`"),
     )
     .section(
-        &format!(
-            "SDD test set ({} windows, pixels), both through `gpecnet-core`",
-            x.n
-        ),
+        &format!("{}, both through `gpecnet-core`", data.test_set),
         &format!("Latent seed of window `i` = {} + i.\n\n", c.base_seed),
     )
     .table(&["metric", "f32 source", "fixed point", "difference"])
@@ -335,11 +363,24 @@ power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit 
     .text(&diff_row(&format!("minFDE, best of K = {k}"), f.min_fde, x.min_fde, dec3))
     .text(&diff_row("ADE, K = 1", f.ade_k1, x.ade_k1, dec3))
     .text(&diff_row("FDE, K = 1", f.fde_k1, x.fde_k1, dec3))
-    .text(&quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, k))
+    .text(&if data.unit == "px" {
+        quant_card_dist_rows(&c.test_f32_dist, &c.test_fixed_dist, k)
+    } else {
+        diff_row(
+            &format!("KDE NLL of the true endpoint, K = {k} (nats, m)"),
+            c.test_f32_dist.kde_nll,
+            c.test_fixed_dist.kde_nll,
+            dec3,
+        )
+    })
     .text(&quant_card_v2_rows(c))
     .section(
         "Data licence",
-        "Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n",
+        if c.dataset.as_deref().is_none_or(|d| d.starts_with("sdd")) {
+            "Derived from weights trained on the Stanford Drone Dataset (CC BY-NC-SA 3.0): attribution required, no commercial use, share alike.\n"
+        } else {
+            &data.licence
+        },
     )
     .finish()
 }

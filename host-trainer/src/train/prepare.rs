@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use crate::config::{DatasetSpec, TrainConfig};
+use crate::config::TrainConfig;
 use crate::data::{self, Sample, Unit, Window};
 
 use super::*;
@@ -72,32 +72,27 @@ pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>
         bail!("augment_pct = {} needs synthetic_pool", cfg.augment_pct);
     };
     let pool = crate::synth::sample::read_pool(Path::new(path))?;
-    crate::synth::sample::take_first_pct(&pool, f64::from(cfg.augment_pct), n_real)
-        .with_context(|| format!("augmenting from {path}"))
+    let mut windows =
+        crate::synth::sample::take_first_pct(&pool, f64::from(cfg.augment_pct), n_real)
+            .with_context(|| format!("augmenting from {path}"))?;
+    let s = cfg.synthetic_metres_per_pixel;
+    if s > 0.0 {
+        for p in windows.iter_mut().flat_map(|w| w.pos.iter_mut()) {
+            *p = [p[0] * s, p[1] * s];
+        }
+    }
+    Ok(windows)
 }
 
 /// Load and prepare the data a config asks for. Never touches the test split.
 pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData> {
-    let (train, val) = match cfg.dataset_spec()? {
-        DatasetSpec::Sdd => {
-            let all = data::load_sdd(data_root, data::SddSplit::Train)?;
-            for s in &cfg.val_scenes {
-                if !all.windows.iter().any(|w| &w.scene == s) {
-                    bail!("validation scene {s:?} is not in {}", all.name);
-                }
-            }
-            let (mut train, val) = data::split_by_scene(all, &cfg.val_scenes);
-            if cfg.include_train_extra {
-                let extra = data::load_sdd(data_root, data::SddSplit::TrainExtra)?;
-                train.windows.extend(extra.windows);
-            }
-            (train, val)
-        }
-        DatasetSpec::EthUcy(scene) => (
-            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Train)?,
-            data::load_eth_ucy(data_root, &scene, data::EthUcySplit::Val)?,
-        ),
-    };
+    let spec = cfg.dataset_spec()?;
+    let mut train = data::load(data_root, &spec, data::Split::Train, &cfg.val_scenes)?;
+    let val = data::load(data_root, &spec, data::Split::Val, &cfg.val_scenes)?;
+    if cfg.include_train_extra {
+        let extra = data::load_sdd(data_root, data::SddSplit::TrainExtra)?;
+        train.windows.extend(extra.windows);
+    }
     if train.is_empty() || val.is_empty() {
         bail!(
             "empty split: {} training and {} validation windows",

@@ -79,6 +79,7 @@ fn run() -> Result<(), Box<dyn Error>> {
             hidden_activation: Activation::Sine,
         },
         extensions: None,
+        meta: None,
     };
     let blob = blob_bytes(&head, [&layers[0..3], &layers[3..6], &[], &[], &[]])?;
     let model = Model::from_blob(&blob).map_err(|e| format!("generated blob: {e}"))?;

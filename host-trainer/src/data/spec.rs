@@ -1,0 +1,239 @@
+//! Which data set a command reads ([`DatasetSpec`]) and its three splits ([`Split`],
+//! [`load`]): the one place that maps a dataset name to files, so `train`, `select`, `eval`,
+//! `quantize` and `export` all read the same windows for the same name.
+//!
+//! | name | unit | train | val | test |
+//! |---|---|---|---|---|
+//! | `sdd` | pixels | `sdd/train` minus the validation scenes | the validation scenes of `sdd/train` | `sdd/test` |
+//! | `sdd-m` | metres | the same windows as `sdd`, each scene times its metres per pixel | the same | the same |
+//! | `eth_ucy:<scene>` | metres | `eth_ucy/<scene>/train` | `eth_ucy/<scene>/val` | `eth_ucy/<scene>/test` |
+//!
+//! `sdd-m` multiplies every coordinate of a scene by that scene's factor in
+//! `sdd/scales/sdd_meters_per_pixel.csv` ([`sdd_metres_per_pixel`]), in f32 (`x * s` with `s`
+//! rounded to f32 once); a scene missing from the table is an error naming it, never a silent
+//! pixel window in a metre set. A constant-velocity forecast is linear in the positions, so its
+//! errors on `sdd-m` are the pixel errors times each scene's factor (up to f32 rounding).
+
+use std::fmt;
+use std::path::Path;
+
+use super::*;
+
+/// A data set, by name (see the module table).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DatasetSpec {
+    /// Stanford Drone Dataset, TrajNet split, pixels (`"sdd"`).
+    Sdd,
+    /// The same SDD windows in metres through the per-scene scale table (`"sdd-m"`).
+    SddMetres,
+    /// ETH/UCY leave-one-out (`"eth_ucy:<scene>"`, scene in eth|hotel|univ|zara1|zara2):
+    /// train on `<scene>/train`, validate on `<scene>/val`, test on `<scene>/test`.
+    EthUcy(String),
+}
+
+/// The names [`DatasetSpec::parse`] accepts, for error messages and `--help`.
+pub const DATASET_NAMES: &str = "\"sdd\" (pixels), \"sdd-m\" (SDD in metres) or \
+                                 \"eth_ucy:<eth|hotel|univ|zara1|zara2>\" (metres)";
+
+impl DatasetSpec {
+    /// Parse `"sdd"`, `"sdd-m"` or `"eth_ucy:<scene>"`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "sdd" => return Ok(Self::Sdd),
+            "sdd-m" => return Ok(Self::SddMetres),
+            _ => {}
+        }
+        if let Some(scene) = s.strip_prefix("eth_ucy:") {
+            if ETH_UCY_SCENES.contains(&scene) {
+                return Ok(Self::EthUcy(scene.to_string()));
+            }
+            return Err(format!(
+                "unknown ETH/UCY scene {scene:?} (expected one of {ETH_UCY_SCENES:?})"
+            ));
+        }
+        Err(format!("unknown dataset {s:?}: expected {DATASET_NAMES}"))
+    }
+
+    /// The unit of the data set's coordinates.
+    pub fn unit(&self) -> Unit {
+        match self {
+            Self::Sdd => Unit::Pixels,
+            Self::SddMetres | Self::EthUcy(_) => Unit::Metres,
+        }
+    }
+
+    /// The licence of the data set's files, as a model card and a blob state it.
+    pub fn licence(&self) -> &'static str {
+        match self {
+            Self::Sdd | Self::SddMetres => {
+                "CC BY-NC-SA 3.0 (Stanford Drone Dataset: attribution, non-commercial, share-alike)"
+            }
+            Self::EthUcy(_) => {
+                "no licence stated for the ETH/UCY data (credit the original uploaders: \
+                 Pellegrini et al. 2009, Lerner et al. 2007)"
+            }
+        }
+    }
+
+    /// The training split in words, for a blob's and a card's description.
+    pub fn describe_training(&self, val_scenes: &[String]) -> String {
+        match self {
+            Self::Sdd => format!(
+                "SDD TrajNet split, sdd/train minus the validation scenes {val_scenes:?} (pixels)"
+            ),
+            Self::SddMetres => format!(
+                "SDD TrajNet split, sdd/train minus the validation scenes {val_scenes:?}, \
+                 in metres through the per-scene scales of sdd/scales/sdd_meters_per_pixel.csv"
+            ),
+            Self::EthUcy(scene) => format!(
+                "ETH/UCY leave-one-scene-out split of {scene}: eth_ucy/{scene}/train, \
+                 the other four scenes (metres)"
+            ),
+        }
+    }
+
+    /// `true` for the SDD-based sets, whose validation split is a list of held-out scenes.
+    pub fn is_sdd(&self) -> bool {
+        matches!(self, Self::Sdd | Self::SddMetres)
+    }
+}
+
+impl fmt::Display for DatasetSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Sdd => f.write_str("sdd"),
+            Self::SddMetres => f.write_str("sdd-m"),
+            Self::EthUcy(scene) => write!(f, "eth_ucy:{scene}"),
+        }
+    }
+}
+
+/// One split of a data set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Split {
+    /// Training windows (never the validation scenes).
+    Train,
+    /// Validation windows: model selection only.
+    Val,
+    /// Test windows: touched once per shipped model.
+    Test,
+}
+
+/// The windows of one split of `spec` under `root`. `val_scenes` are the SDD scenes held out of
+/// `sdd/train` for validation (ignored for ETH/UCY, whose validation split is its own folder);
+/// each must exist, so a typo never validates on nothing.
+pub fn load(
+    root: &Path,
+    spec: &DatasetSpec,
+    split: Split,
+    val_scenes: &[String],
+) -> Result<Dataset, LoadError> {
+    match spec {
+        DatasetSpec::Sdd => load_sdd_split(root, split, val_scenes),
+        DatasetSpec::SddMetres => {
+            let px = load_sdd_split(root, split, val_scenes)?;
+            let scales = sdd_metres_per_pixel(root)?;
+            to_metres(px, &scales, root)
+        }
+        DatasetSpec::EthUcy(scene) => {
+            let s = match split {
+                Split::Train => EthUcySplit::Train,
+                Split::Val => EthUcySplit::Val,
+                Split::Test => EthUcySplit::Test,
+            };
+            Ok(load_eth_ucy(root, scene, s)?)
+        }
+    }
+}
+
+fn load_sdd_split(root: &Path, split: Split, val_scenes: &[String]) -> Result<Dataset, LoadError> {
+    if split == Split::Test {
+        return Ok(load_sdd(root, SddSplit::Test)?);
+    }
+    let all = load_sdd(root, SddSplit::Train)?;
+    for s in val_scenes {
+        if !all.windows.iter().any(|w| &w.scene == s) {
+            return Err(LoadError::UnknownValScene {
+                scene: s.clone(),
+                dataset: all.name.clone(),
+            });
+        }
+    }
+    let (train, val) = split_by_scene(all, val_scenes);
+    Ok(if split == Split::Train { train } else { val })
+}
+
+/// Every window of a pixel SDD set times its scene's metres per pixel.
+fn to_metres(
+    px: Dataset,
+    scales: &std::collections::HashMap<String, f64>,
+    root: &Path,
+) -> Result<Dataset, LoadError> {
+    let mut windows = px.windows;
+    for w in &mut windows {
+        let Some(&s) = scales.get(&w.scene) else {
+            return Err(LoadError::NoScale {
+                scene: w.scene.clone(),
+                table: root
+                    .join("sdd")
+                    .join("scales")
+                    .join("sdd_meters_per_pixel.csv"),
+            });
+        };
+        let s = s as f32;
+        for p in w.pos.iter_mut() {
+            *p = [p[0] * s, p[1] * s];
+        }
+    }
+    Ok(Dataset {
+        name: format!("{} (metres)", px.name),
+        unit: Unit::Metres,
+        windows,
+    })
+}
+
+/// Why a split could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// A data file or folder problem (names the file and line).
+    #[error(transparent)]
+    Data(#[from] DataError),
+    /// A validation scene that `sdd/train` does not have.
+    #[error("validation scene {scene:?} is not in {dataset}")]
+    UnknownValScene {
+        /// The scene asked for.
+        scene: String,
+        /// The data set searched.
+        dataset: String,
+    },
+    /// An SDD scene without a metres-per-pixel factor.
+    #[error(
+        "SDD scene {scene:?} has no metres-per-pixel factor in {table}: \
+         it cannot be converted to metres",
+        table = .table.display()
+    )]
+    NoScale {
+        /// The scene.
+        scene: String,
+        /// The table read.
+        table: std::path::PathBuf,
+    },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for s in ["sdd", "sdd-m", "eth_ucy:zara1", "eth_ucy:eth"] {
+            assert_eq!(DatasetSpec::parse(s).unwrap().to_string(), s);
+        }
+        assert!(DatasetSpec::parse("eth_ucy:mydrone")
+            .unwrap_err()
+            .contains("unknown ETH/UCY scene"));
+        assert!(DatasetSpec::parse("sdd_m").is_err());
+        assert_eq!(DatasetSpec::SddMetres.unit(), Unit::Metres);
+        assert_eq!(DatasetSpec::Sdd.unit(), Unit::Pixels);
+    }
+}
