@@ -6,7 +6,9 @@
 #   sdd-m-syn6-s<seed>   the same + 6 % synthetic trajectories (the paper's augmentation), the
 #                        pool converted at 0.0377 m/px
 #   eth-<scene>-s<seed>  ETH/UCY leave-one-scene-out (configs/ethucy-tiny.toml), 150 epochs
-# Usage: scripts/generalisation-runs.sh [GROUP...]   (groups: sdd-m syn eth; default all)
+#   sdd-m-mirror-s<seed> sdd-m + reflection augmentation (--mirror)
+#   sdd-m-speed-s<seed>  sdd-m + speed augmentation (configs/sdd-m-tiny-speed.toml)
+# Usage: scripts/generalisation-runs.sh [GROUP...]   (groups: sdd-m syn eth levers; default all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${RUNS:-runs/gen}
@@ -17,7 +19,7 @@ if [ -z "${BIN:-}" ]; then
   BIN=target/release/gpecnet
 fi
 mkdir -p "$runs"
-groups=${*:-"sdd-m syn eth"}
+groups=${*:-"sdd-m syn eth levers"}
 run_one() { # name, epochs, new-run flags...
   local out=$runs/$1 epochs=$2
   shift 2
@@ -40,6 +42,10 @@ for g in $groups; do
         run_one "sdd-m-syn6-s$s" 600 --config host-trainer/configs/sdd-m-tiny-syn6.toml --pool "$pool" --seed "$s" & done ;;
     eth) for sc in eth hotel univ zara1 zara2; do for s in $seeds; do wait_slot
         run_one "eth-$sc-s$s" 150 --config host-trainer/configs/ethucy-tiny.toml --dataset "eth_ucy:$sc" --seed "$s" & done; done ;;
+    levers) for s in $seeds; do wait_slot
+        run_one "sdd-m-mirror-s$s" 600 --config host-trainer/configs/sdd-m-tiny.toml --mirror --seed "$s" & done
+      for s in $seeds; do wait_slot
+        run_one "sdd-m-speed-s$s" 600 --config host-trainer/configs/sdd-m-tiny-speed.toml --seed "$s" & done ;;
     *) echo "unknown group $g"; exit 2 ;;
   esac
 done

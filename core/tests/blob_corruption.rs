@@ -3,7 +3,9 @@
 mod common;
 
 use common::*;
-use gpecnet_core::blob::{Activation, NetworkId, FORMAT_VERSION, MAX_LAYERS, MIN_FORMAT_VERSION};
+use gpecnet_core::blob::{
+    Activation, NetworkId, NumericKind, FORMAT_VERSION, MAX_LAYERS, MIN_FORMAT_VERSION,
+};
 use gpecnet_core::{BlobError, Model};
 
 #[test]
@@ -304,4 +306,107 @@ fn format2_blob_survives_truncation_and_bit_flips() {
             }
         }
     }
+}
+
+/// Format 4 (the description record): the writer emits it only when given a `Meta`, the
+/// reader returns unit, period, data and licence, older versions read as `Meta::UNKNOWN`,
+/// every rule of the record is a typed `BadConfig`, and damage is refused like any other.
+#[test]
+fn format4_meta_is_read_checked_and_optional() {
+    use gpecnet_core::blob::{Meta, PositionUnit, MAX_META_TEXT};
+    let meta = Meta {
+        unit: PositionUnit::Metre,
+        metres_per_pixel: 0.0,
+        period_s: 0.4,
+        data: "SDD in metres",
+        licence: "CC BY-NC-SA 3.0",
+    };
+    let write_meta = |meta: Meta<'_>| {
+        let head = gpecnet_blob_writer::BlobHead {
+            numeric: NumericKind::F32,
+            name: "v4",
+            config: config(),
+            extensions: None,
+            meta: Some(meta),
+        };
+        let [a, b, c, d] = &small_nets(Activation::Sine);
+        gpecnet_blob_writer::blob_bytes(&head, [a, b, c, d, &[]]).map_err(|e| match e {
+            gpecnet_blob_writer::WriteError::Rejected { reason, .. } => reason,
+            other => panic!("the writer failed before the reader: {other}"),
+        })
+    };
+    let blob = write_meta(meta).unwrap();
+    assert_eq!(version_of(&blob), 4);
+    let m = Model::from_blob(&blob).unwrap();
+    assert_eq!(*m.meta(), meta);
+    assert_eq!(m.unit(), PositionUnit::Metre);
+    assert_eq!(m.period_s(), Some(0.4));
+    assert_eq!(m.metres_per_pixel(), None);
+    // Without a Meta: version 3, and nothing stated.
+    let v3 = small_blob();
+    assert_eq!(version_of(&v3), 3);
+    let old = Model::from_blob(&v3).unwrap();
+    assert_eq!(*old.meta(), Meta::UNKNOWN);
+    assert_eq!((old.unit(), old.period_s()), (PositionUnit::Unknown, None));
+    // A pixel model with one scale says so.
+    let px = Meta {
+        unit: PositionUnit::Pixel,
+        metres_per_pixel: 0.04,
+        ..meta
+    };
+    let m = Model::from_blob(&write_meta(px).unwrap())
+        .unwrap()
+        .metres_per_pixel();
+    assert_eq!(m, Some(0.04));
+    // The record's rules.
+    let long = "x".repeat(MAX_META_TEXT + 1);
+    for bad in [
+        Meta {
+            unit: PositionUnit::Unknown,
+            ..meta
+        },
+        Meta {
+            metres_per_pixel: 0.04,
+            ..meta
+        },
+        Meta {
+            unit: PositionUnit::Pixel,
+            metres_per_pixel: f32::NAN,
+            ..meta
+        },
+        Meta {
+            unit: PositionUnit::Pixel,
+            metres_per_pixel: -1.0,
+            ..meta
+        },
+        Meta {
+            period_s: 0.0,
+            ..meta
+        },
+        Meta {
+            period_s: f32::INFINITY,
+            ..meta
+        },
+        Meta {
+            period_s: 61.0,
+            ..meta
+        },
+        Meta {
+            data: &long,
+            ..meta
+        },
+        Meta {
+            licence: &long,
+            ..meta
+        },
+    ] {
+        assert_eq!(
+            write_meta(bad).unwrap_err(),
+            BlobError::BadConfig.to_string(),
+            "{bad:?}"
+        );
+    }
+    // Damage to a version-4 blob is refused like any other.
+    let [magic, ..] = assert_damage_rejected(&blob);
+    assert!(magic > 0);
 }

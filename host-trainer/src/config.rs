@@ -164,6 +164,13 @@ pub struct TrainConfig {
     /// of every training window. Omitted from the TOML when false.
     #[serde(skip_serializing_if = "is_false")]
     pub mirror: bool,
+    /// Speed augmentation: for each factor `s`, append a copy of every training window with
+    /// every position times `s` (after the heading frame, so about the first observed point):
+    /// the same paths walked `s` times as fast, for walkers faster or slower than the training
+    /// set's. Each factor finite and in `[0.25, 4]`. Empty (the default, omitted from the TOML)
+    /// = none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub speed_scales: Vec<f32>,
     /// Weight of the point head's loss (its parameters are disjoint from the CVAE's, so this
     /// only scales its effective learning rate under Adam's normalisation: keep 1).
     #[serde(skip_serializing_if = "is_one_f32")]
@@ -272,6 +279,7 @@ impl Default for TrainConfig {
             heading_steps: 0,
             point_head_size: Vec::new(),
             mirror: false,
+            speed_scales: Vec::new(),
             lr_schedule: LrSchedule::Constant,
             point_reg: 1.0,
         }
@@ -439,6 +447,16 @@ impl TrainConfig {
                 self.past_length,
                 self.heading_steps
             );
+        }
+        if let Some(s) = self
+            .speed_scales
+            .iter()
+            .find(|s| !(s.is_finite() && (0.25..=4.0).contains(*s)))
+        {
+            bail!("speed_scales: every factor must be a number in [0.25, 4], got {s}");
+        }
+        if !self.speed_scales.is_empty() && self.social_pooling {
+            bail!("speed_scales and social_pooling cannot be combined (scaled copies have no social groups)");
         }
         if self.mirror && self.social_pooling {
             bail!("mirror and social_pooling cannot be combined (mirrored copies have no social groups)");

@@ -185,7 +185,10 @@ fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
         "{}: {} bytes; {ds} test K={}: minADE/minFDE f32 {:.3}/{:.3} {u}, fixed {:.3}/{:.3} {u}",
         c.name, c.blob_bytes, c.k, f.min_ade, f.min_fde, x.min_ade, x.min_fde
     );
-    println!("K=1: FDE f32 {:.3} px, fixed {:.3} px", f.fde_k1, x.fde_k1);
+    println!(
+        "K=1: FDE f32 {:.3} {u}, fixed {:.3} {u}",
+        f.fde_k1, x.fde_k1
+    );
     Ok(())
 }
 
@@ -277,10 +280,12 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
         card.blob_bytes,
         a.out.display()
     );
-    println!("SDD test through gpecnet-core: minADE {:.3} px  minFDE {:.3} px (K={})  ADE/FDE K=1 {:.3}/{:.3} px", m.min_ade, m.min_fde, m.k, m.ade_k1, m.fde_k1);
+    let spec = card.dataset_spec()?;
+    let u = spec.unit().suffix();
+    println!("{spec} test through gpecnet-core: minADE {:.3} {u}  minFDE {:.3} {u} (K={})  ADE/FDE K=1 {:.3}/{:.3} {u}", m.min_ade, m.min_fde, m.k, m.ade_k1, m.fde_k1);
     if let Some(p) = card.test_point {
         println!(
-            "point forecast: ADE {:.3} px  FDE {:.3} px",
+            "point forecast: ADE {:.3} {u}  FDE {:.3} {u}",
             p.ade_k1, p.fde_k1
         );
     }

@@ -94,13 +94,13 @@ pub fn table(k: usize, rows: &[SelectRow], point: Option<&Metrics>) -> String {
     s.push_str("| sigma | N | minADE | minFDE |\n|---|---|---|---|\n");
     for r in rows {
         s.push_str(&format!(
-            "| {} | {} | {:.2} | {:.2} |\n",
+            "| {} | {} | {:.3} | {:.3} |\n",
             r.sigma, r.tts, r.val.min_ade, r.val.min_fde
         ));
     }
     if let Some(p) = point {
         s.push_str(&format!(
-            "point forecast: ADE {:.2} FDE {:.2}\n",
+            "point forecast: ADE {:.3} FDE {:.3}\n",
             p.ade_k1, p.fde_k1
         ));
     }

@@ -39,6 +39,20 @@ pub fn shipped_blobs() -> Vec<PathBuf> {
     v
 }
 
+/// The data set a shipped blob's card is about (`dataset` in `<blob>.json`; `sdd` when the card
+/// does not say).
+pub fn card_dataset(blob: &Path) -> gpecnet_trainer::data::DatasetSpec {
+    let card: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(blob.with_extension("json")).unwrap()).unwrap();
+    gpecnet_trainer::ship::card_dataset(&card).unwrap()
+}
+
+/// The test split of the data set a shipped blob's card is about.
+pub fn card_test_set(blob: &Path) -> Dataset {
+    gpecnet_trainer::ship::test_windows(&data_root(), &card_dataset(blob))
+        .expect("test set (see ../shared/data/README.md)")
+}
+
 /// The shipped blobs of one numeric kind, sorted.
 pub fn shipped_blobs_of(kind: NumericKind) -> Vec<PathBuf> {
     shipped_blobs()

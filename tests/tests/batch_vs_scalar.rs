@@ -10,9 +10,8 @@
 use gpecnet_core::batch::{set_wide_vectors, BatchPredictor};
 use gpecnet_core::blob::MAX_TTS_SAMPLES;
 use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine, Trajectory};
-use gpecnet_tests::{data_root, shipped_blobs};
+use gpecnet_tests::{card_test_set, shipped_blobs};
 use gpecnet_trainer::core_eval::queries;
-use gpecnet_trainer::data::{load_sdd, SddSplit};
 
 type Past = [[f32; 2]; 8];
 
@@ -117,10 +116,10 @@ fn check<S: Sine, const L: usize>(name: &str, model: &Model<'_>, pasts: &[Past])
 
 #[test]
 fn batched_equals_scalar_on_every_shipped_blob() {
-    let test = load_sdd(&data_root(), SddSplit::Test).unwrap();
     let blobs = shipped_blobs();
     assert!(blobs.len() >= 8, "{blobs:?}");
     for path in blobs {
+        let test = card_test_set(&path);
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
         let blob = std::fs::read(&path).unwrap();
         let model = Model::from_blob(&blob).unwrap();

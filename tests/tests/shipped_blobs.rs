@@ -3,9 +3,8 @@
 //! whole SDD test set through `gpecnet-core` reproduces its model card exactly.
 
 use gpecnet_core::NumericKind;
-use gpecnet_tests::{assert_sidecars, data_root, shipped_blobs_of, Shipped};
+use gpecnet_tests::{assert_sidecars, card_dataset, card_test_set, shipped_blobs_of, Shipped};
 use gpecnet_trainer::core_eval::evaluate_core;
-use gpecnet_trainer::data::{load_sdd, SddSplit};
 use gpecnet_trainer::eval::dist_metrics;
 use gpecnet_trainer::export::read_blob;
 use gpecnet_trainer::reference::SineKind;
@@ -26,10 +25,26 @@ fn weights_folder_ships_models() {
         assert_sidecars(b);
         let card = std::fs::read_to_string(b.with_extension("md")).unwrap();
         assert!(
-            card.contains("CC BY-NC-SA 3.0"),
-            "{}: model card must state the SDD licence",
+            card.contains("## Data licence"),
+            "{}: model card must state the data's licence",
             b.display()
         );
+        if card_dataset(b).is_sdd() {
+            assert!(
+                card.contains("CC BY-NC-SA 3.0"),
+                "{}: model card must state the SDD licence",
+                b.display()
+            );
+        }
+        // A blob that states its unit (format 4) agrees with its card's data set, and its
+        // card says the unit and the clock.
+        let blob = std::fs::read(b).unwrap();
+        let m = gpecnet_core::Model::from_blob(&blob).unwrap();
+        if m.unit() != gpecnet_core::blob::PositionUnit::Unknown {
+            assert_eq!(m.unit().suffix(), card_dataset(b).unit().suffix());
+            assert_eq!(m.period_s(), Some(0.4));
+            assert!(card.contains("| unit and clock |"), "{}", b.display());
+        }
     }
 }
 
@@ -66,9 +81,8 @@ fn golden_vectors_replay_bit_exact() {
 
 #[test]
 fn sdd_test_set_reproduces_model_cards() {
-    let test = load_sdd(&data_root(), SddSplit::Test)
-        .expect("SDD test set (see ../shared/data/README.md)");
     for path in f32_blobs() {
+        let test = card_test_set(&path);
         let blob = std::fs::read(&path).unwrap();
         let card: ModelCard =
             serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();

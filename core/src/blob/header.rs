@@ -131,6 +131,7 @@ pub struct Extensions {
 /// The unit of the positions a model takes and returns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum PositionUnit {
     /// Not recorded: every blob before format version 4 reads as this. The
     /// shipped SDD models of those versions are in SDD image pixels.

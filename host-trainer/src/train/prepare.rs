@@ -142,6 +142,18 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
             .collect();
         train_windows.extend(mirrored);
     }
+    if !cfg.speed_scales.is_empty() {
+        let base = train_windows.len();
+        for &f in &cfg.speed_scales {
+            for i in 0..base {
+                let mut m = train_windows[i].clone();
+                for p in m.pos.iter_mut() {
+                    *p = [p[0] * f, p[1] * f];
+                }
+                train_windows.push(m);
+            }
+        }
+    }
     Ok(PreparedData {
         fingerprint,
         groups,
