@@ -537,7 +537,7 @@ impl CardData {
             Unit::Pixels => "pixels",
             Unit::Metres => "metres",
         };
-        let mut licence = if spec.is_sdd() {
+        let mut licence = if spec.uses_sdd() {
             SDD_LICENCE_TEXT.to_string()
         } else {
             format!("Trained on {}. Licence: {}.\n", meta.data, meta.licence)

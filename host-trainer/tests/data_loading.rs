@@ -415,3 +415,159 @@ fn eth_ucy_duplicate_and_bad_rows() {
     );
     assert!(e.path() == Path::new(&f));
 }
+
+/// SDD in metres: the same windows as `sdd`, each scene times its factor, and constant velocity
+/// (linear in the positions) gives the pixel errors times each scene's factor.
+#[test]
+fn sdd_in_metres_is_sdd_times_the_scene_scale() {
+    let r = root();
+    let val = default_sdd_val_scenes();
+    let scales = sdd_metres_per_pixel(&r).unwrap();
+    for split in [Split::Train, Split::Val, Split::Test] {
+        let px = load(&r, &DatasetSpec::Sdd, split, &val).unwrap();
+        let m = load(&r, &DatasetSpec::SddMetres, split, &val).unwrap();
+        assert_eq!((px.unit, m.unit), (Unit::Pixels, Unit::Metres));
+        assert_eq!(px.len(), m.len());
+        for (a, b) in px.windows.iter().zip(&m.windows) {
+            let s = scales[&a.scene] as f32;
+            assert_eq!(a.scene, b.scene);
+            for (p, q) in a.pos.iter().zip(&b.pos) {
+                assert_eq!([p[0] * s, p[1] * s], *q);
+            }
+        }
+    }
+    let test_px = load(&r, &DatasetSpec::Sdd, Split::Test, &[]).unwrap();
+    let test_m = load(&r, &DatasetSpec::SddMetres, Split::Test, &[]).unwrap();
+    let cv = |w: &Window| gpecnet_trainer::eval::constant_velocity_n(w, 2);
+    let mut acc = gpecnet_trainer::eval::MetricsAccumulator::new();
+    for w in &test_px.windows {
+        let p = gpecnet_trainer::eval::Prediction {
+            trajectories: vec![cv(w)],
+        };
+        acc.add_scaled(w, &p, scales[&w.scene] as f32 as f64).unwrap();
+    }
+    let via_px = acc.finish();
+    let direct = gpecnet_trainer::eval::evaluate_baseline_with(&test_m, cv);
+    assert!((via_px.fde_k1 - direct.fde_k1).abs() < 1e-5 * direct.fde_k1);
+    assert!((via_px.ade_k1 - direct.ade_k1).abs() < 1e-5 * direct.ade_k1);
+    // A scene without a factor is an error naming it, never a pixel window in a metre set.
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir_all(dir.path().join("sdd/test")).unwrap();
+    fs::create_dir_all(dir.path().join("sdd/scales")).unwrap();
+    fs::write(dir.path().join("sdd/test/nowhere_0.txt"), good_rows("1", 0).join("\n")).unwrap();
+    fs::write(
+        dir.path().join("sdd/scales/sdd_meters_per_pixel.csv"),
+        "scene,meters_per_pixel\ngates_0,0.04\n",
+    )
+    .unwrap();
+    let e = load(dir.path(), &DatasetSpec::SddMetres, Split::Test, &[]).unwrap_err();
+    assert!(e.to_string().contains("nowhere_0"), "{e}");
+}
+
+/// Writes a data-set folder: `dataset.toml` and one file per split with `tracks` (frame, id,
+/// x, y rows).
+fn folder(toml: &str, rows: &[String]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("dataset.toml"), toml).unwrap();
+    for split in ["train", "val", "test"] {
+        fs::create_dir_all(dir.path().join(split)).unwrap();
+        fs::write(dir.path().join(split).join("flight_01.txt"), rows.join("\n")).unwrap();
+    }
+    dir
+}
+
+/// One pedestrian walking 1.2 m/s along x, sampled at `hz` for `seconds`, starting at frame
+/// `f0`, frames numbered at that rate.
+fn track(id: u32, hz: f64, seconds: f64, f0: i64) -> Vec<String> {
+    let n = (seconds * hz).round() as i64;
+    (0..n)
+        .map(|i| {
+            let t = i as f64 / hz;
+            format!("{} {id} {:.4} {:.4}", f0 + i, 1.2 * t, 0.5 + 0.1 * t)
+        })
+        .collect()
+}
+
+#[test]
+fn own_data_folder_is_windowed_on_the_model_clock() {
+    // 10 Hz, 20 s of one walker: 0.4 s = 4 frames; windows start every 4 frames while 20
+    // steps (76 frames) remain: frames 0, 4, ..., 196 - 76 = 120 -> 31 windows.
+    let rows = track(7, 10.0, 20.0, 0);
+    let dir = folder("unit = \"m\"\nseconds_per_frame = 0.1\nlicence = \"CC0\"\n", &rows);
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    assert_eq!(spec.unit(), Unit::Metres);
+    assert_eq!(spec.licence(), "CC0");
+    let ds = load(&r_none(), &spec, Split::Train, &[]).unwrap();
+    assert_eq!(ds.len(), 31);
+    let w = &ds.windows[1];
+    assert_eq!(w.frames[0], 4);
+    assert_eq!(w.frames[19], 4 + 19 * 4);
+    // Position at frame f is 1.2 * f / 10 m.
+    assert!((w.pos[19][0] - 1.2 * 8.0).abs() < 1e-4, "{:?}", w.pos[19]);
+    // A dropped row breaks the windows that need it, and only those.
+    let mut gappy = rows.clone();
+    gappy.remove(40);
+    let dir = folder("unit = \"m\"\nseconds_per_frame = 0.1\n", &gappy);
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    let ds = load(&r_none(), &spec, Split::Test, &[]).unwrap();
+    assert_eq!(ds.len(), 31 - 11);
+    // A pixel folder with per-file scales is converted to metres.
+    let dir = folder(
+        "unit = \"px\"\nseconds_per_frame = 0.4\n[metres_per_pixel]\nflight_01 = 0.05\n",
+        &track(3, 2.5, 10.0, 100),
+    );
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    assert_eq!(spec.unit(), Unit::Metres);
+    let ds = load(&r_none(), &spec, Split::Val, &[]).unwrap();
+    assert_eq!(ds.len(), 25 - 19);
+    assert!((ds.windows[0].pos[1][0] - 1.2 * 0.4 * 0.05).abs() < 1e-6);
+}
+
+#[test]
+fn own_data_folder_errors_are_clear() {
+    let rows = track(1, 10.0, 10.0, 0);
+    let parse = |toml: &str| {
+        let dir = folder(toml, &rows);
+        DatasetSpec::parse(&format!("{}/", dir.path().display())).map(|_| ())
+    };
+    // 0.3 s per frame does not divide 0.4 s.
+    let e = parse("unit = \"m\"\nseconds_per_frame = 0.3\n").unwrap_err();
+    assert!(e.contains("does not divide") && e.contains("resample"), "{e}");
+    assert!(parse("unit = \"ft\"\nseconds_per_frame = 0.1\n")
+        .unwrap_err()
+        .contains("unit"));
+    assert!(parse("unit = \"m\"\n").unwrap_err().contains("seconds_per_frame"));
+    assert!(parse("unit = \"m\"\nseconds_per_frame = 0.1\ncolour = 1\n").is_err());
+    assert!(parse("unit = \"m\"\nseconds_per_frame = 0.1\n[metres_per_pixel]\na = 1.0\n")
+        .unwrap_err()
+        .contains("pixel"));
+    let none = tempfile::tempdir().unwrap();
+    let e = DatasetSpec::parse(&format!("{}/", none.path().display())).unwrap_err();
+    assert!(e.contains("dataset.toml"), "{e}");
+    // A duplicate frame of one id names the file and line.
+    let mut dup = rows.clone();
+    dup.push(rows[5].clone());
+    let dir = folder("unit = \"m\"\nseconds_per_frame = 0.1\n", &dup);
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    let e = load(&r_none(), &spec, Split::Train, &[]).unwrap_err().to_string();
+    assert!(e.contains("flight_01.txt") && e.contains(&format!("{}", dup.len())), "{e}");
+    // A pixel file of a converted set without its factor.
+    let dir = folder(
+        "unit = \"px\"\nseconds_per_frame = 0.1\n[metres_per_pixel]\nother = 0.05\n",
+        &rows,
+    );
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    let e = load(&r_none(), &spec, Split::Train, &[]).unwrap_err().to_string();
+    assert!(e.contains("flight_01"), "{e}");
+    // Combined sets must share a unit.
+    let dir = folder("unit = \"px\"\nseconds_per_frame = 0.1\n", &rows);
+    let e = DatasetSpec::parse(&format!("sdd-m+{}/", dir.path().display())).unwrap_err();
+    assert!(e.contains("one unit"), "{e}");
+    let both = DatasetSpec::parse(&format!("sdd+{}/", dir.path().display())).unwrap();
+    assert_eq!(both.unit(), Unit::Pixels);
+}
+
+/// A data root that holds nothing (folder data sets do not read it).
+fn r_none() -> PathBuf {
+    PathBuf::from("/nonexistent-data-root")
+}

@@ -18,11 +18,12 @@
 //! Files: `window.rs` (units, windows, data sets, the validation split, model-space samples),
 //! `error.rs` ([`DataError`]), `rows.rs` (the shared `frame ped_id x y` row reader and file
 //! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark), `scales.rs` (SDD's
-//! metres-per-pixel table), `spec.rs` (dataset names and their train/val/test splits: the one
+//! metres-per-pixel table), `folder.rs` (a user's own data-set folder), `spec.rs` (dataset names and their train/val/test splits: the one
 //! entry point the commands use, [`load`]).
 
 mod error;
 mod eth_ucy;
+mod folder;
 mod rows;
 mod scales;
 mod sdd;
@@ -31,6 +32,7 @@ mod window;
 
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit};
+pub use folder::{load_folder, parse_folder_file, FolderError, FolderInfo, DATASET_TOML};
 pub use rows::{default_data_root, read_rows, Row};
 pub use scales::sdd_metres_per_pixel;
 pub use sdd::{load_sdd, parse_sdd_file, SddSplit};

@@ -7,6 +7,12 @@
 //! | `sdd` | pixels | `sdd/train` minus the validation scenes | the validation scenes of `sdd/train` | `sdd/test` |
 //! | `sdd-m` | metres | the same windows as `sdd`, each scene times its metres per pixel | the same | the same |
 //! | `eth_ucy:<scene>` | metres | `eth_ucy/<scene>/train` | `eth_ucy/<scene>/val` | `eth_ucy/<scene>/test` |
+//! | a folder path (`./mydrone`, `/data/x`) | its `dataset.toml`'s | `<dir>/train` | `<dir>/val` | `<dir>/test` |
+//! | `A+B` (e.g. `sdd-m+./mydrone`) | A's, which B must share | both | both | both |
+//!
+//! A folder is a user's own data (`super::folder`, `docs/own-data.md`); a name that is not one
+//! of the built-in ones is taken as a folder when it contains a `/` (write `./mydrone` for a
+//! folder in the working directory).
 //!
 //! `sdd-m` multiplies every coordinate of a scene by that scene's factor in
 //! `sdd/scales/sdd_meters_per_pixel.csv` ([`sdd_metres_per_pixel`]), in f32 (`x * s` with `s`
@@ -29,15 +35,49 @@ pub enum DatasetSpec {
     /// ETH/UCY leave-one-out (`"eth_ucy:<scene>"`, scene in eth|hotel|univ|zara1|zara2):
     /// train on `<scene>/train`, validate on `<scene>/val`, test on `<scene>/test`.
     EthUcy(String),
+    /// A user's data-set folder (`dataset.toml` + `train/ val/ test/`), as given.
+    Folder {
+        /// The folder, as written on the command line or in the config.
+        dir: String,
+        /// Its unit (read from `dataset.toml` when the name was parsed).
+        unit: Unit,
+        /// Its licence (`dataset.toml`), empty when it states none.
+        licence: String,
+    },
+    /// Several data sets of one unit, trained, validated and tested together (`"A+B"`).
+    Combined(Vec<DatasetSpec>),
 }
 
 /// The names [`DatasetSpec::parse`] accepts, for error messages and `--help`.
-pub const DATASET_NAMES: &str = "\"sdd\" (pixels), \"sdd-m\" (SDD in metres) or \
-                                 \"eth_ucy:<eth|hotel|univ|zara1|zara2>\" (metres)";
+pub const DATASET_NAMES: &str = "\"sdd\" (pixels), \"sdd-m\" (SDD in metres), \
+                                 \"eth_ucy:<eth|hotel|univ|zara1|zara2>\" (metres), a data-set \
+                                 folder with a '/' in its path (e.g. ./mydrone, docs/own-data.md), \
+                                 or several of them joined by '+'";
 
 impl DatasetSpec {
-    /// Parse `"sdd"`, `"sdd-m"` or `"eth_ucy:<scene>"`.
+    /// Parse a name of the module table (a folder's `dataset.toml` is read and checked).
     pub fn parse(s: &str) -> Result<Self, String> {
+        if s.contains('+') {
+            let parts = s
+                .split('+')
+                .map(Self::parse_one)
+                .collect::<Result<Vec<_>, _>>()?;
+            let unit = parts[0].unit();
+            if let Some(p) = parts.iter().find(|p| p.unit() != unit) {
+                return Err(format!(
+                    "{s}: {} is in {} but {} is in {}; a combined data set needs one unit",
+                    parts[0],
+                    unit.suffix(),
+                    p,
+                    p.unit().suffix()
+                ));
+            }
+            return Ok(Self::Combined(parts));
+        }
+        Self::parse_one(s)
+    }
+
+    fn parse_one(s: &str) -> Result<Self, String> {
         match s {
             "sdd" => return Ok(Self::Sdd),
             "sdd-m" => return Ok(Self::SddMetres),
@@ -51,6 +91,14 @@ impl DatasetSpec {
                 "unknown ETH/UCY scene {scene:?} (expected one of {ETH_UCY_SCENES:?})"
             ));
         }
+        if s.contains('/') {
+            let info = super::folder::FolderInfo::read(Path::new(s)).map_err(|e| e.to_string())?;
+            return Ok(Self::Folder {
+                dir: s.to_string(),
+                unit: info.unit(),
+                licence: info.licence.unwrap_or_default(),
+            });
+        }
         Err(format!("unknown dataset {s:?}: expected {DATASET_NAMES}"))
     }
 
@@ -59,19 +107,33 @@ impl DatasetSpec {
         match self {
             Self::Sdd => Unit::Pixels,
             Self::SddMetres | Self::EthUcy(_) => Unit::Metres,
+            Self::Folder { unit, .. } => *unit,
+            Self::Combined(parts) => parts.first().map_or(Unit::Metres, Self::unit),
         }
     }
 
     /// The licence of the data set's files, as a model card and a blob state it.
-    pub fn licence(&self) -> &'static str {
+    pub fn licence(&self) -> String {
         match self {
+            Self::Folder { licence, dir, .. } => {
+                if licence.is_empty() {
+                    format!("no licence stated in {dir}/dataset.toml")
+                } else {
+                    licence.clone()
+                }
+            }
+            Self::Combined(parts) => parts
+                .iter()
+                .map(|p| format!("{p}: {}", p.licence()))
+                .collect::<Vec<_>>()
+                .join("; "),
             Self::Sdd | Self::SddMetres => {
                 "CC BY-NC-SA 3.0 (Stanford Drone Dataset: attribution, non-commercial, share-alike)"
+                    .to_string()
             }
-            Self::EthUcy(_) => {
-                "no licence stated for the ETH/UCY data (credit the original uploaders: \
-                 Pellegrini et al. 2009, Lerner et al. 2007)"
-            }
+            Self::EthUcy(_) => "no licence stated for the ETH/UCY data (credit the original \
+                                uploaders: Pellegrini et al. 2009, Lerner et al. 2007)"
+                .to_string(),
         }
     }
 
@@ -89,12 +151,28 @@ impl DatasetSpec {
                 "ETH/UCY leave-one-scene-out split of {scene}: eth_ucy/{scene}/train, \
                  the other four scenes (metres)"
             ),
+            Self::Folder { dir, unit, .. } => {
+                format!("the data-set folder {dir}, train/ ({})", unit.suffix())
+            }
+            Self::Combined(parts) => parts
+                .iter()
+                .map(|p| p.describe_training(val_scenes))
+                .collect::<Vec<_>>()
+                .join(" + "),
         }
     }
 
     /// `true` for the SDD-based sets, whose validation split is a list of held-out scenes.
     pub fn is_sdd(&self) -> bool {
         matches!(self, Self::Sdd | Self::SddMetres)
+    }
+
+    /// Whether any part of the set is SDD (so its cards carry SDD's licence).
+    pub fn uses_sdd(&self) -> bool {
+        match self {
+            Self::Combined(parts) => parts.iter().any(Self::uses_sdd),
+            other => other.is_sdd(),
+        }
     }
 }
 
@@ -104,6 +182,16 @@ impl fmt::Display for DatasetSpec {
             Self::Sdd => f.write_str("sdd"),
             Self::SddMetres => f.write_str("sdd-m"),
             Self::EthUcy(scene) => write!(f, "eth_ucy:{scene}"),
+            Self::Folder { dir, .. } => f.write_str(dir),
+            Self::Combined(parts) => {
+                for (i, p) in parts.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str("+")?;
+                    }
+                    write!(f, "{p}")?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -142,6 +230,28 @@ pub fn load(
                 Split::Test => EthUcySplit::Test,
             };
             Ok(load_eth_ucy(root, scene, s)?)
+        }
+        DatasetSpec::Folder { dir, .. } => Ok(super::folder::load_folder(
+            Path::new(dir),
+            match split {
+                Split::Train => "train",
+                Split::Val => "val",
+                Split::Test => "test",
+            },
+        )?),
+        DatasetSpec::Combined(parts) => {
+            let mut out: Option<Dataset> = None;
+            for p in parts {
+                let d = load(root, p, split, val_scenes)?;
+                match &mut out {
+                    None => out = Some(d),
+                    Some(o) => {
+                        o.name = format!("{}+{}", o.name, d.name);
+                        o.windows.extend(d.windows);
+                    }
+                }
+            }
+            out.ok_or(LoadError::Empty)
         }
     }
 }
@@ -206,6 +316,12 @@ pub enum LoadError {
         /// The data set searched.
         dataset: String,
     },
+    /// A combined data set of no part.
+    #[error("a combined data set needs at least one part")]
+    Empty,
+    /// A data-set folder's description or clock is wrong.
+    #[error(transparent)]
+    Folder(#[from] super::folder::FolderError),
     /// An SDD scene without a metres-per-pixel factor.
     #[error(
         "SDD scene {scene:?} has no metres-per-pixel factor in {table}: \
