@@ -400,7 +400,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         name: model.name(),
         config: *model.config(),
         extensions: Some(*model.extensions()),
-        meta: (model.unit() != PositionUnit::Unknown).then_some(*model.meta()),
+        meta: (model.unit() != PositionUnit::Unknown).then_some(model.meta()),
     };
     let out = blob_bytes(&head, [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]])?;
     // The same model, tensor for tensor (only the framing may differ).

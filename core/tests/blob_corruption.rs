@@ -338,7 +338,7 @@ fn format4_meta_is_read_checked_and_optional() {
     let blob = write_meta(meta).unwrap();
     assert_eq!(version_of(&blob), 4);
     let m = Model::from_blob(&blob).unwrap();
-    assert_eq!(*m.meta(), meta);
+    assert_eq!(m.meta(), meta);
     assert_eq!(m.unit(), PositionUnit::Metre);
     assert_eq!(m.period_s(), Some(0.4));
     assert_eq!(m.metres_per_pixel(), None);
@@ -346,7 +346,7 @@ fn format4_meta_is_read_checked_and_optional() {
     let v3 = small_blob();
     assert_eq!(version_of(&v3), 3);
     let old = Model::from_blob(&v3).unwrap();
-    assert_eq!(*old.meta(), Meta::UNKNOWN);
+    assert_eq!(old.meta(), Meta::UNKNOWN);
     assert_eq!((old.unit(), old.period_s()), (PositionUnit::Unknown, None));
     // A pixel model with one scale says so.
     let px = Meta {

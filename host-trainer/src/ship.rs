@@ -22,8 +22,20 @@ use crate::export::{blob_bytes, golden_bytes, golden_cases};
 use crate::reference::{RefConfig, RefModel, SineKind};
 use crate::rundir::write_atomic;
 
-/// Every `GOLDEN_STRIDE`-th test window becomes a golden case.
+/// Every `GOLDEN_STRIDE`-th test window becomes a golden case (on test sets of up to
+/// `GOLDEN_STRIDE · MAX_GOLDEN_CASES` windows; see [`golden_stride`]).
 pub const GOLDEN_STRIDE: usize = 10;
+
+/// Most golden cases of one model (SDD's 2,829 test windows give 283): larger test sets (UNIV:
+/// 24,334 windows) take a longer stride so a golden file still fits an MCU image beside its
+/// blob and replays in QEMU in seconds.
+pub const MAX_GOLDEN_CASES: usize = 283;
+
+/// The stride between golden cases on a test set of `n` windows: [`GOLDEN_STRIDE`], or the
+/// smallest longer one that keeps at most [`MAX_GOLDEN_CASES`] cases.
+pub fn golden_stride(n: usize) -> usize {
+    GOLDEN_STRIDE.max(n.div_ceil(MAX_GOLDEN_CASES))
+}
 
 /// The machine-readable model card (`weights/<name>.json`); the workspace
 /// tests re-evaluate the blob and require these exact numbers.
@@ -382,7 +394,7 @@ pub fn ship(
         .windows
         .iter()
         .enumerate()
-        .step_by(GOLDEN_STRIDE)
+        .step_by(golden_stride(test.windows.len()))
         .map(|(i, w)| (w.pos[..PAST].to_vec(), base_seed.wrapping_add(i as u64)))
         .collect();
     let cases = golden_cases(&model, &inputs, k, sine)?;

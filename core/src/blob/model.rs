@@ -68,8 +68,8 @@ impl<'a> Network<'a> {
 /// hyper-parameter and every weight (finite); afterwards inference cannot
 /// fail on the model's account. The view holds only slices into the blob
 /// (about 1.5 KiB on a 32-bit target: five networks of up to eight layer
-/// descriptors, and the version-4 [`Meta`] of 28 bytes), so a blob in flash
-/// stays in flash.
+/// descriptors, and a slice of the version-4 [`Meta`] record), so a blob in
+/// flash stays in flash.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Model<'a> {
     pub(super) name: &'a str,
@@ -81,7 +81,9 @@ pub struct Model<'a> {
     pub(super) predictor: Network<'a>,
     pub(super) point_head: Network<'a>,
     pub(super) ext: Extensions,
-    pub(super) meta: Meta<'a>,
+    /// The version-4 [`Meta`] record's bytes (empty before version 4), decoded
+    /// on demand so the view grows by one slice, not by the record.
+    pub(super) meta_bytes: &'a [u8],
     pub(super) crc: u32,
 }
 
@@ -202,24 +204,31 @@ impl<'a> Model<'a> {
     pub fn extensions(&self) -> &Extensions {
         &self.ext
     }
-    /// The version-4 description ([`Meta::UNKNOWN`] for older blobs).
-    pub fn meta(&self) -> &Meta<'a> {
-        &self.meta
+    /// The version-4 description ([`Meta::UNKNOWN`] for older blobs),
+    /// decoded from the blob (a few dozen instructions; it was checked when
+    /// the blob was read).
+    pub fn meta(&self) -> Meta<'a> {
+        let mut cur = self.meta_bytes;
+        if cur.is_empty() {
+            return Meta::UNKNOWN;
+        }
+        take(&mut cur).unwrap_or(Meta::UNKNOWN)
     }
     /// The unit of positions in and out ([`PositionUnit::Unknown`] for blobs
     /// before format version 4).
     pub fn unit(&self) -> PositionUnit {
-        self.meta.unit
+        self.meta().unit
     }
     /// Seconds between consecutive history and forecast positions, `None`
     /// when the blob does not say (before format version 4).
     pub fn period_s(&self) -> Option<f32> {
-        (self.meta.period_s > 0.0).then_some(self.meta.period_s)
+        let p = self.meta().period_s;
+        (p > 0.0).then_some(p)
     }
     /// Metres per pixel of a pixel model with one scale, else `None`.
     pub fn metres_per_pixel(&self) -> Option<f32> {
-        (self.meta.unit == PositionUnit::Pixel && self.meta.metres_per_pixel > 0.0)
-            .then_some(self.meta.metres_per_pixel)
+        let m = self.meta();
+        (m.unit == PositionUnit::Pixel && m.metres_per_pixel > 0.0).then_some(m.metres_per_pixel)
     }
     /// The widest layer of any network: the scratch width a predictor needs.
     pub fn max_width(&self) -> usize {
@@ -275,12 +284,15 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         Extensions::default()
     };
-    let meta: Meta = if pre.version >= META_FORMAT_VERSION {
-        let meta = take(&mut cur)?;
+    let meta_bytes: &[u8] = if pre.version >= META_FORMAT_VERSION {
+        let before = cur;
+        let meta: Meta = take(&mut cur)?;
         check_meta(&meta)?;
-        meta
+        before
+            .get(..before.len().saturating_sub(cur.len()))
+            .unwrap_or(&[])
     } else {
-        Meta::UNKNOWN
+        &[]
     };
     let mut nets = [Network::EMPTY; 5];
     let n_nets = if v2 { 5 } else { 4 };
@@ -308,7 +320,7 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         predictor,
         point_head,
         ext,
-        meta,
+        meta_bytes,
         crc: 0,
     };
     validate(&model)?;

@@ -65,8 +65,9 @@ pub struct QuantCard {
     pub dataset: Option<String>,
 }
 
-/// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`).
-pub const GOLDEN_STRIDE: usize = 10;
+/// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`; longer on large
+/// test sets, [`crate::ship::golden_stride`]).
+pub const GOLDEN_STRIDE: usize = crate::ship::GOLDEN_STRIDE;
 
 /// `gpecnet quantize`: quantizes the f32 blob `src` (calibrating on every
 /// `cal_stride`-th training window of `dataset` — for the SDD-based sets the whole of
@@ -159,7 +160,7 @@ pub fn quantize_blob_with(
         .windows
         .iter()
         .enumerate()
-        .step_by(GOLDEN_STRIDE)
+        .step_by(crate::ship::golden_stride(test.windows.len()))
         .map(|(i, w)| (w.obs().to_vec(), base_seed.wrapping_add(i as u64)))
         .collect();
     let golden = qgolden_bytes(&q, core.crc(), k, &inputs)?;
