@@ -53,7 +53,7 @@ def variant_of(run):
     v, seed = m.group(1), int(m.group(2))
     if v.startswith("sdd-m"):
         return v, seed, ["sdd-m"] + [f"eth_ucy:{s}" for s in ETH]
-    e = re.match(r"eth-(\w+)$", v)
+    e = re.match(r"eth-(?:syn6-)?(\w+)$", v)
     if e and e.group(1) in ETH:
         return v, seed, [f"eth_ucy:{e.group(1)}", "sdd-m"]
     return None
@@ -156,7 +156,91 @@ def summary():
               f"{ms(avg('min_fde'), 3)} | {ms(avg('point_fde'), 3)} | {cv:.3f} |")
 
 
+# Published numbers (minADE / minFDE, K = 20; metres, SDD in pixels): PECNet (Mangalam et al.,
+# ECCV 2020) and LED (Mao et al., CVPR 2023), both trained in domain.
+PUBLISHED = {
+    "sdd-m": ("9.96 / 15.88 px", "8.48 / 11.66 px"),
+    "eth_ucy:eth": ("0.54 / 0.87", "0.39 / 0.58"),
+    "eth_ucy:hotel": ("0.18 / 0.24", "0.11 / 0.17"),
+    "eth_ucy:univ": ("0.35 / 0.60", "0.26 / 0.43"),
+    "eth_ucy:zara1": ("0.22 / 0.39", "0.18 / 0.26"),
+    "eth_ucy:zara2": ("0.17 / 0.30", "0.13 / 0.22"),
+    "avg": ("0.29 / 0.48", "0.21 / 0.33"),
+}
+
+
+def per_seed(rows, key):
+    """{seed: value} of `key` of the evals in rows, averaged over rows of one seed."""
+    by = {}
+    for r in rows:
+        by.setdefault(r["seed"], []).append(r["eval"][key])
+    return {s: statistics.mean(v) for s, v in by.items()}
+
+
+def pair(rows, px=False):
+    if not rows:
+        return "not run"
+    sfx = "_px" if px else ""
+    d = 2 if px else 3
+    ade = list(per_seed(rows, "min_ade" + sfx).values())
+    fde = list(per_seed(rows, "min_fde" + sfx).values())
+    return f"{ms(ade, d)} / {ms(fde, d)} ({len(ade)} seeds)"
+
+
+def table():
+    res = list(load_results().values())
+    sel = lambda pred: [r for r in res if pred(r)]
+    print("| target | in domain | zero-shot (never trained on it) | zero-shot + 6 % synthetic | "
+          "constant velocity FDE | zero-shot point FDE | PECNet (published, in domain) | LED (published, in domain) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for sc in ["sdd-m"] + [f"eth_ucy:{s}" for s in ETH]:
+        if sc == "sdd-m":
+            ind = sel(lambda r: r["variant"] == "sdd-m" and r["target"] == sc)
+            zs = sel(lambda r: r["variant"].startswith("eth-") and r["variant"][4:] in ETH
+                     and r["target"] == sc)
+            syn = sel(lambda r: r["variant"] == "eth-syn6-eth" and r["target"] == sc)
+            base = sel(lambda r: r["variant"] == "eth-eth" and r["target"] == sc)
+            cells = [f"{pair(ind)}; px: {pair(ind, True)}",
+                     f"{pair(zs)} (the 5 ETH/UCY split models); px: {pair(zs, True)}",
+                     f"{pair(syn)} vs {pair(base)} without (ETH split model)"]
+            label = "SDD test (m; px per scene)"
+        else:
+            ind = sel(lambda r: r["variant"] == f"eth-{sc[8:]}" and r["target"] == sc)
+            zs = sel(lambda r: r["variant"] == "sdd-m" and r["target"] == sc)
+            syn = sel(lambda r: r["variant"] == "sdd-m-syn6" and r["target"] == sc)
+            cells = [pair(ind), pair(zs), pair(syn)]
+            label = sc.split(":")[1].upper()
+        cv = (ind or zs)[0]["eval"]["cv_fde"] if (ind or zs) else float("nan")
+        pt = list(per_seed(zs, "point_fde").values()) if zs else []
+        pub = PUBLISHED[sc]
+        print(f"| {label} | " + " | ".join(cells) + f" | {cv:.3f} | {ms(pt, 3) if pt else '–'} | "
+              f"{pub[0]} | {pub[1]} |")
+    # ETH/UCY average over the five targets, per seed.
+    def avg(variant_of_target):
+        seeds = {}
+        for sc in ETH:
+            for r in sel(lambda r: r["variant"] == variant_of_target(sc) and r["target"] == f"eth_ucy:{sc}"):
+                seeds.setdefault(r["seed"], {})[sc] = r["eval"]
+        full = [t for t in seeds.values() if len(t) == 5]
+        if not full:
+            return "not run"
+        a = [statistics.mean(t[x]["min_ade"] for x in t) for t in full]
+        f = [statistics.mean(t[x]["min_fde"] for x in t) for t in full]
+        return f"{ms(a, 3)} / {ms(f, 3)} ({len(full)} seeds)"
+    cvs = [r["eval"]["cv_fde"] for r in sel(lambda r: r["variant"] == "sdd-m" and r["seed"] == 1
+                                            and r["target"].startswith("eth_ucy:"))]
+    pts = {}
+    for r in sel(lambda r: r["variant"] == "sdd-m" and r["target"].startswith("eth_ucy:")):
+        pts.setdefault(r["seed"], []).append(r["eval"]["point_fde"])
+    pt = [statistics.mean(v) for v in pts.values() if len(v) == 5]
+    print(f"| **ETH/UCY average** | {avg(lambda sc: f'eth-{sc}')} | {avg(lambda sc: 'sdd-m')} | "
+          f"{avg(lambda sc: 'sdd-m-syn6')} | {statistics.mean(cvs) if cvs else float('nan'):.3f} | "
+          f"{ms(pt, 3) if pt else '–'} | {PUBLISHED['avg'][0]} | {PUBLISHED['avg'][1]} |")
+
+
 if a.summary:
     summary()
+    print()
+    table()
 else:
     evaluate()
