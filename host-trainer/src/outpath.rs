@@ -228,6 +228,12 @@ impl ArtefactWriter {
         inputs: &[&Path],
         input_dirs: &[&Path],
     ) -> Result<Self, OutputError> {
+        // `--out q.gpec` has the empty folder: the working directory.
+        let dir = if dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            dir
+        };
         let paths = Self::paths_in(dir, name);
         for p in &paths {
             check_output(option, p, inputs, input_dirs)?;
