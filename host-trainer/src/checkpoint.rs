@@ -144,6 +144,9 @@ pub enum CheckpointError {
         /// The error.
         source: postcard::Error,
     },
+    /// The file could not be read (not a regular file, too large, missing, ...).
+    #[error(transparent)]
+    Read(#[from] crate::inpath::ReadError),
     /// The stored config or weights do not fit together.
     #[error("{path}: inconsistent checkpoint: {msg}")]
     Inconsistent {
@@ -302,14 +305,56 @@ pub fn load_for_resume(run_dir: &Path) -> anyhow::Result<Checkpoint> {
 /// Load a checkpoint from a run directory or a checkpoint file.
 pub fn load(run_dir_or_file: &Path) -> Result<Checkpoint, CheckpointError> {
     let path = checkpoint_path(run_dir_or_file);
-    let bytes = fs::read(&path).map_err(|source| CheckpointError::Io {
-        path: path.clone(),
-        source,
-    })?;
-    from_bytes(&bytes, &path)
+    let bytes = crate::inpath::read_limited(&path, crate::inpath::FileKind::Checkpoint)?;
+    let ckpt = from_bytes(&bytes, &path)?;
+    ckpt.check_shapes(&path)?;
+    Ok(ckpt)
 }
 
 impl Checkpoint {
+    /// Checks that the weights, the Adam moments and the best epoch's weights have the
+    /// tensors (count and sizes) of the model the stored config describes: a checkpoint that
+    /// decodes but does not fit its config is [`CheckpointError::Inconsistent`], the same as
+    /// other damage (so [`load_for_resume`] falls back to the previous checkpoint). `path`
+    /// is only used in errors.
+    pub fn check_shapes(&self, path: &Path) -> Result<(), CheckpointError> {
+        let bad = |msg: String| CheckpointError::Inconsistent {
+            path: path.to_path_buf(),
+            msg,
+        };
+        let cfg = self
+            .config()
+            .map_err(|e| bad(format!("its config: {e:#}")))?;
+        let model = Model::new(&cfg, &mut Rng::new(0))
+            .map_err(|e| bad(format!("its config does not build a model: {e}")))?;
+        let sizes: Vec<usize> = model.vars().iter().map(|v| v.elem_count()).collect();
+        let check = |what: &str, w: &[Vec<f32>]| -> Result<(), CheckpointError> {
+            if w.len() != sizes.len() {
+                return Err(bad(format!(
+                    "{what} has {} tensors, the model of its config {}",
+                    w.len(),
+                    sizes.len()
+                )));
+            }
+            for (i, (t, &n)) in w.iter().zip(&sizes).enumerate() {
+                if t.len() != n {
+                    return Err(bad(format!(
+                        "{what}: tensor {i} has {} values, the model of its config {n}",
+                        t.len()
+                    )));
+                }
+            }
+            Ok(())
+        };
+        check("weights", &self.weights)?;
+        check("Adam first moments", &self.adam.m)?;
+        check("Adam second moments", &self.adam.v)?;
+        if let Some(b) = &self.best {
+            check("best-epoch weights", &b.weights)?;
+        }
+        Ok(())
+    }
+
     /// Parse the stored config.
     pub fn config(&self) -> anyhow::Result<TrainConfig> {
         TrainConfig::from_toml_str(&self.config_toml)

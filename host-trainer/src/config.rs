@@ -29,6 +29,16 @@ pub const MAX_BATCH: usize = 1 << 20;
 pub const MAX_THREADS: usize = 1024;
 /// Most bytes of one validation layer's activations (`VAL_CHUNK · k · width · 4`): 4 GiB.
 pub const MAX_VAL_ACTIVATION_BYTES: u64 = 4 << 30;
+/// Most parameters of all networks together ([`TrainConfig::total_param_count`]): 2^23 =
+/// 8,388,608. Training holds each parameter four times (weight, gradient, two Adam moments;
+/// 128 MiB at the limit) and a checkpoint three times; the shipped models have at most
+/// about 1.9 million.
+pub const MAX_PARAMETERS: u64 = 1 << 23;
+/// Most rounds of social pooling (`nonlocal_pools`; PECNet uses 3): each round keeps its
+/// activations for the backward pass.
+pub const MAX_NONLOCAL_POOLS: usize = 16;
+/// Most bytes of one training layer's activations (`batch_size · width · 4`): 4 GiB.
+pub const MAX_TRAIN_ACTIVATION_BYTES: u64 = 4 << 30;
 
 /// All hyper-parameters of one training run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -294,9 +304,10 @@ impl TrainConfig {
         Ok(cfg)
     }
 
-    /// Read, parse and validate a TOML file.
+    /// Read, parse and validate a TOML file (read as a regular file of at most
+    /// [`crate::inpath::MAX_TEXT_BYTES`]).
     pub fn from_file(path: &Path) -> Result<Self> {
-        let s = std::fs::read_to_string(path)
+        let s = crate::inpath::read_text_limited(path, crate::inpath::FileKind::Text)
             .with_context(|| format!("cannot read config {}", path.display()))?;
         Self::from_toml_str(&s).with_context(|| format!("in config {}", path.display()))
     }
@@ -332,6 +343,12 @@ impl TrainConfig {
     /// per network); `num_epochs`, `batch_size`, `eval_every` at least 1; `learning_rate`
     /// finite in `(0, 1]`; `data_scale`, `coord_scale`, `w0`, `point_reg` finite and `> 0`;
     /// `sigma`, `kld_reg`, `adl_reg` finite and `>= 0`; `threads` in `0..=`[`MAX_THREADS`].
+    ///
+    /// Every floating-point value must be finite (NaN and infinities are refused, naming the
+    /// key); `nonlocal_pools` is at most [`MAX_NONLOCAL_POOLS`], `non_local_dim` at most
+    /// [`MAX_WIDTH`]; all networks together have at most [`MAX_PARAMETERS`] parameters
+    /// ([`TrainConfig::total_param_count`]), and `batch_size · widest layer` f32 training
+    /// activations stay within [`MAX_TRAIN_ACTIVATION_BYTES`].
     pub fn validate(&self) -> Result<()> {
         if self.past_length != crate::data::PAST || self.future_length != crate::data::FUTURE {
             bail!(
@@ -359,6 +376,14 @@ impl TrainConfig {
         in_range("batch_size", self.batch_size, 1, MAX_BATCH, "")?;
         in_range("eval_every", self.eval_every, 1, usize::MAX, "")?;
         in_range("threads", self.threads, 0, MAX_THREADS, " (0 = all cores)")?;
+        in_range(
+            "nonlocal_pools",
+            self.nonlocal_pools,
+            0,
+            MAX_NONLOCAL_POOLS,
+            " (each round keeps its activations for the backward pass)",
+        )?;
+        in_range("non_local_dim", self.non_local_dim, 0, MAX_WIDTH, "")?;
         let positive = |key: &str, v: f64| -> Result<()> {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{key} = {v} is out of range: allowed a finite number > 0");
@@ -420,6 +445,25 @@ impl TrainConfig {
                 bail!("{name} has a layer of width {w}: allowed widths 1..={MAX_WIDTH}");
             }
             widest = widest.max(v.iter().copied().max().unwrap_or(0));
+        }
+        let params = self.total_param_count();
+        if params > u128::from(MAX_PARAMETERS) {
+            let (key, n) = self.largest_network();
+            bail!(
+                "the networks have {params} parameters, over the limit of {MAX_PARAMETERS} \
+                 (training holds weights, gradients and two Adam moments of each); the largest \
+                 network is {key} with {n} parameters: make its layers smaller"
+            );
+        }
+        let train_bytes = (self.batch_size as u128) * (widest as u128) * 4;
+        if train_bytes > u128::from(MAX_TRAIN_ACTIVATION_BYTES) {
+            bail!(
+                "batch_size = {} is out of range for layers {widest} wide: allowed 1..={} \
+                 (a batch holds batch_size x {widest} f32 activations per layer, at most {} GiB)",
+                self.batch_size,
+                (MAX_TRAIN_ACTIVATION_BYTES as usize / (widest * 4)).max(1),
+                MAX_TRAIN_ACTIVATION_BYTES >> 30
+            );
         }
         let val_bytes = (crate::train::VAL_CHUNK as u128) * (self.k as u128) * (widest as u128) * 4;
         if val_bytes > u128::from(MAX_VAL_ACTIVATION_BYTES) {
@@ -496,7 +540,76 @@ impl TrainConfig {
                 bail!("augment_pct = {} needs synthetic_pool = \"<pool.csv>\" (written by `gpecnet synth`)", self.augment_pct);
             }
         }
+        // Every other float key (those with a range of their own were checked above).
+        if let Some(key) = non_finite_key(&toml::Value::try_from(self)?, "") {
+            bail!("{key} is not a finite number: NaN and infinities are refused");
+        }
         Ok(())
+    }
+
+    /// The networks this config trains (key of their sizes, parameters), in u128 so that no
+    /// config overflows: the encoders, decoder, predictor, the point head when present and
+    /// the social networks when `social_pooling` is on.
+    fn networks(&self) -> Vec<(&'static str, u128)> {
+        let p = |input: usize, hidden: &[usize], output: usize| -> u128 {
+            let mut n: u128 = 0;
+            let mut prev = input as u128;
+            for &h in hidden.iter().chain(std::iter::once(&output)) {
+                n += prev * h as u128 + h as u128;
+                prev = h as u128;
+            }
+            n
+        };
+        let p2 = 2 * self.past_length;
+        let d = 2 * self.fdim + 2;
+        let mut v = vec![
+            ("enc_past_size", p(p2, &self.enc_past_size, self.fdim)),
+            ("enc_dest_size", p(2, &self.enc_dest_size, self.fdim)),
+            (
+                "enc_latent_size",
+                p(2 * self.fdim, &self.enc_latent_size, 2 * self.zdim),
+            ),
+            ("dec_size", p(self.fdim + self.zdim, &self.dec_size, 2)),
+            (
+                "predictor_hidden_size",
+                p(
+                    d,
+                    &self.predictor_hidden_size,
+                    2 * self.future_length.saturating_sub(1),
+                ),
+            ),
+        ];
+        if !self.point_head_size.is_empty() {
+            v.push((
+                "point_head_size",
+                p(p2, &self.point_head_size, 2 * self.future_length),
+            ));
+        }
+        if self.social_pooling {
+            v.push((
+                "non_local_theta_size",
+                p(d, &self.non_local_theta_size, self.non_local_dim),
+            ));
+            v.push((
+                "non_local_phi_size",
+                p(d, &self.non_local_phi_size, self.non_local_dim),
+            ));
+            v.push(("non_local_g_size", p(d, &self.non_local_g_size, d)));
+        }
+        v
+    }
+
+    /// Parameters of every network this config trains (what [`MAX_PARAMETERS`] bounds).
+    pub fn total_param_count(&self) -> u128 {
+        self.networks().iter().map(|(_, n)| n).sum()
+    }
+
+    /// The key of the network with the most parameters, and that number.
+    fn largest_network(&self) -> (&'static str, u128) {
+        self.networks()
+            .into_iter()
+            .max_by_key(|(_, n)| *n)
+            .unwrap_or(("enc_past_size", 0))
     }
 
     /// Number of f32 parameters of the four networks that ship to the embedded target
@@ -514,6 +627,27 @@ impl TrainConfig {
             } else {
                 mlp_params(p2, &self.point_head_size, 2 * self.future_length)
             }
+    }
+}
+
+/// `key = value` of the first float in `v` (recursively: tables by dotted key, arrays by
+/// index) that is NaN or infinite; `key` is `v`'s own key ("" at the top).
+fn non_finite_key(v: &toml::Value, key: &str) -> Option<String> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some(format!("{key} = {f}")),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, x)| non_finite_key(x, &format!("{key}[{i}]"))),
+        toml::Value::Table(t) => t.iter().find_map(|(k, x)| {
+            let sub = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            non_finite_key(x, &sub)
+        }),
+        _ => None,
     }
 }
 

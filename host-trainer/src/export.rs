@@ -10,13 +10,19 @@ use gpecnet_core::blob::{Extensions, ModelConfig};
 use crate::network::{InferenceModel, Layer, Networks, Numeric};
 use crate::reference::{ModelMeta, RefConfig, RefModel, SineKind};
 
+/// `v` narrowed to the wire type `T` whose largest value is `max`; an error naming `what`
+/// (the setting or option) and the limit otherwise.
+fn fit<T: TryFrom<usize>>(what: &str, v: usize, max: u64) -> Result<T> {
+    T::try_from(v).map_err(|_| anyhow::anyhow!("{what} = {v} is out of range: at most {max}"))
+}
+
 /// The blob's `ModelConfig` for a model's hyper-parameters.
 pub(crate) fn wire_config(c: &RefConfig) -> Result<ModelConfig> {
     Ok(ModelConfig {
-        past_len: u8::try_from(c.past_len)?,
-        future_len: u8::try_from(c.future_len)?,
-        fdim: u16::try_from(c.fdim)?,
-        zdim: u16::try_from(c.zdim)?,
+        past_len: fit::<u8>("past_length", c.past_len, u8::MAX.into())?,
+        future_len: fit::<u8>("future_length", c.future_len, u8::MAX.into())?,
+        fdim: fit::<u16>("fdim", c.fdim, u16::MAX.into())?,
+        zdim: fit::<u16>("zdim", c.zdim, u16::MAX.into())?,
         data_scale: c.data_scale,
         sigma: c.sigma,
         initial_pos_divisor: c.initial_pos_divisor,
@@ -28,8 +34,8 @@ pub(crate) fn wire_config(c: &RefConfig) -> Result<ModelConfig> {
 /// The version-2 settings of a model's config.
 pub(crate) fn wire_extensions(c: &RefConfig) -> Result<Extensions> {
     Ok(Extensions {
-        heading_steps: u8::try_from(c.heading_steps)?,
-        tts_samples: u16::try_from(c.tts_samples)?,
+        heading_steps: fit::<u8>("heading_steps", c.heading_steps, u8::MAX.into())?,
+        tts_samples: fit::<u16>("test-time samples (--tts)", c.tts_samples, u16::MAX.into())?,
         tts_iters: c.tts_iters,
         tts_init: c.tts_init,
     })
@@ -158,10 +164,10 @@ pub fn golden_bytes<K: Numeric>(
         model_name: &model.name,
         model_crc,
         sine,
-        past_len: u8::try_from(c.past_len)?,
-        future_len: u8::try_from(c.future_len)?,
-        k: u8::try_from(k)?,
-        n_cases: u32::try_from(cases.len())?,
+        past_len: fit::<u8>("past_length", c.past_len, u8::MAX.into())?,
+        future_len: fit::<u8>("future_length", c.future_len, u8::MAX.into())?,
+        k: fit::<u8>("K (--k)", k, u8::MAX.into())?,
+        n_cases: fit::<u32>("golden cases", cases.len(), u32::MAX.into())?,
     };
     Ok(gpecnet_blob_writer::golden_bytes(&info, cases)?)
 }

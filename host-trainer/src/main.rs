@@ -164,6 +164,10 @@ struct QuantizeArgs {
     /// Leave encoder_dest and predictor out (endpoint prediction only, about half the size).
     #[arg(long)]
     endpoint_only: bool,
+    /// Replace existing artefacts of the same name, and write a fixed-point model whose test
+    /// minFDE is further from its f32 source's than the tolerance (0.5 px / 0.02 m).
+    #[arg(long)]
+    force: bool,
 }
 
 fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
@@ -177,6 +181,7 @@ fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
         8,
         a.endpoint_only,
         a.dataset.as_ref(),
+        a.force,
     )?;
     let (f, x) = (&c.test_f32, &c.test_fixed);
     let ds = c.dataset.as_deref().unwrap_or("sdd");
@@ -219,6 +224,9 @@ struct ExportArgs {
     /// (3 Lloyd iterations, first-K init); 0 = plain sampling. Choose it with `gpecnet select`.
     #[arg(long, value_name = "N")]
     tts: Option<usize>,
+    /// Replace existing artefacts of the same name in --out (never done without it).
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -270,7 +278,8 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
         sigma: a.sigma,
         tts: a.tts,
     };
-    let card = gpecnet_trainer::ship::ship(&a.run, &a.name, &a.out, &a.data, settings)?;
+    let card =
+        gpecnet_trainer::ship::ship_with(&a.run, &a.name, &a.out, &a.data, settings, a.force)?;
     let m = card.test;
     println!(
         "exported {} (epoch {}, {} parameters, {} bytes) to {}",

@@ -644,7 +644,11 @@ pub fn blob_to_onnx(blob: &[u8], endpoint_only: bool) -> Result<(Vec<u8>, OnnxSu
 /// `gpecnet onnx`: reads the blob at `blob`, writes the ONNX model to `out` (atomically);
 /// `endpoint_only` as in [`model_proto`].
 pub fn export_onnx(blob: &Path, out: &Path, endpoint_only: bool) -> Result<OnnxSummary> {
-    let bytes = std::fs::read(blob).with_context(|| format!("reading {}", blob.display()))?;
+    let inputs = crate::outpath::blob_and_sidecars(blob);
+    let mut refs: Vec<&Path> = inputs.iter().map(std::path::PathBuf::as_path).collect();
+    refs.push(blob);
+    crate::outpath::check_output("--out", out, &refs, &[])?;
+    let bytes = crate::inpath::read_limited(blob, crate::inpath::FileKind::Blob)?;
     let (onnx, summary) = blob_to_onnx(&bytes, endpoint_only)
         .with_context(|| format!("exporting {}", blob.display()))?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -120,30 +120,50 @@ impl RunLock {
     /// Lock `run_dir` (which must exist). Takes over a stale lock of a provably dead process
     /// on this host (with a warning on stderr); refuses every other existing lock.
     pub fn acquire(run_dir: &Path) -> Result<Self> {
-        let path = run_dir.join(LOCK_FILE);
+        Self::acquire_file(&run_dir.join(LOCK_FILE), |other, path| {
+            format!(
+                "{} is in use by another gpecnet run ({other}; lock file {}). \
+                 Wait for it to finish or pick another --out; if no run is using the folder \
+                 (the process is gone, or its pid was reused), delete the lock file",
+                run_dir.display(),
+                path.display()
+            )
+        })
+    }
+
+    /// Take the lock file `path` (its folder must exist), with the same rules as
+    /// [`RunLock::acquire`]; `busy(owner, path)` is the error text when another live process
+    /// holds it.
+    ///
+    /// The lock's text is written to a temp file first and then hard-linked to `path`, which
+    /// fails when `path` exists: the lock appears complete or not at all (a full disk cannot
+    /// leave an empty lock that blocks every later run). Where hard links are not supported
+    /// the lock is created with `create_new` and removed again if writing it fails.
+    pub fn acquire_file(path: &Path, busy: impl Fn(&LockOwner, &Path) -> String) -> Result<Self> {
+        let path = path.to_path_buf();
         let owner = LockOwner::me();
         for _ in 0..3 {
-            match OpenOptions::new().write(true).create_new(true).open(&path) {
-                Ok(mut f) => {
-                    f.write_all(owner.to_text().as_bytes())
-                        .and_then(|()| f.sync_all())
-                        .with_context(|| format!("cannot write the run lock {}", path.display()))?;
-                    return Ok(Self { path, owner });
-                }
+            match create_lock(&path, &owner) {
+                Ok(()) => return Ok(Self { path, owner }),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let text = fs::read_to_string(&path).unwrap_or_default();
+                    let text =
+                        crate::inpath::read_text_limited(&path, crate::inpath::FileKind::Text)
+                            .unwrap_or_default();
                     let Some(other) = LockOwner::parse(&text) else {
                         bail!(
-                            "{} exists but is not a gpecnet lock ({text:?}); another run may be using {}: \
-                             if none is, delete the lock file",
+                            "{} exists but is not a gpecnet lock ({text:?}); another process may be \
+                             writing there: if none is, delete the lock file",
                             path.display(),
-                            run_dir.display()
                         );
                     };
                     if other.host == owner.host && other.pid != owner.pid && pid_is_dead(other.pid)
                     {
                         // Take over: only remove the lock if it is still the stale one.
-                        if fs::read_to_string(&path).ok().as_deref() == Some(text.as_str()) {
+                        if crate::inpath::read_text_limited(&path, crate::inpath::FileKind::Text)
+                            .ok()
+                            .as_deref()
+                            == Some(text.as_str())
+                        {
                             eprintln!(
                                 "warning: taking over the stale run lock {} of a dead process ({other})",
                                 path.display()
@@ -152,22 +172,16 @@ impl RunLock {
                         }
                         continue;
                     }
-                    bail!(
-                        "{} is in use by another gpecnet run ({other}; lock file {}). \
-                         Wait for it to finish or pick another --out; if no run is using the folder \
-                         (the process is gone, or its pid was reused), delete the lock file",
-                        run_dir.display(),
-                        path.display()
-                    );
+                    bail!("{}", busy(&other, path.as_path()));
                 }
                 Err(e) => {
                     return Err(e)
-                        .with_context(|| format!("cannot create the run lock {}", path.display()))
+                        .with_context(|| format!("cannot create the lock {}", path.display()))
                 }
             }
         }
         bail!(
-            "could not take the run lock {} (other runs keep racing for it)",
+            "could not take the lock {} (other processes keep racing for it)",
             path.display()
         )
     }
@@ -178,10 +192,51 @@ impl RunLock {
     }
 }
 
+/// Creates the lock file `path` holding `owner`, complete or not at all; `AlreadyExists`
+/// when it exists.
+fn create_lock(path: &Path, owner: &LockOwner) -> std::io::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
+    let _ = fs::remove_file(&tmp);
+    let written = (|| -> std::io::Result<()> {
+        let mut f = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        f.write_all(owner.to_text().as_bytes())?;
+        f.sync_all()
+    })();
+    let linked = written.and_then(|()| fs::hard_link(&tmp, path));
+    let _ = fs::remove_file(&tmp);
+    match linked {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Err(e),
+        Err(e) if e.kind() == std::io::ErrorKind::StorageFull => Err(e),
+        Err(_) => {
+            // No hard links here (or the temp file could not be made): create the lock
+            // directly and remove it again if it cannot be written completely.
+            let mut f = OpenOptions::new().write(true).create_new(true).open(path)?;
+            let r = f
+                .write_all(owner.to_text().as_bytes())
+                .and_then(|()| f.sync_all());
+            if let Err(e) = r {
+                drop(f);
+                let _ = fs::remove_file(path);
+                return Err(e);
+            }
+            Ok(())
+        }
+    }
+}
+
 impl Drop for RunLock {
     fn drop(&mut self) {
         // Remove only our own lock (never one a later run took over).
-        let ours = fs::read_to_string(&self.path)
+        let ours = crate::inpath::read_text_limited(&self.path, crate::inpath::FileKind::Text)
             .ok()
             .and_then(|t| LockOwner::parse(&t))
             .is_some_and(|o| o == self.owner);

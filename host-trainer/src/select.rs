@@ -50,6 +50,14 @@ pub fn select(
     k: usize,
     sine: SineKind,
 ) -> Result<(Vec<SelectRow>, Option<Metrics>)> {
+    for &n in tts {
+        if n != 0 && (n < k || n > gpecnet_core::blob::MAX_TTS_SAMPLES) {
+            bail!(
+                "--tts {n}: test-time samples N must be 0 or between K = {k} and {}",
+                gpecnet_core::blob::MAX_TTS_SAMPLES
+            );
+        }
+    }
     let (cfg, model, _) = model_from_run(run, "select")?;
     let val = validation_set(&cfg, data_root)?;
     if val.is_empty() {

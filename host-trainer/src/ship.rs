@@ -356,13 +356,28 @@ pub fn artefact_paths(out_dir: &Path, name: &str) -> [PathBuf; 4] {
     ["gpec", "golden", "json", "md"].map(|e| out_dir.join(format!("{name}.{e}")))
 }
 
-/// Exports run `run` as model `name` into `out_dir`.
+/// Exports run `run` as model `name` into `out_dir`; refuses to replace existing artefacts
+/// of that name ([`ship_with`] with `force = false`).
 pub fn ship(
     run: &Path,
     name: &str,
     out_dir: &Path,
     data_root: &Path,
     settings: ExportSettings,
+) -> Result<ModelCard> {
+    ship_with(run, name, out_dir, data_root, settings, false)
+}
+
+/// Exports run `run` as model `name` into `out_dir` as one verified set
+/// ([`crate::outpath::ArtefactWriter`]); existing artefacts of that name are replaced only
+/// with `force`.
+pub fn ship_with(
+    run: &Path,
+    name: &str,
+    out_dir: &Path,
+    data_root: &Path,
+    settings: ExportSettings,
+    force: bool,
 ) -> Result<ModelCard> {
     let ExportSettings {
         sine, k, base_seed, ..
@@ -374,6 +389,20 @@ pub fn ship(
     {
         bail!("model name {name:?}: use letters, digits, '-' and '_'");
     }
+    let writer = crate::outpath::ArtefactWriter::begin(
+        "--out",
+        out_dir,
+        name,
+        force,
+        &run_inputs(run)
+            .iter()
+            .map(PathBuf::as_path)
+            .collect::<Vec<_>>(),
+        &crate::outpath::data_input_dirs(data_root)
+            .iter()
+            .map(PathBuf::as_path)
+            .collect::<Vec<_>>(),
+    )?;
     let (cfg, mut model, epoch) = model_from_run(run, name)?;
     settings.apply(&mut model, k)?;
     let blob = blob_bytes(&model)?;
@@ -445,15 +474,25 @@ pub fn ship(
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
     };
-    let [p_blob, p_golden, p_json, p_md] = artefact_paths(out_dir, name);
-    write_atomic(&p_blob, &blob)?;
-    write_atomic(&p_golden, &golden)?;
-    write_atomic(&p_json, serde_json::to_string_pretty(&card)?.as_bytes())?;
-    write_atomic(
-        &p_md,
+    writer.commit(
+        &blob,
+        &golden,
+        serde_json::to_string_pretty(&card)?.as_bytes(),
         model_card_md(&card, test.windows.len(), run, model.config.meta.as_ref()).as_bytes(),
     )?;
     Ok(card)
+}
+
+/// The files `gpecnet export --run RUN` reads (the run folder's checkpoints and config, or
+/// the checkpoint file itself): no output may be one of them.
+fn run_inputs(run: &Path) -> Vec<PathBuf> {
+    let mut v = vec![run.to_path_buf()];
+    if run.is_dir() {
+        for f in ["checkpoint.bin", "checkpoint.prev.bin", "config.toml"] {
+            v.push(run.join(f));
+        }
+    }
+    v
 }
 
 /// A model card in markdown, as both card writers (`gpecnet export`, `gpecnet quantize`)
@@ -767,7 +806,11 @@ fn card_field<T: serde::de::DeserializeOwned>(card: &serde_json::Value, key: &st
 
 /// The sine a blob's golden sidecar names (the one its numbers were made with), if any.
 pub fn sine_of_blob(blob_path: &Path) -> Option<SineKind> {
-    let bytes = std::fs::read(blob_path.with_extension("golden")).ok()?;
+    let bytes = crate::inpath::read_limited(
+        &blob_path.with_extension("golden"),
+        crate::inpath::FileKind::Golden,
+    )
+    .ok()?;
     let set = gpecnet_core::golden::GoldenSet::parse(&bytes).ok()?;
     match set.info().sine {
         "libm" => Some(SineKind::Libm),
@@ -822,8 +865,15 @@ pub fn eval_blob(
     svg: Option<&Path>,
     n_draw: usize,
 ) -> Result<EvalReport> {
-    let blob =
-        std::fs::read(blob_path).with_context(|| format!("reading {}", blob_path.display()))?;
+    if let Some(svg) = svg {
+        let inputs = crate::outpath::blob_and_sidecars(blob_path);
+        let mut refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        refs.push(blob_path);
+        let data_dirs = crate::outpath::data_input_dirs(data_root);
+        let dirs: Vec<&Path> = data_dirs.iter().map(PathBuf::as_path).collect();
+        crate::outpath::check_output("--draw", svg, &refs, &dirs)?;
+    }
+    let blob = crate::inpath::read_limited(blob_path, crate::inpath::FileKind::Blob)?;
     let model = gpecnet_core::Model::from_blob(&blob)
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
     let spec = &target.dataset;
@@ -833,9 +883,12 @@ pub fn eval_blob(
     let val = validation_windows(data_root, spec)?;
     let (cv_n, cv_val) = select_cv_n(&val)
         .with_context(|| format!("no {spec} validation window under {}", data_root.display()))?;
-    let card: Option<serde_json::Value> = std::fs::read(blob_path.with_extension("json"))
-        .ok()
-        .and_then(|b| serde_json::from_slice(&b).ok());
+    let card: Option<serde_json::Value> = crate::inpath::read_limited(
+        &blob_path.with_extension("json"),
+        crate::inpath::FileKind::Text,
+    )
+    .ok()
+    .and_then(|b| serde_json::from_slice(&b).ok());
     // A card is only compared on its own data set.
     let card_on_other_data = card
         .as_ref()
@@ -1033,8 +1086,7 @@ pub fn update_card_dist(
 ) -> Result<String> {
     let p_json = blob_path.with_extension("json");
     let p_md = blob_path.with_extension("md");
-    let text = std::fs::read_to_string(&p_json)
-        .with_context(|| format!("reading {}", p_json.display()))?;
+    let text = crate::inpath::read_text_limited(&p_json, crate::inpath::FileKind::Text)?;
     let v: serde_json::Value = serde_json::from_str(&text)?;
     let card_k = v.get("k").and_then(|x| x.as_u64());
     let card_seed = v.get("base_seed").and_then(|x| x.as_u64());
@@ -1056,8 +1108,7 @@ pub fn update_card_dist(
             .and_then(|x| x.as_str())
             .context("fixed-point card without source")?;
         let src_path = blob_path.with_file_name(source);
-        let src =
-            std::fs::read(&src_path).with_context(|| format!("reading {}", src_path.display()))?;
+        let src = crate::inpath::read_limited(&src_path, crate::inpath::FileKind::Blob)?;
         let sine = match v.get("source_sine").and_then(|x| x.as_str()) {
             Some("libm") => SineKind::Libm,
             Some("fast-f32") => SineKind::Fast,
@@ -1119,8 +1170,7 @@ pub fn update_card_dist(
             p_json.display()
         );
     }
-    let md =
-        std::fs::read_to_string(&p_md).with_context(|| format!("reading {}", p_md.display()))?;
+    let md = crate::inpath::read_text_limited(&p_md, crate::inpath::FileKind::Text)?;
     let new_md = if fixed {
         insert_md_rows(
             &md,

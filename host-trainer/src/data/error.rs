@@ -170,6 +170,11 @@ pub enum DataError {
         /// The frame.
         frame: i64,
     },
+    /// A data file that cannot be read as one: not a regular file (a FIFO, device,
+    /// directory), larger than [`crate::inpath::MAX_DATA_BYTES`], or a symbolic link that
+    /// leads nowhere (dangling or looping).
+    #[error(transparent)]
+    Read(#[from] crate::inpath::ReadError),
     /// A malformed row of the SDD metres-per-pixel CSV.
     #[error("{path}:{line}: {msg}", path = .path.display())]
     BadScale {
@@ -199,6 +204,7 @@ impl DataError {
             DataError::Missing { path, .. }
             | DataError::NoFiles { path }
             | DataError::Io { path, .. } => (path, None),
+            DataError::Read(e) => (e.path(), None),
             DataError::Encoding { path, line }
             | DataError::ColumnCount { path, line, .. }
             | DataError::BadNumber { path, line, .. }

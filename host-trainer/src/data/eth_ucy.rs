@@ -1,6 +1,6 @@
 //! ETH/UCY (Social-GAN leave-one-scene-out split, metres).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use super::rows::{id_key, load_split, scene_name};
@@ -32,11 +32,13 @@ impl EthUcySplit {
 pub fn parse_eth_ucy_file(path: &Path) -> Result<Vec<Window>, DataError> {
     let rows = read_rows(path)?;
     let scene = scene_name(path);
-    // Unique sorted frames; per frame, the rows in file order.
-    let mut by_frame: BTreeMap<i64, Vec<Row>> = BTreeMap::new();
+    // Unique sorted frames; per frame, the rows in file order and an index by ped id (a
+    // hash look-up per row, so a frame with very many rows costs linear time, not quadratic).
+    type FrameRows = (Vec<Row>, HashMap<u64, usize>);
+    let mut by_frame: BTreeMap<i64, FrameRows> = BTreeMap::new();
     for r in rows {
-        let v = by_frame.entry(r.frame).or_default();
-        if v.iter().any(|o| id_key(o.ped_id) == id_key(r.ped_id)) {
+        let (v, index) = by_frame.entry(r.frame).or_default();
+        if index.contains_key(&id_key(r.ped_id)) {
             return Err(DataError::DuplicateRow {
                 path: path.to_path_buf(),
                 line: r.line,
@@ -44,9 +46,10 @@ pub fn parse_eth_ucy_file(path: &Path) -> Result<Vec<Window>, DataError> {
                 frame: r.frame,
             });
         }
+        index.insert(id_key(r.ped_id), v.len());
         v.push(r);
     }
-    let frames: Vec<(i64, Vec<Row>)> = by_frame.into_iter().collect();
+    let frames: Vec<(i64, FrameRows)> = by_frame.into_iter().collect();
     let mut out = Vec::new();
     if frames.len() < WINDOW {
         return Ok(out);
@@ -55,7 +58,7 @@ pub fn parse_eth_ucy_file(path: &Path) -> Result<Vec<Window>, DataError> {
         let win = &frames[start..start + WINDOW];
         // Peds of the first frame are the only candidates for being present in all 20; sort
         // them by id like numpy's `np.unique`.
-        let mut ids: Vec<f64> = win[0].1.iter().map(|r| r.ped_id).collect();
+        let mut ids: Vec<f64> = win[0].1 .0.iter().map(|r| r.ped_id).collect();
         ids.sort_by(f64::total_cmp);
         let mut kept = Vec::new();
         'ped: for id in ids {
@@ -65,8 +68,8 @@ pub fn parse_eth_ucy_file(path: &Path) -> Result<Vec<Window>, DataError> {
                 frames: [0; WINDOW],
                 pos: [[0.0; 2]; WINDOW],
             };
-            for (t, (frame, rows)) in win.iter().enumerate() {
-                match rows.iter().find(|r| id_key(r.ped_id) == id_key(id)) {
+            for (t, (frame, (rows, index))) in win.iter().enumerate() {
+                match index.get(&id_key(id)).map(|&i| &rows[i]) {
                     Some(r) => {
                         w.frames[t] = *frame;
                         w.pos[t] = r.pos;

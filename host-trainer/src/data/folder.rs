@@ -122,7 +122,8 @@ impl FolderInfo {
                 "not a regular file of at most {MAX_TOML_BYTES} bytes"
             )));
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| bad(e.to_string()))?;
+        let text = crate::inpath::read_text_limited(&path, crate::inpath::FileKind::Text)
+            .map_err(|e| bad(e.to_string()))?;
         let info: FolderInfo = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
         if info.unit != "m" && info.unit != "px" {
             return Err(bad(format!(
@@ -137,7 +138,9 @@ impl FolderInfo {
             )));
         }
         if !info.metres_per_pixel.is_empty() && info.unit != "px" {
-            return Err(bad("metres_per_pixel converts pixel data: set unit = \"px\"".into()));
+            return Err(bad(
+                "metres_per_pixel converts pixel data: set unit = \"px\"".into(),
+            ));
         }
         if let Some((k, v)) = info
             .metres_per_pixel

@@ -60,7 +60,7 @@ pub(super) const MAX_FRAME: f64 = 1.0e15;
 /// Blank lines are skipped (they still count for line numbers); a trailing `\r` is ignored.
 /// The frame must be a whole number (`780` and `780.0` are both accepted).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>, DataError> {
-    let bytes = std::fs::read(path).map_err(|source| io_or_missing(path, source, "data file"))?;
+    let bytes = read_data_file(path, "data file")?;
     let mut rows = Vec::new();
     for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
         let line = i + 1;
@@ -137,7 +137,25 @@ fn io_or_missing(path: &Path, source: std::io::Error, what: &str) -> DataError {
     }
 }
 
-/// All `*.txt` files of a directory, sorted by file name.
+/// The bytes of the data file `path` ([`crate::inpath::read_limited`], at most
+/// [`crate::inpath::MAX_DATA_BYTES`]); a file that does not exist is [`DataError::Missing`]
+/// (`what` names it), every other problem [`DataError::Read`].
+pub(super) fn read_data_file(path: &Path, what: &str) -> Result<Vec<u8>, DataError> {
+    crate::inpath::read_limited(path, crate::inpath::FileKind::Data).map_err(|e| {
+        if e.is_not_found() {
+            DataError::Missing {
+                path: path.to_path_buf(),
+                what: what.to_string(),
+            }
+        } else {
+            DataError::Read(e)
+        }
+    })
+}
+
+/// All `*.txt` files of a directory, sorted by file name. An entry named `*.txt` that is
+/// not a regular file once links are followed (a dangling or looping link, a directory, a
+/// FIFO, ...) is an error naming it, never skipped.
 pub(super) fn sorted_txt_files(dir: &Path, what: &str) -> Result<Vec<PathBuf>, DataError> {
     if !dir.is_dir() {
         return Err(DataError::Missing {
@@ -153,8 +171,25 @@ pub(super) fn sorted_txt_files(dir: &Path, what: &str) -> Result<Vec<PathBuf>, D
             source,
         })?;
         let p = e.path();
-        if p.extension().is_some_and(|x| x == "txt") && p.is_file() {
-            files.push(p);
+        if p.extension().is_some_and(|x| x == "txt") {
+            match std::fs::metadata(&p) {
+                Ok(md) if md.is_file() => files.push(p),
+                Ok(md) => {
+                    return Err(DataError::Read(crate::inpath::ReadError::NotRegular {
+                        path: p,
+                        kind: crate::inpath::FileKind::Data,
+                        found: crate::inpath::describe_file_type(md.file_type()),
+                    }))
+                }
+                // A link that leads nowhere (dangling, or a loop).
+                Err(source) => {
+                    return Err(DataError::Read(crate::inpath::ReadError::Open {
+                        path: p,
+                        kind: crate::inpath::FileKind::Data,
+                        source,
+                    }))
+                }
+            }
         }
     }
     if files.is_empty() {

@@ -12,19 +12,7 @@ pub fn sdd_metres_per_pixel(root: &Path) -> Result<HashMap<String, f64>, DataErr
         .join("sdd")
         .join("scales")
         .join("sdd_meters_per_pixel.csv");
-    let text = std::fs::read(&path).map_err(|source| {
-        if source.kind() == std::io::ErrorKind::NotFound {
-            DataError::Missing {
-                path: path.clone(),
-                what: "SDD metres-per-pixel table".to_string(),
-            }
-        } else {
-            DataError::Io {
-                path: path.clone(),
-                source,
-            }
-        }
-    })?;
+    let text = rows::read_data_file(&path, "SDD metres-per-pixel table")?;
     let mut out = HashMap::new();
     for rec in crate::csvfile::records(&text) {
         let (line, rec) = rec.map_err(|e| DataError::BadScale {

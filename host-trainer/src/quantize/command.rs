@@ -92,6 +92,7 @@ pub fn quantize_blob_with(
     cal_k: usize,
     endpoint_only: bool,
     dataset: Option<&crate::data::DatasetSpec>,
+    force: bool,
 ) -> Result<QuantCard> {
     use crate::data::{DatasetSpec, Split};
     let name = out
@@ -106,7 +107,14 @@ pub fn quantize_blob_with(
     {
         bail!("model name {name:?}: use letters, digits, '-' and '_'");
     }
-    let src_bytes = std::fs::read(src).with_context(|| format!("reading {}", src.display()))?;
+    let dir = out.parent().unwrap_or(std::path::Path::new("."));
+    let src_files = crate::outpath::blob_and_sidecars(src);
+    let mut inputs: Vec<&std::path::Path> = src_files.iter().map(|p| p.as_path()).collect();
+    inputs.push(src);
+    let data_dirs = crate::outpath::data_input_dirs(data_root);
+    let dirs: Vec<&std::path::Path> = data_dirs.iter().map(|p| p.as_path()).collect();
+    let writer = crate::outpath::ArtefactWriter::begin("--out", dir, &name, force, &inputs, &dirs)?;
+    let src_bytes = crate::inpath::read_limited(src, crate::inpath::FileKind::Blob)?;
     let src_model = gpecnet_core::Model::from_blob(&src_bytes)
         .map_err(|e| anyhow!("{}: {e}", src.display()))?;
     if src_model.numeric() != NumericKind::F32 {
@@ -114,7 +122,10 @@ pub fn quantize_blob_with(
     }
     let spec = match dataset {
         Some(d) => d.clone(),
-        None => match std::fs::read(src.with_extension("json")) {
+        None => match crate::inpath::read_limited(
+            &src.with_extension("json"),
+            crate::inpath::FileKind::Text,
+        ) {
             Ok(b) => {
                 crate::ship::card_dataset(&serde_json::from_slice(&b).with_context(|| {
                     format!("{}: not a model card", src.with_extension("json").display())
@@ -209,18 +220,48 @@ pub fn quantize_blob_with(
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
     };
-    let dir = out.parent().unwrap_or(std::path::Path::new("."));
-    let path = |ext: &str| dir.join(format!("{name}.{ext}"));
-    crate::rundir::write_atomic(&path("gpec"), &blob)?;
-    crate::rundir::write_atomic(&path("golden"), &golden)?;
-    crate::rundir::write_atomic(
-        &path("json"),
-        serde_json::to_string_pretty(&card)?.as_bytes(),
-    )?;
+    check_fixed_tolerance(test_f32.min_fde, test_fixed.min_fde, spec.unit(), force)
+        .with_context(|| format!("quantizing {} to {name}", src.display()))?;
     let data = crate::ship::CardData::new(q.config.meta.as_ref(), &spec, test.windows.len());
     let md = quant_card_md(&card, &exponents(&q), q.nets.predictor.is_empty(), &data);
-    crate::rundir::write_atomic(&path("md"), md.as_bytes())?;
+    writer.commit(
+        &blob,
+        &golden,
+        serde_json::to_string_pretty(&card)?.as_bytes(),
+        md.as_bytes(),
+    )?;
     Ok(card)
+}
+
+/// Largest accepted difference between the fixed-point and the f32 test minFDE of a
+/// pixel model (0.5 px; the shipped fixed-point models differ by at most 0.006 px).
+pub const MAX_FIXED_FDE_DIFF_PX: f64 = 0.5;
+/// The same for a metre model (0.02 m, about 0.5 px at SDD's typical 0.04 m per pixel).
+pub const MAX_FIXED_FDE_DIFF_M: f64 = 0.02;
+
+/// Refuses (unless `force`) a fixed-point model whose test minFDE (`fixed_fde`) differs
+/// from its f32 source's (`f32_fde`) by more than [`MAX_FIXED_FDE_DIFF_PX`] /
+/// [`MAX_FIXED_FDE_DIFF_M`] (by `unit`): such a quantization lost accuracy that the card
+/// would only report, not prevent. A NaN difference is refused too.
+pub fn check_fixed_tolerance(
+    f32_fde: f64,
+    fixed_fde: f64,
+    unit: crate::data::Unit,
+    force: bool,
+) -> Result<()> {
+    let (tol, u) = match unit {
+        crate::data::Unit::Pixels => (MAX_FIXED_FDE_DIFF_PX, "px"),
+        crate::data::Unit::Metres => (MAX_FIXED_FDE_DIFF_M, "m"),
+    };
+    let diff = fixed_fde - f32_fde;
+    if force || diff.abs() <= tol {
+        return Ok(());
+    }
+    bail!(
+        "the fixed-point model has test minFDE {fixed_fde:.3} {u}, its f32 source {f32_fde:.3} {u}: \
+         a difference of {diff:+.3} {u}, over the tolerance of {tol} {u}; nothing was written \
+         (use --force to write it anyway)"
+    )
 }
 
 /// One row of the fixed-point card's comparison table: `label`, the f32 source's value, the

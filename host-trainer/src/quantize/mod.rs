@@ -29,7 +29,10 @@ mod integer;
 mod weights;
 
 pub use calibrate::{calibrate, Calibration};
-pub use command::{quant_card_dist_rows, quantize_blob_with, QuantCard, GOLDEN_STRIDE};
+pub use command::{
+    check_fixed_tolerance, quant_card_dist_rows, quantize_blob_with, QuantCard, GOLDEN_STRIDE,
+    MAX_FIXED_FDE_DIFF_M, MAX_FIXED_FDE_DIFF_PX,
+};
 pub use evaluate::{
     evaluate_core_fixed, evaluate_reference_fixed, predict_core_fixed, predict_reference_fixed,
     quantize_with_data,

@@ -251,8 +251,8 @@ pub fn pool_csv(pool: &[PoolItem]) -> Result<String> {
 
 /// Read a pool written by [`pool_csv`].
 pub fn read_pool(path: &Path) -> Result<Vec<PoolItem>> {
-    let bytes =
-        std::fs::read(path).with_context(|| format!("{}: cannot read pool", path.display()))?;
+    let bytes = crate::inpath::read_limited(path, crate::inpath::FileKind::Data)
+        .with_context(|| format!("{}: cannot read pool", path.display()))?;
     let mut out = Vec::new();
     for rec in crate::csvfile::records(&bytes).skip(1) {
         let (line, rec) = rec.with_context(|| format!("{}: bad CSV", path.display()))?;

@@ -72,14 +72,14 @@ impl DataFingerprint {
     /// Read `run_dir/data-fingerprint.json`; `None` when absent.
     pub fn load(run_dir: &Path) -> Result<Option<Self>> {
         let p = run_dir.join(Self::FILE);
-        match std::fs::read(&p) {
+        match crate::inpath::read_limited(&p, crate::inpath::FileKind::Text) {
             Ok(b) => {
                 Ok(Some(serde_json::from_slice(&b).with_context(|| {
                     format!("cannot parse {}", p.display())
                 })?))
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(e).with_context(|| format!("cannot read {}", p.display())),
+            Err(e) if e.is_not_found() => Ok(None),
+            Err(e) => Err(e.into()),
         }
     }
 

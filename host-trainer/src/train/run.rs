@@ -127,7 +127,7 @@ pub fn train_resume_checked(
         }
     }
     let toml_path = opts.run_dir.join("config.toml");
-    if let Ok(text) = std::fs::read_to_string(&toml_path) {
+    if let Ok(text) = crate::inpath::read_text_limited(&toml_path, crate::inpath::FileKind::Text) {
         let folder = TrainConfig::from_toml_str(&text)
             .with_context(|| format!("in {}", toml_path.display()))?;
         let d = config_diff(&cfg, &folder)?;
@@ -181,7 +181,8 @@ pub fn config_diff(a: &TrainConfig, b: &TrainConfig) -> Result<Vec<String>> {
     let show = |v: Option<&toml::Value>| v.map_or("(default)".to_string(), |v| v.to_string());
     Ok(keys
         .into_iter()
-        .filter(|k| k.as_str() != "num_epochs" && ta.get(*k) != tb.get(*k))
+        // Compared as written: a float that is not a number equals itself here.
+        .filter(|k| k.as_str() != "num_epochs" && show(ta.get(*k)) != show(tb.get(*k)))
         .map(|k| format!("{k}: {} -> {}", show(ta.get(k)), show(tb.get(k))))
         .collect())
 }
