@@ -444,7 +444,8 @@ fn sdd_in_metres_is_sdd_times_the_scene_scale() {
         let p = gpecnet_trainer::eval::Prediction {
             trajectories: vec![cv(w)],
         };
-        acc.add_scaled(w, &p, scales[&w.scene] as f32 as f64).unwrap();
+        acc.add_scaled(w, &p, scales[&w.scene] as f32 as f64)
+            .unwrap();
     }
     let via_px = acc.finish();
     let direct = gpecnet_trainer::eval::evaluate_baseline_with(&test_m, cv);
@@ -454,7 +455,11 @@ fn sdd_in_metres_is_sdd_times_the_scene_scale() {
     let dir = tempfile::tempdir().unwrap();
     fs::create_dir_all(dir.path().join("sdd/test")).unwrap();
     fs::create_dir_all(dir.path().join("sdd/scales")).unwrap();
-    fs::write(dir.path().join("sdd/test/nowhere_0.txt"), good_rows("1", 0).join("\n")).unwrap();
+    fs::write(
+        dir.path().join("sdd/test/nowhere_0.txt"),
+        good_rows("1", 0).join("\n"),
+    )
+    .unwrap();
     fs::write(
         dir.path().join("sdd/scales/sdd_meters_per_pixel.csv"),
         "scene,meters_per_pixel\ngates_0,0.04\n",
@@ -471,7 +476,11 @@ fn folder(toml: &str, rows: &[String]) -> tempfile::TempDir {
     fs::write(dir.path().join("dataset.toml"), toml).unwrap();
     for split in ["train", "val", "test"] {
         fs::create_dir_all(dir.path().join(split)).unwrap();
-        fs::write(dir.path().join(split).join("flight_01.txt"), rows.join("\n")).unwrap();
+        fs::write(
+            dir.path().join(split).join("flight_01.txt"),
+            rows.join("\n"),
+        )
+        .unwrap();
     }
     dir
 }
@@ -493,7 +502,10 @@ fn own_data_folder_is_windowed_on_the_model_clock() {
     // 10 Hz, 20 s of one walker: 0.4 s = 4 frames; windows start every 4 frames while 20
     // steps (76 frames) remain: frames 0, 4, ..., 196 - 76 = 120 -> 31 windows.
     let rows = track(7, 10.0, 20.0, 0);
-    let dir = folder("unit = \"m\"\nseconds_per_frame = 0.1\nlicence = \"CC0\"\n", &rows);
+    let dir = folder(
+        "unit = \"m\"\nseconds_per_frame = 0.1\nlicence = \"CC0\"\n",
+        &rows,
+    );
     let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
     assert_eq!(spec.unit(), Unit::Metres);
     assert_eq!(spec.licence(), "CC0");
@@ -532,15 +544,22 @@ fn own_data_folder_errors_are_clear() {
     };
     // 0.3 s per frame does not divide 0.4 s.
     let e = parse("unit = \"m\"\nseconds_per_frame = 0.3\n").unwrap_err();
-    assert!(e.contains("does not divide") && e.contains("resample"), "{e}");
+    assert!(
+        e.contains("does not divide") && e.contains("resample"),
+        "{e}"
+    );
     assert!(parse("unit = \"ft\"\nseconds_per_frame = 0.1\n")
         .unwrap_err()
         .contains("unit"));
-    assert!(parse("unit = \"m\"\n").unwrap_err().contains("seconds_per_frame"));
-    assert!(parse("unit = \"m\"\nseconds_per_frame = 0.1\ncolour = 1\n").is_err());
-    assert!(parse("unit = \"m\"\nseconds_per_frame = 0.1\n[metres_per_pixel]\na = 1.0\n")
+    assert!(parse("unit = \"m\"\n")
         .unwrap_err()
-        .contains("pixel"));
+        .contains("seconds_per_frame"));
+    assert!(parse("unit = \"m\"\nseconds_per_frame = 0.1\ncolour = 1\n").is_err());
+    assert!(
+        parse("unit = \"m\"\nseconds_per_frame = 0.1\n[metres_per_pixel]\na = 1.0\n")
+            .unwrap_err()
+            .contains("pixel")
+    );
     let none = tempfile::tempdir().unwrap();
     let e = DatasetSpec::parse(&format!("{}/", none.path().display())).unwrap_err();
     assert!(e.contains("dataset.toml"), "{e}");
@@ -549,15 +568,22 @@ fn own_data_folder_errors_are_clear() {
     dup.push(rows[5].clone());
     let dir = folder("unit = \"m\"\nseconds_per_frame = 0.1\n", &dup);
     let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
-    let e = load(&r_none(), &spec, Split::Train, &[]).unwrap_err().to_string();
-    assert!(e.contains("flight_01.txt") && e.contains(&format!("{}", dup.len())), "{e}");
+    let e = load(&r_none(), &spec, Split::Train, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("flight_01.txt") && e.contains(&format!("{}", dup.len())),
+        "{e}"
+    );
     // A pixel file of a converted set without its factor.
     let dir = folder(
         "unit = \"px\"\nseconds_per_frame = 0.1\n[metres_per_pixel]\nother = 0.05\n",
         &rows,
     );
     let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
-    let e = load(&r_none(), &spec, Split::Train, &[]).unwrap_err().to_string();
+    let e = load(&r_none(), &spec, Split::Train, &[])
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("flight_01"), "{e}");
     // Combined sets must share a unit.
     let dir = folder("unit = \"px\"\nseconds_per_frame = 0.1\n", &rows);

@@ -91,7 +91,7 @@ fn fixed_cards_are_reproduced() {
             );
         }
         // Acceptance: at most 0.5 px (0.02 m) FDE (best of K) lost against the f32 source.
-        let tolerance = if card.dataset.is_some_and(|d| d != "sdd") {
+        let tolerance = if card.dataset.as_deref().is_some_and(|d| d != "sdd") {
             0.02
         } else {
             0.5

@@ -159,7 +159,7 @@ impl FolderInfo {
     pub fn step(&self, path: &Path) -> Result<i64, FolderError> {
         let ratio = f64::from(PERIOD_S) / self.seconds_per_frame;
         let step = ratio.round();
-        if (ratio - step).abs() > 1e-4 * ratio || step < 1.0 || step > 1e6 {
+        if (ratio - step).abs() > 1e-4 * ratio || !(1.0..=1e6).contains(&step) {
             return Err(FolderError::Clock {
                 path: path.to_path_buf(),
                 seconds_per_frame: self.seconds_per_frame,

@@ -101,7 +101,6 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
         );
     }
     let unit = train.unit;
-    let mut train = train;
     let n_real = train.len();
     let synthetic = synthetic_windows(cfg, n_real)?;
     let n_synthetic = synthetic.len();
