@@ -254,6 +254,23 @@ pub fn cv_baseline(data_root: &Path, spec: &DatasetSpec, test: &Dataset) -> Resu
     })
 }
 
+/// A card row that says so when the point forecast is worse than constant velocity on the
+/// test set (FDE), so a planner knows to prefer the baseline there; empty otherwise. `tail`
+/// closes the row (the other columns).
+pub fn point_vs_cv_row(point: &Metrics, cv: &CvBaseline, digits: usize, tail: &str) -> String {
+    if point.fde_k1 <= cv.test.fde_k1 {
+        return String::new();
+    }
+    format!(
+        "| point forecast vs constant velocity | **worse** on this test set: FDE {:.d$} vs {:.d$} (+{:.d$}); prefer constant velocity over the last {} steps as the single forecast here | {tail}\n",
+        point.fde_k1,
+        cv.test.fde_k1,
+        point.fde_k1 - cv.test.fde_k1,
+        cv.n,
+        d = digits
+    )
+}
+
 /// The model-card rows of the format-2 features (each ends in a newline): the point forecast
 /// beside the validation-chosen constant velocity, and the inference settings. Empty for
 /// format-1 models, whose cards keep their bytes.
@@ -269,6 +286,7 @@ pub fn card_v2_rows(
             "| point forecast (deterministic head), ADE / FDE | {:.d$} / {:.d$} | {:.d$} / {:.d$} (constant velocity, last {} steps, chosen on validation) |\n",
             p.ade_k1, p.fde_k1, cv.test.ade_k1, cv.test.fde_k1, cv.n, d = digits
         );
+        s += &point_vs_cv_row(p, cv, digits, "– |");
     }
     if let Some(i) = inf {
         s += &format!(

@@ -307,6 +307,7 @@ fn quant_card_v2_rows(c: &QuantCard) -> String {
             "| constant velocity, last {} steps (chosen on validation), ADE / FDE | {:.3} / {:.3} | same | – |\n",
             cv.n, cv.test.ade_k1, cv.test.fde_k1
         );
+        s += &crate::ship::point_vs_cv_row(x, cv, 3, "same | – |");
     }
     if c.inference.is_some() {
         let rows = crate::ship::card_v2_rows(c.inference.as_ref(), None, None, 2);
