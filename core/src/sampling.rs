@@ -64,6 +64,21 @@ pub fn reduce(
     kmeans_reduce(samples, out, ext.tts_iters, init).map_err(|_| PredictError::BadSampleCount)
 }
 
+/// The most endpoints one prediction can return under the protocol of `ext`
+/// when the caller can hold `capacity` samples (the `N` of
+/// `predict_endpoint_set::<N>`): `capacity` for plain sampling; for test-time
+/// sampling `min(tts_samples, MAX_CENTERS)` (k-means reduces to at most
+/// [`crate::cluster::MAX_CENTERS`] centres), or 0 when `tts_samples` exceeds
+/// `capacity` (no `k` works then). Every `k` in `1..=max_endpoints` is
+/// accepted; what this returns is exactly what the predictor accepts.
+pub fn max_endpoints(ext: &Extensions, capacity: usize) -> usize {
+    match ext.tts_samples as usize {
+        0 => capacity,
+        n if n > capacity => 0,
+        n => n.min(crate::cluster::MAX_CENTERS),
+    }
+}
+
 /// Samples a prediction of `k` endpoints draws under the protocol of `ext`
 /// (the capacity `N` it needs): `k` for plain sampling, `tts_samples` otherwise.
 pub fn samples_needed(ext: &Extensions, k: usize) -> usize {

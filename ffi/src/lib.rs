@@ -571,8 +571,10 @@ pub struct GpecnetModelInfo {
     pub scratch_width: u32,
     /// Test-time samples of the endpoint protocol (0: plain latent samples).
     pub tts_samples: u32,
-    /// Most endpoints [`gpecnet_predict_endpoints`] gives: `tts_samples`, or
-    /// [`GPECNET_MAX_SAMPLES`] for plain sampling.
+    /// Most endpoints [`gpecnet_predict_endpoints`] gives (every `k` in
+    /// `1..=max_endpoints` is accepted): `min(tts_samples, 64)` with test-time
+    /// sampling (k-means gives at most 64 centres), [`GPECNET_MAX_SAMPLES`]
+    /// for plain sampling.
     pub max_endpoints: u32,
     /// 1 when [`gpecnet_predict_point`] is available, else 0.
     pub has_point_head: u32,
@@ -599,10 +601,8 @@ pub unsafe extern "C" fn gpecnet_model_info(
         let pred = unsafe { state(p) }?;
         let m = pred.model();
         let ext = m.extensions();
-        let max_endpoints = match ext.tts_samples {
-            0 => GPECNET_MAX_SAMPLES as u32,
-            n => u32::from(n),
-        };
+        let max_endpoints =
+            gpecnet_core::sampling::max_endpoints(ext, GPECNET_MAX_SAMPLES) as u32;
         let info = GpecnetModelInfo {
             numeric: match m.numeric() {
                 gpecnet_core::NumericKind::F32 => GPECNET_NUMERIC_F32,

@@ -163,8 +163,24 @@ fn bad_arguments_are_status_codes() {
         );
         assert_eq!(info.numeric, GPECNET_NUMERIC_Q15);
         assert_eq!((info.past_len, info.future_len), (8, 12));
-        assert_eq!((info.tts_samples, info.max_endpoints), (80, 80));
+        // k-means gives at most 64 centres: max_endpoints says what predict_endpoints takes.
+        assert_eq!((info.tts_samples, info.max_endpoints), (80, 64));
         assert_eq!(info.has_point_head, 1);
+        let mut many = [0.0f32; 2 * 80];
+        for k in [1, 20, 64] {
+            assert_eq!(
+                gpecnet_predict_endpoints(s.p(), PAST.as_ptr(), 8, 1, many.as_mut_ptr(), k),
+                GPECNET_OK,
+                "k = {k}"
+            );
+        }
+        for k in [65, 80] {
+            assert_eq!(
+                gpecnet_predict_endpoints(s.p(), PAST.as_ptr(), 8, 1, many.as_mut_ptr(), k),
+                GPECNET_E_BAD_SAMPLE_COUNT,
+                "k = {k}"
+            );
+        }
 
         assert_eq!(
             gpecnet_predict_endpoints(s.p(), null(), 8, 1, out.as_mut_ptr(), 20),

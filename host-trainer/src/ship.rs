@@ -111,8 +111,9 @@ pub fn card_dataset(card: &serde_json::Value) -> Result<DatasetSpec> {
 pub enum UnitError {
     /// The blob states a unit (format version 4) other than the data set's.
     #[error(
-        "model {model:?} takes and returns {blob} but the {dataset} data set is in {data}: \
-         refusing (every number would be meaningless); use a {data} model or the data set in {blob}"
+        "model {model:?} takes and returns {} but the {dataset} data set is in {}: refusing \
+         (every number would be meaningless); use a model in {} or a data set in {}",
+        unit_words(*.blob), unit_words(*.data), unit_words(*.data), unit_words(*.blob)
     )]
     Mismatch {
         /// The blob's model name.
@@ -136,6 +137,14 @@ pub enum UnitError {
         /// The data set.
         dataset: String,
     },
+}
+
+/// A unit in words, for messages.
+fn unit_words(u: Unit) -> &'static str {
+    match u {
+        Unit::Pixels => "pixels",
+        Unit::Metres => "metres",
+    }
 }
 
 /// The unit `model` works in, checked against `spec`'s: a stated unit must match; an
