@@ -164,8 +164,10 @@ typedef struct GpecnetModelInfo {
   uint32_t scratch_width;
   // Test-time samples of the endpoint protocol (0: plain latent samples).
   uint32_t tts_samples;
-  // Most endpoints [`gpecnet_predict_endpoints`] gives: `tts_samples`, or
-  // [`GPECNET_MAX_SAMPLES`] for plain sampling.
+  // Most endpoints [`gpecnet_predict_endpoints`] gives (every `k` in
+  // `1..=max_endpoints` is accepted): `min(tts_samples, 64)` with test-time
+  // sampling (k-means gives at most 64 centres), [`GPECNET_MAX_SAMPLES`]
+  // for plain sampling.
   uint32_t max_endpoints;
   // 1 when [`gpecnet_predict_point`] is available, else 0.
   uint32_t has_point_head;

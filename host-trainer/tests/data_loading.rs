@@ -597,3 +597,30 @@ fn own_data_folder_errors_are_clear() {
 fn r_none() -> PathBuf {
     PathBuf::from("/nonexistent-data-root")
 }
+
+/// An ETH/UCY-style file on another clock (a 10 Hz log: frames 1 apart) is refused, naming
+/// the file, the line and the step, instead of training at 0.1 s per step.
+#[test]
+fn eth_ucy_file_on_another_clock_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("eth_ucy/eth/test");
+    fs::create_dir_all(&d).unwrap();
+    let s: String = (0..40)
+        .map(|f| format!("{f}\t1.0\t{}.0\t0.0\n{f}\t2.0\t{}.0\t1.0\n", f, f))
+        .collect();
+    fs::write(d.join("tenhz.txt"), s).unwrap();
+    let e = load_eth_ucy(dir.path(), "eth", EthUcySplit::Test).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            DataError::FrameStep {
+                found: 1,
+                expected: 10,
+                ..
+            }
+        ),
+        "{msg}"
+    );
+    assert!(msg.contains("tenhz.txt:3"), "{msg}");
+}

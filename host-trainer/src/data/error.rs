@@ -137,7 +137,9 @@ pub enum DataError {
         /// How many rows it has.
         rows: usize,
     },
-    /// Two consecutive rows of one SDD trajectory are not [`SDD_FRAME_STEP`] frames apart.
+    /// Two consecutive rows of one SDD trajectory are not [`SDD_FRAME_STEP`] frames apart, or
+    /// two consecutive annotated frames of an ETH/UCY file are not a multiple of
+    /// [`ETH_UCY_FRAME_STEP`] apart (another clock than the benchmark's 0.4 s).
     #[error(
         "{path}:{line}: ped_id {ped_id}: frame {frame} follows frame {prev_frame} (step {found}, expected {expected})",
         path = .path.display()

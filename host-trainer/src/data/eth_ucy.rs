@@ -28,7 +28,14 @@ impl EthUcySplit {
     }
 }
 
-/// Cut one ETH/UCY file into windows with the Social-GAN rule (see [`load_eth_ucy`]).
+/// Frame-number step of the ETH/UCY benchmark files between consecutive annotations (0.4 s;
+/// gaps are multiples of it).
+pub const ETH_UCY_FRAME_STEP: i64 = 10;
+
+/// Cut one ETH/UCY file into windows with the Social-GAN rule (see [`load_eth_ucy`]); a file
+/// whose frames are not on the benchmark's 0.4 s clock ([`ETH_UCY_FRAME_STEP`]) is refused
+/// with [`DataError::FrameStep`] (use a data-set folder with its own `seconds_per_frame` for
+/// other clocks, `docs/own-data.md`).
 pub fn parse_eth_ucy_file(path: &Path) -> Result<Vec<Window>, DataError> {
     let rows = read_rows(path)?;
     let scene = scene_name(path);
@@ -50,6 +57,25 @@ pub fn parse_eth_ucy_file(path: &Path) -> Result<Vec<Window>, DataError> {
         v.push(r);
     }
     let frames: Vec<(i64, FrameRows)> = by_frame.into_iter().collect();
+    // The benchmark's clock: consecutive annotated frames are ETH_UCY_FRAME_STEP apart (0.4 s)
+    // or a multiple of it (a gap). Anything else is another clock (a 10 Hz log has steps of 1
+    // or 4), which the sliding window would silently train at the wrong period.
+    for pair in frames.windows(2) {
+        let (prev, (f, (rows, _))) = (pair[0].0, (&pair[1].0, &pair[1].1));
+        let step = f - prev;
+        if step % ETH_UCY_FRAME_STEP != 0 {
+            let r = rows[0];
+            return Err(DataError::FrameStep {
+                path: path.to_path_buf(),
+                line: r.line,
+                ped_id: r.ped_id,
+                prev_frame: prev,
+                frame: *f,
+                found: step,
+                expected: ETH_UCY_FRAME_STEP,
+            });
+        }
+    }
     let mut out = Vec::new();
     if frames.len() < WINDOW {
         return Ok(out);

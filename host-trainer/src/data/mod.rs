@@ -31,7 +31,7 @@ mod spec;
 mod window;
 
 pub use error::{Column, DataError};
-pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit};
+pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};
 pub use folder::{load_folder, parse_folder_file, FolderError, FolderInfo, DATASET_TOML};
 pub use rows::{default_data_root, read_rows, Row};
 pub use scales::sdd_metres_per_pixel;
