@@ -57,16 +57,24 @@ fn offsets(blob: &[u8]) -> Vec<usize> {
 }
 
 #[test]
-fn shipped_blobs_are_version_3_with_aligned_tensors() {
+fn shipped_blobs_are_version_3_or_4_with_aligned_tensors() {
     for (name, blob) in shipped() {
-        assert_eq!(blob[4] as u16, FORMAT_VERSION, "{name}");
+        // Version 4 exactly when the blob states its unit (the models trained since).
+        let states_unit =
+            Model::from_blob(&blob).unwrap().unit() != gpecnet_core::blob::PositionUnit::Unknown;
+        let want = if states_unit {
+            FORMAT_VERSION
+        } else {
+            gpecnet_core::blob::ALIGNED_FORMAT_VERSION
+        };
+        assert_eq!(blob[4] as u16, want, "{name}");
         let offs = offsets(&blob);
         assert!(!offs.is_empty());
         assert!(
             offs.iter().all(|o| o % TENSOR_ALIGN == 0),
             "{name}: {offs:?}"
         );
-        // Rewriting is the identity on a version-3 blob (canonical padding).
+        // Rewriting is the identity on a version-3 or 4 blob (canonical padding).
         assert_eq!(
             gpecnet_blob_writer::rewrite_blob(&blob).unwrap(),
             blob,

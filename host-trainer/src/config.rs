@@ -106,7 +106,7 @@ pub struct TrainConfig {
     /// bit-reproducible only for the same thread count, so it is part of the config and is
     /// restored on `--resume`.
     pub threads: usize,
-    /// Synthetic augmentation (issue 5, `gpecnet train --augment K`): add the first
+    /// Synthetic augmentation (the paper's, `gpecnet train --augment K`): add the first
     /// `round(augment_pct / 100 × n_real)` trajectories of [`TrainConfig::synthetic_pool`] to
     /// the training windows, where `n_real` is the number of real training windows (SDD train
     /// minus the validation scenes, plus `train_extra` when enabled) before time reversal; the
@@ -159,7 +159,7 @@ pub struct TrainConfig {
     /// blob; `gpecnet-core` applies the same rotation. Omitted from the TOML when 0.
     #[serde(skip_serializing_if = "is_zero_usize")]
     pub heading_steps: usize,
-    /// Hidden sizes of the point-forecast head (issue 10): an MLP from the normalised observed
+    /// Hidden sizes of the point-forecast head: an MLP from the normalised observed
     /// track (`2 * past_length`) to the whole normalised future (`2 * future_length`), trained
     /// on the mean Euclidean displacement (not its square) next to the CVAE and shipped in the
     /// blob. Empty (the default) = no head. Omitted from the TOML when empty.

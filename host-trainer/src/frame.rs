@@ -1,4 +1,4 @@
-//! The heading-canonical frame (issue 10): every window is translated so its first observed
+//! The heading-canonical frame: every window is translated so its first observed
 //! point is the origin and rotated so its recent heading points along +x, before the networks
 //! see it; predictions are rotated back.
 //!

@@ -1,4 +1,4 @@
-//! Config values are range-checked when the config is loaded, before any work (issue 14):
+//! Config values are range-checked when the config is loaded, before any work:
 //! each error names the key and the allowed range, the exit status is not 0 and the run
 //! folder is not even created.
 

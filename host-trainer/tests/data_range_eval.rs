@@ -1,4 +1,4 @@
-//! Absurd data is an error, not a number (issue 14): coordinates beyond ±1e6
+//! Absurd data is an error, not a number: coordinates beyond ±1e6
 //! (`gpecnet_core::frame::MAX_COORDINATE`) or non-finite are rejected at load time with
 //! file:line; `gpecnet eval` on a test set with no window fails instead of printing NaN.
 

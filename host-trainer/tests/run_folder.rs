@@ -1,4 +1,4 @@
-//! Run-folder safety of `gpecnet train` (issue 14), on the real binary with tiny data:
+//! Run-folder safety of `gpecnet train`, on the real binary with tiny data:
 //! the run lock, no silent overwrite, `--resume` config and data checks, stale temp files,
 //! the previous-checkpoint fallback.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The side-by-side peer benchmark of issue 15 (not run in CI): gpecnet-core (scalar and
+# The side-by-side peer benchmark (not run in CI): gpecnet-core (scalar and
 # batched) vs onnxruntime and PyTorch eager on the same weights and latents, one thread each,
 # interleaved rounds, medians, ratios; and a training epoch vs PyTorch eager at 1 and 2
 # threads. Writes docs/peers.md and prints the short table for the README.

@@ -98,7 +98,7 @@ def main():
     models = sorted({k[0] for k in infer}, key=lambda m: (m != "sdd-small", m))
     lines = []
     w = lines.append
-    w("# gpecnet next to onnxruntime and PyTorch (issue 15)")
+    w("# gpecnet next to onnxruntime and PyTorch")
     w("")
     w("Side by side on one machine, one thread each, same weights: onnxruntime runs the ONNX "
       "file `gpecnet onnx --endpoint-only` writes, PyTorch eager runs the same graph built from "

@@ -19,9 +19,9 @@ use crate::{die, mcu, root};
 pub(crate) const SINES: &[&str] = &["libm", "fast-f32", "micromath"];
 /// The numeric path of Int16Q15 blobs (gpecnet_core::fixed::SINE_NAME).
 pub(crate) const FIXED_PATH: &str = "q15-table";
-/// Issue 6 targets for the small model in fixed point.
+/// The first MCU budget (K = 20 endpoints in fixed point), for models without a point head.
 pub(crate) const TARGET_INSNS: u64 = 300_000;
-/// Issue 10's budget for one call of a model with a point head: the point forecast plus the
+/// The MCU budget for one call of a model with a point head: the point forecast plus the
 /// model's 20 endpoints (test-time sampling included), fixed point.
 pub(crate) const TARGET_INSNS_POINT: u64 = 1_500_000;
 pub(crate) const TARGET_CODE_WEIGHTS: u32 = 64 * 1024;
@@ -365,15 +365,15 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
         rows.iter().flat_map(function_rows),
     );
     for r in rows.iter().filter(|r| r.sine == FIXED_PATH) {
-        // A format-2 model with a point head is held to issue 10's budget for the whole call.
+        // A format-2 model with a point head is held to the point-head budget for the whole call.
         let with_point = blob_has_point_head(&blob_path(&dir, &r.model));
         let (target, what) = if with_point {
             (
                 TARGET_INSNS_POINT,
-                "issue 10, fixed point, point forecast + 20 endpoints",
+                "budget: fixed point, point forecast + 20 endpoints",
             )
         } else {
-            (TARGET_INSNS, "issue 6, fixed point, K = 20")
+            (TARGET_INSNS, "budget: fixed point, K = 20")
         };
         let insns_ok = r.insns.is_some_and(|i| i < target);
         let size_ok = r

@@ -20,7 +20,7 @@
 //! The network is the trainer's [`Mlp`] (ReLU) with f64 weights; the gradient of `J` is
 //! candle's `backward()` and the update the crate's [`Adam`] (`Adam<f64>`). All arithmetic is
 //! f64; `tests/synth_agent.rs` checks candle's gradient against central finite differences of
-//! the loss. (Until issue 14 the network, its backward pass and a second Adam were
+//! the loss. (Earlier the network, its backward pass and a second Adam were
 //! hand-written, last at commit a4cb468. Compared with that code, `train(3200, 16, 3e-3, 1)`
 //! gives the same learning curve to the last bit and parameters within 4e-16, and 5000 greedy
 //! rollouts of the trained policy the same tracks; bit-identity is not guaranteed in general.)

@@ -1,4 +1,4 @@
-//! Synthetic trajectories and data analysis (issue 5; paper sections "Augmenting with RL
+//! Synthetic trajectories and data analysis (the paper's sections "Augmenting with RL
 //! Synthetic Trajectories", "Deep Policy Gradient Network", "SDD: Data Analysis" and
 //! "Non-linearity analysis: Abruptness-Score"). See `docs/synthetic.md`.
 //!
