@@ -400,7 +400,11 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         name: model.name(),
         config: *model.config(),
         extensions: Some(*model.extensions()),
-        meta: (model.unit() != PositionUnit::Unknown).then_some(model.meta()),
+        meta: Some(Meta::of_blob(blob).map_err(|e| WriteError::Rejected {
+            what: "blob to rewrite",
+            reason: e.to_string(),
+        })?)
+        .filter(|m| m.unit != PositionUnit::Unknown),
     };
     let out = blob_bytes(&head, [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]])?;
     // The same model, tensor for tensor (only the framing may differ).
@@ -427,7 +431,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
     if tensors(&model) != tensors(&again)
         || model.config() != again.config()
         || model.extensions() != again.extensions()
-        || model.meta() != again.meta()
+        || Meta::of_blob(blob).ok() != Meta::of_blob(&out).ok()
     {
         return Err(WriteError::Shape(
             "rewritten blob differs from the original".into(),

@@ -60,8 +60,8 @@ fn offsets(blob: &[u8]) -> Vec<usize> {
 fn shipped_blobs_are_version_3_or_4_with_aligned_tensors() {
     for (name, blob) in shipped() {
         // Version 4 exactly when the blob states its unit (the models trained since).
-        let states_unit =
-            Model::from_blob(&blob).unwrap().unit() != gpecnet_core::blob::PositionUnit::Unknown;
+        let states_unit = gpecnet_core::blob::Meta::of_blob(&blob).unwrap().unit
+            != gpecnet_core::blob::PositionUnit::Unknown;
         let want = if states_unit {
             FORMAT_VERSION
         } else {

@@ -337,27 +337,28 @@ fn format4_meta_is_read_checked_and_optional() {
     };
     let blob = write_meta(meta).unwrap();
     assert_eq!(version_of(&blob), 4);
-    let m = Model::from_blob(&blob).unwrap();
-    assert_eq!(m.meta(), meta);
-    assert_eq!(m.unit(), PositionUnit::Metre);
-    assert_eq!(m.period_s(), Some(0.4));
-    assert_eq!(m.metres_per_pixel(), None);
+    assert!(Model::from_blob(&blob).is_ok());
+    assert_eq!(Meta::of_blob(&blob), Ok(meta));
+    assert_eq!(Meta::of_blob(&blob).unwrap().period(), Some(0.4));
     // Without a Meta: version 3, and nothing stated.
     let v3 = small_blob();
     assert_eq!(version_of(&v3), 3);
-    let old = Model::from_blob(&v3).unwrap();
-    assert_eq!(old.meta(), Meta::UNKNOWN);
-    assert_eq!((old.unit(), old.period_s()), (PositionUnit::Unknown, None));
+    let old = Meta::of_blob(&v3).unwrap();
+    assert_eq!(old, Meta::UNKNOWN);
+    assert_eq!((old.unit, old.period()), (PositionUnit::Unknown, None));
+    // A damaged blob has no description either.
+    let mut bad = blob.clone();
+    let last = bad.len() - 1;
+    bad[last] ^= 1;
+    assert!(Meta::of_blob(&bad).is_err());
     // A pixel model with one scale says so.
     let px = Meta {
         unit: PositionUnit::Pixel,
         metres_per_pixel: 0.04,
         ..meta
     };
-    let m = Model::from_blob(&write_meta(px).unwrap())
-        .unwrap()
-        .metres_per_pixel();
-    assert_eq!(m, Some(0.04));
+    let px_blob = write_meta(px).unwrap();
+    assert_eq!(Meta::of_blob(&px_blob).unwrap().metres_per_pixel, 0.04);
     // The record's rules.
     let long = "x".repeat(MAX_META_TEXT + 1);
     for bad in [

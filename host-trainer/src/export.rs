@@ -107,7 +107,7 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
             tts_samples: m.extensions().tts_samples as usize,
             tts_iters: m.extensions().tts_iters,
             tts_init: m.extensions().tts_init,
-            meta: ModelMeta::of_model(&m),
+            meta: ModelMeta::of_blob(bytes),
         },
         nets: Networks {
             encoder_past: net(m.encoder_past()),

@@ -78,9 +78,10 @@ impl ModelMeta {
         }
     }
 
-    /// The description a blob carries, `None` before format version 4.
-    pub fn of_model(m: &gpecnet_core::Model<'_>) -> Option<Self> {
-        let w = m.meta();
+    /// The description the blob `bytes` carries, `None` before format version 4 (or when the
+    /// bytes are not a valid blob).
+    pub fn of_blob(bytes: &[u8]) -> Option<Self> {
+        let w = gpecnet_core::blob::Meta::of_blob(bytes).ok()?;
         (w.unit != gpecnet_core::blob::PositionUnit::Unknown).then(|| Self {
             unit: w.unit,
             metres_per_pixel: w.metres_per_pixel,

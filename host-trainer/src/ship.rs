@@ -147,17 +147,18 @@ fn unit_words(u: Unit) -> &'static str {
     }
 }
 
-/// The unit `model` works in, checked against `spec`'s: a stated unit must match; an
+/// The unit `model` (whose blob says `meta`) works in, checked against `spec`'s: a stated unit must match; an
 /// unstated one (blobs before format version 4) is taken from `assume`, else as pixels on a
 /// pixel data set (what every such shipped blob is) and refused on a metre one.
 pub fn check_unit(
     model: &gpecnet_core::Model<'_>,
+    meta: &gpecnet_core::blob::Meta<'_>,
     spec: &DatasetSpec,
     assume: Option<Unit>,
 ) -> std::result::Result<Unit, UnitError> {
     use gpecnet_core::blob::PositionUnit;
     let data = spec.unit();
-    let stated = match model.unit() {
+    let stated = match meta.unit {
         PositionUnit::Metre => Some(Unit::Metres),
         PositionUnit::Pixel => Some(Unit::Pixels),
         _ => None,
@@ -904,7 +905,9 @@ pub fn eval_blob(
     let model = gpecnet_core::Model::from_blob(&blob)
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
     let spec = &target.dataset;
-    let unit = check_unit(&model, spec, target.assume_unit)
+    let meta = gpecnet_core::blob::Meta::of_blob(&blob)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
+    let unit = check_unit(&model, &meta, spec, target.assume_unit)
         .with_context(|| format!("evaluating {}", blob_path.display()))?;
     let test = test_windows(data_root, spec)?;
     let val = validation_windows(data_root, spec)?;

@@ -39,10 +39,10 @@ fn weights_folder_ships_models() {
         // A blob that states its unit (format 4) agrees with its card's data set, and its
         // card says the unit and the clock.
         let blob = std::fs::read(b).unwrap();
-        let m = gpecnet_core::Model::from_blob(&blob).unwrap();
-        if m.unit() != gpecnet_core::blob::PositionUnit::Unknown {
-            assert_eq!(m.unit().suffix(), card_dataset(b).unit().suffix());
-            assert_eq!(m.period_s(), Some(0.4));
+        let m = gpecnet_core::blob::Meta::of_blob(&blob).unwrap();
+        if m.unit != gpecnet_core::blob::PositionUnit::Unknown {
+            assert_eq!(m.unit.suffix(), card_dataset(b).unit().suffix());
+            assert_eq!(m.period(), Some(0.4));
             assert!(card.contains("| unit and clock |"), "{}", b.display());
         }
     }

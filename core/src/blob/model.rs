@@ -68,8 +68,9 @@ impl<'a> Network<'a> {
 /// hyper-parameter and every weight (finite); afterwards inference cannot
 /// fail on the model's account. The view holds only slices into the blob
 /// (about 1.5 KiB on a 32-bit target: five networks of up to eight layer
-/// descriptors, and a slice of the version-4 [`Meta`] record), so a blob in
-/// flash stays in flash.
+/// descriptors), so a blob in flash stays in flash. The version-4 [`Meta`]
+/// record is checked here but not kept in the view (the Cortex-M0's 16 KiB
+/// of RAM has no bytes to spare per copy): [`Meta::of_blob`] reads it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Model<'a> {
     pub(super) name: &'a str,
@@ -81,9 +82,6 @@ pub struct Model<'a> {
     pub(super) predictor: Network<'a>,
     pub(super) point_head: Network<'a>,
     pub(super) ext: Extensions,
-    /// The version-4 [`Meta`] record's bytes (empty before version 4), decoded
-    /// on demand so the view grows by one slice, not by the record.
-    pub(super) meta_bytes: &'a [u8],
     pub(super) crc: u32,
 }
 
@@ -204,32 +202,6 @@ impl<'a> Model<'a> {
     pub fn extensions(&self) -> &Extensions {
         &self.ext
     }
-    /// The version-4 description ([`Meta::UNKNOWN`] for older blobs),
-    /// decoded from the blob (a few dozen instructions; it was checked when
-    /// the blob was read).
-    pub fn meta(&self) -> Meta<'a> {
-        let mut cur = self.meta_bytes;
-        if cur.is_empty() {
-            return Meta::UNKNOWN;
-        }
-        take(&mut cur).unwrap_or(Meta::UNKNOWN)
-    }
-    /// The unit of positions in and out ([`PositionUnit::Unknown`] for blobs
-    /// before format version 4).
-    pub fn unit(&self) -> PositionUnit {
-        self.meta().unit
-    }
-    /// Seconds between consecutive history and forecast positions, `None`
-    /// when the blob does not say (before format version 4).
-    pub fn period_s(&self) -> Option<f32> {
-        let p = self.meta().period_s;
-        (p > 0.0).then_some(p)
-    }
-    /// Metres per pixel of a pixel model with one scale, else `None`.
-    pub fn metres_per_pixel(&self) -> Option<f32> {
-        let m = self.meta();
-        (m.unit == PositionUnit::Pixel && m.metres_per_pixel > 0.0).then_some(m.metres_per_pixel)
-    }
     /// The widest layer of any network: the scratch width a predictor needs.
     pub fn max_width(&self) -> usize {
         self.networks()
@@ -284,16 +256,10 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         Extensions::default()
     };
-    let meta_bytes: &[u8] = if pre.version >= META_FORMAT_VERSION {
-        let before = cur;
+    if pre.version >= META_FORMAT_VERSION {
         let meta: Meta = take(&mut cur)?;
         check_meta(&meta)?;
-        before
-            .get(..before.len().saturating_sub(cur.len()))
-            .unwrap_or(&[])
-    } else {
-        &[]
-    };
+    }
     let mut nets = [Network::EMPTY; 5];
     let n_nets = if v2 { 5 } else { 4 };
     for net in nets.iter_mut().take(n_nets) {
@@ -320,11 +286,41 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         predictor,
         point_head,
         ext,
-        meta_bytes,
         crc: 0,
     };
     validate(&model)?;
     Ok(model)
+}
+
+impl<'a> Meta<'a> {
+    /// The description of the blob `bytes` after validating it completely
+    /// (as [`Model::from_blob`]): [`Meta::UNKNOWN`] for blobs before format
+    /// version 4, whose unit and clock are not recorded.
+    ///
+    /// ```
+    /// # let bytes = include_bytes!("../../../weights/sdd-m-tiny-qe.gpec");
+    /// use gpecnet_core::blob::{Meta, PositionUnit};
+    /// let meta = Meta::of_blob(bytes)?;
+    /// assert_eq!((meta.unit, meta.period_s), (PositionUnit::Metre, 0.4));
+    /// # Ok::<(), gpecnet_core::BlobError>(())
+    /// ```
+    pub fn of_blob(bytes: &'a [u8]) -> Result<Self, BlobError> {
+        Model::from_blob(bytes)?;
+        let mut cur = bytes;
+        let pre: Preamble = take(&mut cur)?;
+        let _: ModelInfo = take(&mut cur)?;
+        if pre.version < META_FORMAT_VERSION {
+            return Ok(Meta::UNKNOWN);
+        }
+        let _: Extensions = take(&mut cur)?;
+        take(&mut cur)
+    }
+
+    /// Seconds between consecutive history and forecast positions, `None`
+    /// when the blob does not say (before format version 4).
+    pub fn period(&self) -> Option<f32> {
+        (self.period_s > 0.0).then_some(self.period_s)
+    }
 }
 
 /// The rules of a version-4 [`Meta`] (`weights/FORMAT.md`): a stated unit

@@ -134,7 +134,9 @@ pub fn quantize_blob_with(
             Err(_) => DatasetSpec::Sdd,
         },
     };
-    crate::ship::check_unit(&src_model, &spec, None)
+    let src_meta = gpecnet_core::blob::Meta::of_blob(&src_bytes)
+        .map_err(|e| anyhow!("{}: {e}", src.display()))?;
+    crate::ship::check_unit(&src_model, &src_meta, &spec, None)
         .with_context(|| format!("quantizing {}", src.display()))?;
     let mut model = crate::export::read_blob(&src_bytes)?;
     if endpoint_only {
