@@ -417,9 +417,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
                 [B::to_f32(d[0][l], eo), B::to_f32(d[1][l], eo)],
                 c.data_scale,
             );
-            if !(e[0].is_finite() && e[1].is_finite()) {
-                return Err(fail(l, PredictError::NonFiniteOutput));
-            }
+            let e = crate::frame::check_output(e).map_err(|err| fail(l, err))?;
             let traj = if trajectories {
                 let q = if q_rows.1 { &self.a } else { &self.b };
                 let pairs = q[..q_rows.0]

@@ -344,10 +344,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         let e = self
             .frame
             .output([B::to_f32(d0, eo), B::to_f32(d1, eo)], scale);
-        if !(e[0].is_finite() && e[1].is_finite()) {
-            return Err(PredictError::NonFiniteOutput);
-        }
-        Ok(e)
+        crate::frame::check_output(e)
     }
 
     /// Step 6 for the sample [`Engine::next_endpoint`] drew last: its full
@@ -383,9 +380,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         self.z.0[fdim + ddim + 1] = B::from_f32(last[1] / c.initial_pos_divisor, ef);
         let q = run_network::<B>(pred, &self.z.0[..n_in], &mut self.a.0, &mut self.b.0);
         let mut t = Self::points(&self.frame, q, out_exp(pred), c.data_scale)?;
-        if !(e[0].is_finite() && e[1].is_finite()) {
-            return Err(PredictError::NonFiniteOutput);
-        }
+        let e = crate::frame::check_output(e)?;
         t.push(e).map_err(|_| PredictError::CapacityExceeded)?;
         Ok(t)
     }

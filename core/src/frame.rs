@@ -39,6 +39,29 @@ use crate::predictor::{PredictError, Trajectory};
 /// nearby origin first.
 pub const MAX_COORDINATE: f32 = 1.0e6;
 
+/// The largest magnitude of an output coordinate (endpoint, trajectory or
+/// point-forecast point): twice [`MAX_COORDINATE`]. A real forecast lies a
+/// few hundred units at most from an input inside ±[`MAX_COORDINATE`]; an
+/// output beyond this bound comes from a model that is not a forecaster
+/// (e.g. a doctored blob whose weights are valid but absurd) and is refused
+/// with [`PredictError::OutputOutOfRange`] instead of being returned.
+pub const MAX_OUTPUT: f32 = 2.0 * MAX_COORDINATE;
+
+/// An output point as a predictor may return it: finite
+/// ([`PredictError::NonFiniteOutput`] otherwise) and within ±[`MAX_OUTPUT`]
+/// ([`PredictError::OutputOutOfRange`] otherwise). The same check on every
+/// numeric path.
+#[inline]
+pub fn check_output(p: [f32; 2]) -> Result<[f32; 2], PredictError> {
+    if !(p[0].is_finite() && p[1].is_finite()) {
+        Err(PredictError::NonFiniteOutput)
+    } else if p[0].abs() > MAX_OUTPUT || p[1].abs() > MAX_OUTPUT {
+        Err(PredictError::OutputOutOfRange)
+    } else {
+        Ok(p)
+    }
+}
+
 /// The largest accepted magnitude of a network input (`(p_t − p_0) ·
 /// data_scale`, normalised units) for every model; fixed-point models may
 /// accept less ([`crate::blob::Model::input_limit`]).
@@ -193,9 +216,9 @@ impl Frame {
     }
 
     /// Network output pairs (model space) as caller points, in order: the
-    /// shared tail of every trajectory and point forecast. Refuses a
-    /// non-finite point or more than [`crate::blob::MAX_FUTURE`] of them
-    /// ([`PredictError::NonFiniteOutput`]).
+    /// shared tail of every trajectory and point forecast. Refuses a point
+    /// that fails [`check_output`] and more than [`crate::blob::MAX_FUTURE`]
+    /// points ([`PredictError::NonFiniteOutput`]).
     pub fn points(
         &self,
         pairs: impl IntoIterator<Item = [f32; 2]>,
@@ -203,8 +226,8 @@ impl Frame {
     ) -> Result<Trajectory, PredictError> {
         let mut t = Trajectory::new();
         for d in pairs {
-            let pt = self.output(d, data_scale);
-            if !(pt[0].is_finite() && pt[1].is_finite()) || t.push(pt).is_err() {
+            let pt = check_output(self.output(d, data_scale))?;
+            if t.push(pt).is_err() {
                 return Err(PredictError::NonFiniteOutput);
             }
         }

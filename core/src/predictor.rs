@@ -69,6 +69,9 @@ pub enum PredictError {
     InputOutOfRange,
     /// The model produced NaN or infinity.
     NonFiniteOutput,
+    /// The model produced a finite point beyond ±[`crate::frame::MAX_OUTPUT`]
+    /// (twice the input range): not a forecast, so not returned.
+    OutputOutOfRange,
     /// Trajectories were asked of a model without a predictor network.
     NoPredictor,
     /// A point forecast was asked of a model without a point-forecast head.
@@ -101,6 +104,9 @@ impl core::fmt::Display for PredictError {
                 f.write_str("input coordinate outside the valid range")
             }
             PredictError::NonFiniteOutput => f.write_str("model output is not finite"),
+            PredictError::OutputOutOfRange => {
+                f.write_str("model output outside the plausible range (not a forecast)")
+            }
             PredictError::NoPredictor => f.write_str("model has no trajectory predictor"),
             PredictError::NoPointHead => f.write_str("model has no point-forecast head"),
             PredictError::NotStarted => f.write_str("no sample stream started"),

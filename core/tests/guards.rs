@@ -241,3 +241,42 @@ fn a_predictor_lives_in_a_static() {
     q.predict_endpoint_set::<128>(&PAST, 5, &mut again).unwrap();
     assert_eq!(ends, again);
 }
+
+/// A doctored but valid blob (the decoder's output bias set to 10^9: finite, CRC correct,
+/// every check of the reader passed) gives endpoints far beyond any input: refused with
+/// `OutputOutOfRange` on every call that returns them, not returned as numbers.
+#[test]
+fn absurd_outputs_of_a_doctored_blob_are_refused() {
+    let m = Model::from_blob(F32).unwrap();
+    let dec = m.decoder();
+    let last = dec.layer(dec.len() - 1).unwrap();
+    let (_, bias, _) = last.tensors_q();
+    let off = bias.as_ptr() as usize - F32.as_ptr() as usize;
+    let mut blob = F32.to_vec();
+    for i in 0..last.out_dim() {
+        blob[off + 4 * i..off + 4 * i + 4].copy_from_slice(&1.0e9f32.to_le_bytes());
+    }
+    let n = blob.len() - 4;
+    let crc = gpecnet_core::blob::CRC32.checksum(&blob[..n]);
+    blob[n..].copy_from_slice(&crc.to_le_bytes());
+    let model = Model::from_blob(&blob).expect("a valid blob");
+    let mut p = Box::new(Predictor::<LibmSine, 64>::new(model).unwrap());
+    let mut ends = [[0.0f32; 2]; 20];
+    assert_eq!(
+        p.predict_endpoint_set::<128>(&PAST, 1, &mut ends),
+        Err(PredictError::OutputOutOfRange)
+    );
+    assert_eq!(
+        p.predict_samples(&PAST, 1, &mut ends[..3]),
+        Err(PredictError::OutputOutOfRange)
+    );
+    assert_eq!(
+        p.start(&PAST, 1).and_then(|_| p.next_endpoint()),
+        Err(PredictError::OutputOutOfRange)
+    );
+    // The point head is untouched: its forecast is still given, and near the track.
+    let t = p.predict_point(&PAST).unwrap();
+    assert!(t.iter().all(|q| (q[0] - PAST[7][0]).abs() < 5_000.0));
+    // The shipped blob itself never comes near the bound.
+    assert!(gpecnet_core::frame::MAX_OUTPUT >= 2.0 * MAX_COORDINATE);
+}

@@ -148,6 +148,10 @@
 // A sample was asked for before a stream was started.
 #define GPECNET_E_NOT_STARTED 39
 
+// The model produced a point beyond ±2·10^6 (twice the input range): not a
+// forecast, so nothing is written (`PredictError::OutputOutOfRange`).
+#define GPECNET_E_OUTPUT_OUT_OF_RANGE 40
+
 // An initialised predictor in caller-owned storage: `(GpecnetPredictor *)storage`
 // after [`gpecnet_init`] returned [`GPECNET_OK`]. Opaque to C.
 typedef struct GpecnetPredictor GpecnetPredictor;

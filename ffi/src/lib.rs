@@ -174,6 +174,9 @@ pub const GPECNET_E_NO_PREDICTOR: i32 = 37;
 pub const GPECNET_E_NO_POINT_HEAD: i32 = 38;
 /// A sample was asked for before a stream was started.
 pub const GPECNET_E_NOT_STARTED: i32 = 39;
+/// The model produced a point beyond ±2·10^6 (twice the input range): not a
+/// forecast, so nothing is written (`PredictError::OutputOutOfRange`).
+pub const GPECNET_E_OUTPUT_OUT_OF_RANGE: i32 = 40;
 
 // The header's literals are the core's limits.
 const _: () = {
@@ -219,6 +222,7 @@ pub fn predict_status(e: PredictError) -> i32 {
         PredictError::NoPredictor => GPECNET_E_NO_PREDICTOR,
         PredictError::NoPointHead => GPECNET_E_NO_POINT_HEAD,
         PredictError::NotStarted => GPECNET_E_NOT_STARTED,
+        PredictError::OutputOutOfRange => GPECNET_E_OUTPUT_OUT_OF_RANGE,
     }
 }
 
@@ -268,6 +272,7 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_NO_PREDICTOR => c"model has no trajectory predictor",
         GPECNET_E_NO_POINT_HEAD => c"model has no point-forecast head",
         GPECNET_E_NOT_STARTED => c"no sample stream started",
+        GPECNET_E_OUTPUT_OUT_OF_RANGE => c"model output outside the plausible range",
         _ => c"unknown status code",
     };
     s.as_ptr()
