@@ -109,6 +109,7 @@ pub enum Init {
 /// Why [`kmeans_reduce`] refused its input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ClusterError {
     /// `centers` is empty (`k == 0`).
     NoCenters,

@@ -139,6 +139,7 @@ pub use sine::{FastSine, LibmSine, Sine};
 /// Either error a caller of this crate can meet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum Error {
     /// The blob was rejected.
     Blob(BlobError),

@@ -39,6 +39,7 @@ pub type Trajectory = heapless::Vec<[f32; 2], MAX_FUTURE>;
 /// Why a prediction was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum PredictError {
     /// The model's scratch width ([`Model::scratch_width`]) exceeds the predictor's `W`.
     ScratchTooSmall {

@@ -128,6 +128,7 @@ pub enum Observed {
 /// of the checks).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ObserveError {
     /// The frame is before the table's last frame; the whole update was refused.
     StaleFrame,

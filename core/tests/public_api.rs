@@ -130,9 +130,16 @@ fn walk(src: &Path, module: &str, items: &[Item], out: &mut Vec<String>) {
                 }
             }
             Item::Enum(e) if public(&e.vis) && !hidden(&e.attrs) => {
+                // Whether downstream matches must have a wildcard arm is part of the surface.
+                let non_exhaustive = e.attrs.iter().any(|a| a.path().is_ident("non_exhaustive"));
                 push(format!(
-                    "{}enum {}{}",
+                    "{}{}enum {}{}",
                     gate(&e.attrs),
+                    if non_exhaustive {
+                        "#[non_exhaustive] "
+                    } else {
+                        ""
+                    },
                     e.ident,
                     tokens(&e.generics)
                 ));

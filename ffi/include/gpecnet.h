@@ -81,6 +81,11 @@
 // A panic was caught (host builds with the `std` feature; never expected).
 #define GPECNET_E_PANIC 5
 
+// An error of the core that this build of the C ABI has no code for (the
+// core's error enums are `#[non_exhaustive]`; every variant known today has
+// its own code, so this appears only with a newer core).
+#define GPECNET_E_UNKNOWN_ERROR 6
+
 // Blob: the first four bytes are not `GPEC`.
 #define GPECNET_E_BLOB_BAD_MAGIC 10
 

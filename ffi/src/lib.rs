@@ -127,6 +127,10 @@ pub const GPECNET_E_MISALIGNED: i32 = 3;
 pub const GPECNET_E_NOT_INITIALISED: i32 = 4;
 /// A panic was caught (host builds with the `std` feature; never expected).
 pub const GPECNET_E_PANIC: i32 = 5;
+/// An error of the core that this build of the C ABI has no code for (the
+/// core's error enums are `#[non_exhaustive]`; every variant known today has
+/// its own code, so this appears only with a newer core).
+pub const GPECNET_E_UNKNOWN_ERROR: i32 = 6;
 
 /// Blob: the first four bytes are not `GPEC`.
 pub const GPECNET_E_BLOB_BAD_MAGIC: i32 = 10;
@@ -206,6 +210,7 @@ pub fn blob_status(e: BlobError) -> i32 {
         BlobError::ExceedsCapacity => GPECNET_E_BLOB_EXCEEDS_CAPACITY,
         BlobError::NonFinite(_) => GPECNET_E_BLOB_NON_FINITE,
         BlobError::BadScale(_) => GPECNET_E_BLOB_BAD_SCALE,
+        _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
 
@@ -223,6 +228,7 @@ pub fn predict_status(e: PredictError) -> i32 {
         PredictError::NoPointHead => GPECNET_E_NO_POINT_HEAD,
         PredictError::NotStarted => GPECNET_E_NOT_STARTED,
         PredictError::OutputOutOfRange => GPECNET_E_OUTPUT_OUT_OF_RANGE,
+        _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
 
@@ -230,6 +236,7 @@ fn error_status(e: Error) -> i32 {
     match e {
         Error::Blob(b) => blob_status(b),
         Error::Predict(p) => predict_status(p),
+        _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
 
@@ -273,6 +280,7 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_NO_POINT_HEAD => c"model has no point-forecast head",
         GPECNET_E_NOT_STARTED => c"no sample stream started",
         GPECNET_E_OUTPUT_OUT_OF_RANGE => c"model output outside the plausible range",
+        GPECNET_E_UNKNOWN_ERROR => c"an error this build of the C ABI has no code for",
         _ => c"unknown status code",
     };
     s.as_ptr()

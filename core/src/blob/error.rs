@@ -21,6 +21,7 @@ pub enum NetworkId {
 /// Every way a byte string can fail to be a usable model blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum BlobError {
     /// The first four bytes are not `GPEC`.
     BadMagic,
