@@ -42,8 +42,8 @@ struct Cli {
 #[derive(Subcommand)]
 enum Cmd {
     /// The main job from scratch: setup, then the shipped embedded model (weights/sdd-tiny-v2-qe)
-    /// on the SDD test set through gpecnet-core (ADE/FDE + out/predictions.svg), then every
-    /// shipped model on the STM32F405 in QEMU, bit-exact with the host.
+    /// on the SDD test set through gpecnet-core (ADE/FDE + out/predictions.svg), then the two
+    /// MCU models (pixel and metric) on the STM32F405 in QEMU, bit-exact with the host.
     Demo(FwArgs),
     /// Install missing prerequisites (apt: Debian rust toolchain, lld-22, qemu-system-arm).
     Setup,
@@ -171,8 +171,13 @@ fn demo(o: &Opts) -> i32 {
     if rc != 0 {
         return rc;
     }
-    replay::qemu(o)
+    // The two models a drone flashes (pixel and metric MCU defaults); CI's
+    // `qemu --all-targets` replays every shipped model on three MCU classes.
+    replay::qemu_models(o, Some(&DEMO_MODELS))
 }
+
+/// The models `cargo xtask demo` replays on the emulated STM32F405.
+const DEMO_MODELS: [&str; 2] = ["sdd-tiny-v2-qe", "sdd-m-tiny-qe"];
 
 fn main() {
     let code = match Cli::parse().cmd {

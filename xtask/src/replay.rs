@@ -94,9 +94,21 @@ fn high_water(text: &str) -> Option<u32> {
 
 /// `cargo xtask qemu [--mcu NAME | --all-targets]`.
 pub fn qemu(o: &Opts) -> i32 {
+    qemu_models(o, None)
+}
+
+/// [`qemu`] restricted to the models named in `only` (those of them that are shipped); every
+/// model when `None`.
+pub fn qemu_models(o: &Opts, only: Option<&[&str]>) -> i32 {
     require(true);
     let dir = weights_dir(o);
-    let models = require_models(&dir);
+    let mut models = require_models(&dir);
+    if let Some(only) = only {
+        models.retain(|m| only.contains(&m.as_str()));
+        if models.is_empty() {
+            die(&format!("none of {only:?} is in {}", dir.display()));
+        }
+    }
     let classes: Vec<&Mcu> = if o.all_targets {
         mcu::ALL.to_vec()
     } else {
