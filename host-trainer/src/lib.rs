@@ -1,4 +1,5 @@
 //! gpecnet-trainer: see the crate README and ARCHITECTURE.md.
+pub mod blob_eval;
 pub mod checkpoint;
 pub mod config;
 pub mod core_eval;
@@ -24,3 +25,4 @@ pub mod social;
 pub mod synth;
 pub mod train;
 pub mod tts;
+pub mod units;

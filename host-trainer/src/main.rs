@@ -324,14 +324,14 @@ fn parse_dataset(s: &str) -> std::result::Result<data::DatasetSpec, String> {
 }
 
 fn cmd_eval(a: EvalArgs) -> Result<()> {
-    let target = gpecnet_trainer::ship::EvalTarget {
+    let target = gpecnet_trainer::blob_eval::EvalTarget {
         dataset: a.dataset.clone(),
         assume_unit: a.assume_unit.map(Into::into),
     };
     if a.update_card && a.dataset != data::DatasetSpec::Sdd {
         anyhow::bail!("--update-card applies to the SDD pixel cards only");
     }
-    let mut r = gpecnet_trainer::ship::eval_blob(
+    let mut r = gpecnet_trainer::blob_eval::eval_blob(
         &a.blob,
         &a.data,
         &target,
@@ -342,7 +342,7 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         a.n_draw,
     )?;
     let update = if a.update_card {
-        let u = gpecnet_trainer::ship::update_card_dist(
+        let u = gpecnet_trainer::blob_eval::update_card_dist(
             &a.blob,
             &a.data,
             &r,

@@ -136,7 +136,7 @@ pub fn quantize_blob_with(
     };
     let src_meta = gpecnet_core::blob::Meta::of_blob(&src_bytes)
         .map_err(|e| anyhow!("{}: {e}", src.display()))?;
-    crate::ship::check_unit(&src_model, &src_meta, &spec, None)
+    crate::units::check_unit(&src_model, &src_meta, &spec, None)
         .with_context(|| format!("quantizing {}", src.display()))?;
     let mut model = crate::export::read_blob(&src_bytes)?;
     if endpoint_only {
@@ -151,7 +151,7 @@ pub fn quantize_blob_with(
     let blob = crate::export::blob_bytes(&q)?;
     let core = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow!("{e}"))?;
     let test = crate::ship::test_windows(data_root, &spec)?;
-    let sine = crate::ship::sine_of_blob(src).unwrap_or(crate::reference::SineKind::Libm);
+    let sine = crate::blob_eval::sine_of_blob(src).unwrap_or(crate::reference::SineKind::Libm);
     eprintln!(
         "evaluating f32 and fixed point on {} {spec} test windows (K = {k}) ...",
         test.windows.len()

@@ -1,0 +1,88 @@
+//! Which unit a blob works in, checked against a data set's before anything runs: a metre
+//! model on pixel data (or the reverse) would give numbers with no meaning and no error.
+
+use gpecnet_core::blob::{Meta, PositionUnit};
+
+use crate::data::{DatasetSpec, Unit};
+
+/// Why a blob may not be run on a data set: its positions are in another unit.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UnitError {
+    /// The blob states a unit (format version 4) other than the data set's.
+    #[error(
+        "model {model:?} takes and returns {} but the {dataset} data set is in {}: refusing \
+         (every number would be meaningless); use a model in {} or a data set in {}",
+        unit_words(*.blob), unit_words(*.data), unit_words(*.data), unit_words(*.blob)
+    )]
+    Mismatch {
+        /// The blob's model name.
+        model: String,
+        /// The blob's unit.
+        blob: Unit,
+        /// The data set.
+        dataset: String,
+        /// The data set's unit.
+        data: Unit,
+    },
+    /// A blob before format version 4 (no unit recorded) on a metre data set.
+    #[error(
+        "model {model:?} does not state its unit (blob format before version 4; every such \
+         shipped model is in SDD image pixels) and the {dataset} data set is in metres: \
+         refusing; pass --assume-unit m only if this blob was trained in metres"
+    )]
+    Unstated {
+        /// The blob's model name.
+        model: String,
+        /// The data set.
+        dataset: String,
+    },
+}
+
+/// A unit in words, for messages.
+fn unit_words(u: Unit) -> &'static str {
+    match u {
+        Unit::Pixels => "pixels",
+        Unit::Metres => "metres",
+    }
+}
+
+/// The unit `model` (whose blob says `meta`) works in, checked against `spec`'s: a stated unit must match; an
+/// unstated one (blobs before format version 4) is taken from `assume`, else as pixels on a
+/// pixel data set (what every such shipped blob is) and refused on a metre one.
+pub fn check_unit(
+    model: &gpecnet_core::Model<'_>,
+    meta: &Meta<'_>,
+    spec: &DatasetSpec,
+    assume: Option<Unit>,
+) -> std::result::Result<Unit, UnitError> {
+    let data = spec.unit();
+    let stated = match meta.unit {
+        PositionUnit::Metre => Some(Unit::Metres),
+        PositionUnit::Pixel => Some(Unit::Pixels),
+        _ => None,
+    };
+    let unit = match (stated, assume) {
+        (Some(u), _) => u,
+        (None, Some(a)) => a,
+        (None, None) if data == Unit::Pixels => Unit::Pixels,
+        (None, None) => {
+            return Err(UnitError::Unstated {
+                model: model.name().to_string(),
+                dataset: spec.to_string(),
+            })
+        }
+    };
+    if unit != data || assume.is_some_and(|a| a != unit) {
+        return Err(UnitError::Mismatch {
+            model: model.name().to_string(),
+            blob: if unit != data {
+                unit
+            } else {
+                assume.unwrap_or(unit)
+            },
+            dataset: spec.to_string(),
+            data,
+        });
+    }
+    Ok(unit)
+}
