@@ -86,3 +86,37 @@ pub fn check_unit(
     }
     Ok(unit)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    static PIXEL_V3: &[u8] = include_bytes!("../../weights/sdd-tiny-v2-qe.gpec");
+    static METRE_V4: &[u8] = include_bytes!("../../weights/sdd-m-tiny-qe.gpec");
+
+    fn check(blob: &[u8], spec: &DatasetSpec, assume: Option<Unit>) -> Result<Unit, UnitError> {
+        let m = gpecnet_core::Model::from_blob(blob).unwrap();
+        check_unit(&m, &Meta::of_blob(blob).unwrap(), spec, assume)
+    }
+
+    #[test]
+    fn units_must_match_before_anything_runs() {
+        let zara1 = DatasetSpec::EthUcy("zara1".into());
+        // The metric model on metre data, the pixel model on pixel data.
+        assert_eq!(check(METRE_V4, &zara1, None), Ok(Unit::Metres));
+        assert_eq!(check(METRE_V4, &DatasetSpec::SddMetres, None), Ok(Unit::Metres));
+        assert_eq!(check(PIXEL_V3, &DatasetSpec::Sdd, None), Ok(Unit::Pixels));
+        // The pixel default (format 3, no unit recorded) on metre data: refused.
+        let e = check(PIXEL_V3, &zara1, None).unwrap_err();
+        assert!(matches!(e, UnitError::Unstated { .. }), "{e}");
+        assert!(e.to_string().contains("--assume-unit"), "{e}");
+        // ... unless the caller says it was trained in metres.
+        assert_eq!(check(PIXEL_V3, &zara1, Some(Unit::Metres)), Ok(Unit::Metres));
+        // A stated unit always wins over the data and over an assumption.
+        let e = check(METRE_V4, &DatasetSpec::Sdd, None).unwrap_err();
+        assert!(matches!(e, UnitError::Mismatch { .. }), "{e}");
+        assert!(e.to_string().contains("metres") && e.to_string().contains("pixels"), "{e}");
+        assert!(check(METRE_V4, &zara1, Some(Unit::Pixels)).is_err());
+        assert!(check(PIXEL_V3, &DatasetSpec::Sdd, Some(Unit::Metres)).is_err());
+    }
+}

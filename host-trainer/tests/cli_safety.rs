@@ -504,3 +504,36 @@ fn config_comparison_never_reports_nan_against_nan() {
     let d = gpecnet_trainer::train::config_diff(&a, &b).unwrap();
     assert_eq!(d.len(), 1, "{d:?}");
 }
+
+/// `gpecnet eval` on metre data: the metric MCU model prints metres; the pixel default (a
+/// format-3 blob, no unit recorded) is refused with a unit error, exit non-zero and no metrics
+/// on stdout, before anything is written.
+#[test]
+fn eval_checks_units_end_to_end() {
+    let dir = temp_dir("units");
+    let svg = dir.join("p.svg");
+    let metric = weights().join("sdd-m-tiny-qe.gpec");
+    let o = gpecnet()
+        .args(["eval", "--blob", s(&metric), "--dataset", "eth_ucy:zara1", "--json"])
+        .args(["--draw", s(&svg)])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["unit"], "m");
+    assert_eq!(v["dataset"], "eth_ucy:zara1");
+    assert!(v["min_fde"].as_f64().unwrap() < 1.0, "{v}");
+    let pixel = weights().join("sdd-tiny-v2-qe.gpec");
+    let _ = std::fs::remove_file(&svg);
+    let o = gpecnet()
+        .args(["eval", "--blob", s(&pixel), "--dataset", "eth_ucy:zara1", "--json"])
+        .args(["--draw", s(&svg)])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(o.stdout.is_empty(), "{}", String::from_utf8_lossy(&o.stdout));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("does not state its unit"), "{err}");
+    assert!(!svg.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
