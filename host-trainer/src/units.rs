@@ -104,18 +104,27 @@ mod tests {
         let zara1 = DatasetSpec::EthUcy("zara1".into());
         // The metric model on metre data, the pixel model on pixel data.
         assert_eq!(check(METRE_V4, &zara1, None), Ok(Unit::Metres));
-        assert_eq!(check(METRE_V4, &DatasetSpec::SddMetres, None), Ok(Unit::Metres));
+        assert_eq!(
+            check(METRE_V4, &DatasetSpec::SddMetres, None),
+            Ok(Unit::Metres)
+        );
         assert_eq!(check(PIXEL_V3, &DatasetSpec::Sdd, None), Ok(Unit::Pixels));
         // The pixel default (format 3, no unit recorded) on metre data: refused.
         let e = check(PIXEL_V3, &zara1, None).unwrap_err();
         assert!(matches!(e, UnitError::Unstated { .. }), "{e}");
         assert!(e.to_string().contains("--assume-unit"), "{e}");
         // ... unless the caller says it was trained in metres.
-        assert_eq!(check(PIXEL_V3, &zara1, Some(Unit::Metres)), Ok(Unit::Metres));
+        assert_eq!(
+            check(PIXEL_V3, &zara1, Some(Unit::Metres)),
+            Ok(Unit::Metres)
+        );
         // A stated unit always wins over the data and over an assumption.
         let e = check(METRE_V4, &DatasetSpec::Sdd, None).unwrap_err();
         assert!(matches!(e, UnitError::Mismatch { .. }), "{e}");
-        assert!(e.to_string().contains("metres") && e.to_string().contains("pixels"), "{e}");
+        assert!(
+            e.to_string().contains("metres") && e.to_string().contains("pixels"),
+            "{e}"
+        );
         assert!(check(METRE_V4, &zara1, Some(Unit::Pixels)).is_err());
         assert!(check(PIXEL_V3, &DatasetSpec::Sdd, Some(Unit::Metres)).is_err());
     }

@@ -514,7 +514,14 @@ fn eval_checks_units_end_to_end() {
     let svg = dir.join("p.svg");
     let metric = weights().join("sdd-m-tiny-qe.gpec");
     let o = gpecnet()
-        .args(["eval", "--blob", s(&metric), "--dataset", "eth_ucy:zara1", "--json"])
+        .args([
+            "eval",
+            "--blob",
+            s(&metric),
+            "--dataset",
+            "eth_ucy:zara1",
+            "--json",
+        ])
         .args(["--draw", s(&svg)])
         .output()
         .unwrap();
@@ -526,12 +533,23 @@ fn eval_checks_units_end_to_end() {
     let pixel = weights().join("sdd-tiny-v2-qe.gpec");
     let _ = std::fs::remove_file(&svg);
     let o = gpecnet()
-        .args(["eval", "--blob", s(&pixel), "--dataset", "eth_ucy:zara1", "--json"])
+        .args([
+            "eval",
+            "--blob",
+            s(&pixel),
+            "--dataset",
+            "eth_ucy:zara1",
+            "--json",
+        ])
         .args(["--draw", s(&svg)])
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(o.stdout.is_empty(), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("does not state its unit"), "{err}");
     assert!(!svg.exists());
