@@ -583,8 +583,10 @@ struct TrainArgs {
     /// Override the config's heading_steps (new runs only; 0 = raw orientation).
     #[arg(long, value_name = "M")]
     heading_steps: Option<usize>,
-    /// Override the config's dataset (new runs only): `sdd`, `sdd-m` or `eth_ucy:<scene>`, one config
-    /// for every leave-one-scene-out split.
+    /// Override the config's dataset (new runs only): `sdd` (pixels), `sdd-m` (SDD in metres),
+    /// `eth_ucy:<scene>` (one config for every leave-one-scene-out split), a data-set folder
+    /// with a `/` in its path (`./mydrone`: dataset.toml + train/ val/ test/, see
+    /// docs/own-data.md), or several joined by `+`.
     #[arg(long, value_name = "SPEC")]
     dataset: Option<String>,
     /// Turn on reflection augmentation (new runs only; see `mirror` in the config).
