@@ -89,7 +89,8 @@ pub struct TrainConfig {
     pub coord_scale: f32,
     /// Seed of every random stream (init, shuffling, noise, validation latents).
     pub seed: u64,
-    /// `"sdd"` or `"eth_ucy:<scene>"`.
+    /// The data set by name (`crate::data::DatasetSpec`): `"sdd"`, `"sdd-m"`, `"eth_ucy:<scene>"`,
+    /// a data-set folder (`"./mydrone"`) or several joined by `+`.
     pub dataset: String,
     /// SDD scenes held out from `sdd/train` for validation / best-epoch selection.
     /// (Ignored for ETH/UCY, which has its own `val/` split.)
