@@ -365,10 +365,12 @@ type LayerTensors = (usize, usize, Vec<u8>, Vec<u8>, Vec<u8>);
 /// `weights/`. Writing a version-3 or 4 blob again gives the same bytes (the padding is
 /// canonical).
 pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
-    let model = gpecnet_core::Model::from_blob(blob).map_err(|e| WriteError::Rejected {
+    let rejected = |e: gpecnet_core::BlobError| WriteError::Rejected {
         what: "blob to rewrite",
         reason: e.to_string(),
-    })?;
+    };
+    let model = gpecnet_core::Model::from_blob(blob).map_err(rejected)?;
+    let meta = Meta::of_blob(blob).map_err(rejected)?;
     let wire = |net: &gpecnet_core::blob::Network<'_>| -> Vec<WireLayer> {
         net.layers()
             .map(|l| {
@@ -400,11 +402,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         name: model.name(),
         config: *model.config(),
         extensions: Some(*model.extensions()),
-        meta: Some(Meta::of_blob(blob).map_err(|e| WriteError::Rejected {
-            what: "blob to rewrite",
-            reason: e.to_string(),
-        })?)
-        .filter(|m| m.unit != PositionUnit::Unknown),
+        meta: Some(meta).filter(|m| m.unit != PositionUnit::Unknown),
     };
     let out = blob_bytes(&head, [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]])?;
     // The same model, tensor for tensor (only the framing may differ).
@@ -431,7 +429,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
     if tensors(&model) != tensors(&again)
         || model.config() != again.config()
         || model.extensions() != again.extensions()
-        || Meta::of_blob(blob).ok() != Meta::of_blob(&out).ok()
+        || Meta::of_blob(&out).ok() != Some(meta)
     {
         return Err(WriteError::Shape(
             "rewritten blob differs from the original".into(),

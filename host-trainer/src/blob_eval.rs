@@ -11,7 +11,7 @@ use serde::Serialize;
 use crate::core_eval::evaluate_core;
 use crate::data::{self, Dataset, DatasetSpec, Unit};
 use crate::eval::{
-    constant_velocity, constant_velocity_n, dist_metrics, evaluate_baseline,
+    constant_velocity, constant_velocity_n, dist_accumulator, dist_metrics, evaluate_baseline,
     evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
 };
 use crate::reference::SineKind;
@@ -160,14 +160,15 @@ pub fn eval_blob(
         .as_ref()
         .is_some_and(|c| card_dataset(c).ok().as_ref() != Some(spec));
     let card = card.filter(|_| !card_on_other_data);
-    let (metrics, dist, preds, matches_card, point_preds) = if model.numeric()
+    let (metrics, (dist, dist_acc), preds, matches_card, point_preds) = if model.numeric()
         == gpecnet_core::NumericKind::F32
     {
         let sine = sine
             .or_else(|| sine_of_blob(blob_path))
             .unwrap_or(SineKind::Libm);
         let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
-        let dist = dist_metrics(&test, &preds).context("empty test set")?;
+        let acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
+        let dist = acc.finish().context("empty test set")?;
         let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?;
         let point_m = point.as_ref().map(|p| p.0);
         let matches = card.map(|v| {
@@ -183,7 +184,7 @@ pub fn eval_blob(
             }) && want_dist == Some(dist)
                 && want_point == point_m
         });
-        (metrics, dist, preds, matches, point)
+        (metrics, (dist, acc), preds, matches, point)
     } else {
         if sine.is_some() {
             bail!(
@@ -192,7 +193,8 @@ pub fn eval_blob(
             );
         }
         let (metrics, preds) = crate::quantize::evaluate_core_fixed(&blob, &test, k, base_seed)?;
-        let dist = dist_metrics(&test, &preds).context("empty test set")?;
+        let acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
+        let dist = acc.finish().context("empty test set")?;
         let point = crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?;
         let point_m = point.as_ref().map(|p| p.0);
         let matches = card.map(|c| {
@@ -205,7 +207,7 @@ pub fn eval_blob(
                 && want_dist == Some(dist)
                 && want_point == point_m
         });
-        (metrics, dist, preds, matches, point)
+        (metrics, (dist, acc), preds, matches, point)
     };
     let point = point_preds.as_ref().map(|p| (p.0.ade_k1, p.0.fde_k1));
     let pixels = if *spec == DatasetSpec::SddMetres {
@@ -222,13 +224,7 @@ pub fn eval_blob(
         Unit::Pixels => [20.0, 40.0],
         Unit::Metres => [0.5, 1.0],
     };
-    let hits = {
-        let mut acc = crate::eval::DistAccumulator::new();
-        for (w, p) in test.windows.iter().zip(&preds) {
-            acc.add(w, p);
-        }
-        hit_radii.map(|r| (r, acc.within(r)))
-    };
+    let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
     let svg = match svg {
         Some(path) => {
             let stride = (test.windows.len() / n_draw.max(1)).max(1);

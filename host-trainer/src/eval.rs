@@ -560,6 +560,12 @@ impl DistAccumulator {
 /// [`DistMetrics`] of predictions for every window of `ds` (in order); `None` when `ds` is
 /// empty or the lengths differ.
 pub fn dist_metrics(ds: &Dataset, preds: &[Prediction]) -> Option<DistMetrics> {
+    dist_accumulator(ds, preds)?.finish()
+}
+
+/// The [`DistAccumulator`] of predictions for every window of `ds` (in order), for callers
+/// that want [`DistAccumulator::within`] at other radii too; `None` when the lengths differ.
+pub fn dist_accumulator(ds: &Dataset, preds: &[Prediction]) -> Option<DistAccumulator> {
     if ds.windows.len() != preds.len() {
         return None;
     }
@@ -567,7 +573,7 @@ pub fn dist_metrics(ds: &Dataset, preds: &[Prediction]) -> Option<DistMetrics> {
     for (w, p) in ds.windows.iter().zip(preds) {
         acc.add(w, p);
     }
-    acc.finish()
+    Some(acc)
 }
 
 #[cfg(test)]

@@ -406,14 +406,11 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
     } else {
         let u = r.unit.suffix();
         println!(
-            "model {} on the {} test set ({} windows), through gpecnet-core, unit: {}",
+            "model {} on the {} test set ({} windows), through gpecnet-core, unit: {} ({u})",
             r.name,
             r.dataset,
             m.n,
-            match r.unit {
-                data::Unit::Pixels => "pixels (px)",
-                data::Unit::Metres => "metres (m)",
-            }
+            r.unit.words()
         );
         println!("{:<44} {:>9} {:>9}", "", "ADE", "FDE");
         let row = |label: String, ade: f64, fde: f64| {

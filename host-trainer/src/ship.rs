@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use crate::checkpoint::{load_model, Which};
 use crate::config::TrainConfig;
 use crate::core_eval::{evaluate_core, evaluate_reference};
-use crate::data::{self, default_sdd_val_scenes, Dataset, DatasetSpec, Split, Unit, PAST};
+use crate::data::{self, default_sdd_val_scenes, Dataset, DatasetSpec, Split, PAST};
 use crate::eval::{
     constant_velocity, constant_velocity_n, dist_metrics, evaluate_baseline,
     evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
@@ -527,14 +527,7 @@ impl CardData {
                 licence: SDD_LICENCE_TEXT.to_string(),
             };
         };
-        let unit = match spec.unit() {
-            Unit::Pixels => "px",
-            Unit::Metres => "m",
-        };
-        let words = match spec.unit() {
-            Unit::Pixels => "pixels",
-            Unit::Metres => "metres",
-        };
+        let (unit, words) = (spec.unit().suffix(), spec.unit().words());
         let mut licence = if spec.uses_sdd() {
             SDD_LICENCE_TEXT.to_string()
         } else {

@@ -12,7 +12,7 @@ pub enum UnitError {
     #[error(
         "model {model:?} takes and returns {} but the {dataset} data set is in {}: refusing \
          (every number would be meaningless); use a model in {} or a data set in {}",
-        unit_words(*.blob), unit_words(*.data), unit_words(*.data), unit_words(*.blob)
+        .blob.words(), .data.words(), .data.words(), .blob.words()
     )]
     Mismatch {
         /// The blob's model name.
@@ -36,14 +36,6 @@ pub enum UnitError {
         /// The data set.
         dataset: String,
     },
-}
-
-/// A unit in words, for messages.
-fn unit_words(u: Unit) -> &'static str {
-    match u {
-        Unit::Pixels => "pixels",
-        Unit::Metres => "metres",
-    }
 }
 
 /// The unit `model` (whose blob says `meta`) works in, checked against `spec`'s: a stated unit must match; an

@@ -512,38 +512,21 @@ fn config_comparison_never_reports_nan_against_nan() {
 fn eval_checks_units_end_to_end() {
     let dir = temp_dir("units");
     let svg = dir.join("p.svg");
-    let metric = weights().join("sdd-m-tiny-qe.gpec");
-    let o = gpecnet()
-        .args([
-            "eval",
-            "--blob",
-            s(&metric),
-            "--dataset",
-            "eth_ucy:zara1",
-            "--json",
-        ])
-        .args(["--draw", s(&svg)])
-        .output()
-        .unwrap();
+    let eval_on_zara1 = |blob: &str| {
+        gpecnet()
+            .args(["eval", "--blob", s(&weights().join(blob)), "--json"])
+            .args(["--dataset", "eth_ucy:zara1", "--draw", s(&svg)])
+            .output()
+            .unwrap()
+    };
+    let o = eval_on_zara1("sdd-m-tiny-qe.gpec");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["unit"], "m");
     assert_eq!(v["dataset"], "eth_ucy:zara1");
     assert!(v["min_fde"].as_f64().unwrap() < 1.0, "{v}");
-    let pixel = weights().join("sdd-tiny-v2-qe.gpec");
     let _ = std::fs::remove_file(&svg);
-    let o = gpecnet()
-        .args([
-            "eval",
-            "--blob",
-            s(&pixel),
-            "--dataset",
-            "eth_ucy:zara1",
-            "--json",
-        ])
-        .args(["--draw", s(&svg)])
-        .output()
-        .unwrap();
+    let o = eval_on_zara1("sdd-tiny-v2-qe.gpec");
     assert!(!o.status.success());
     assert!(
         o.stdout.is_empty(),

@@ -252,8 +252,8 @@ pub fn load_folder(dir: &Path, split: &str) -> Result<Dataset, FolderError> {
                     path: f.clone(),
                     stem: stem.clone(),
                 })? as f32;
-            for p in ws.iter_mut().flat_map(|w| w.pos.iter_mut()) {
-                *p = [p[0] * s, p[1] * s];
+            for w in ws.iter_mut() {
+                w.scale(s);
             }
         }
         windows.extend(ws);

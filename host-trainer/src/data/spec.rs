@@ -207,6 +207,17 @@ pub enum Split {
     Test,
 }
 
+impl Split {
+    /// The split's folder name (`train`, `val`, `test`) in a data-set folder.
+    pub fn dir_name(self) -> &'static str {
+        match self {
+            Split::Train => "train",
+            Split::Val => "val",
+            Split::Test => "test",
+        }
+    }
+}
+
 /// The windows of one split of `spec` under `root`. `val_scenes` are the SDD scenes held out of
 /// `sdd/train` for validation (ignored for ETH/UCY, whose validation split is its own folder);
 /// each must exist, so a typo never validates on nothing.
@@ -233,11 +244,7 @@ pub fn load(
         }
         DatasetSpec::Folder { dir, .. } => Ok(super::folder::load_folder(
             Path::new(dir),
-            match split {
-                Split::Train => "train",
-                Split::Val => "val",
-                Split::Test => "test",
-            },
+            split.dir_name(),
         )?),
         DatasetSpec::Combined(parts) => {
             let mut out: Option<Dataset> = None;
@@ -290,10 +297,7 @@ fn to_metres(
                     .join("sdd_meters_per_pixel.csv"),
             });
         };
-        let s = s as f32;
-        for p in w.pos.iter_mut() {
-            *p = [p[0] * s, p[1] * s];
-        }
+        w.scale(s as f32);
     }
     Ok(Dataset {
         name: format!("{} (metres)", px.name),

@@ -22,6 +22,14 @@ impl Unit {
             Unit::Metres => "m",
         }
     }
+
+    /// The unit in words ("pixels" or "metres"), for messages and cards.
+    pub fn words(self) -> &'static str {
+        match self {
+            Unit::Pixels => "pixels",
+            Unit::Metres => "metres",
+        }
+    }
 }
 
 impl fmt::Display for Unit {
@@ -68,6 +76,14 @@ impl Window {
     /// The last observed position (step 8, index 7).
     pub fn last_obs(&self) -> [f32; 2] {
         self.pos[PAST - 1]
+    }
+
+    /// Every position times `s` (each coordinate rounded once, in f32): a unit conversion
+    /// (pixels to metres) or, about a canonical frame's origin, a change of speed.
+    pub fn scale(&mut self, s: f32) {
+        for p in self.pos.iter_mut() {
+            *p = [p[0] * s, p[1] * s];
+        }
     }
 }
 

@@ -77,8 +77,8 @@ pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>
             .with_context(|| format!("augmenting from {path}"))?;
     let s = cfg.synthetic_metres_per_pixel;
     if s > 0.0 {
-        for p in windows.iter_mut().flat_map(|w| w.pos.iter_mut()) {
-            *p = [p[0] * s, p[1] * s];
+        for w in windows.iter_mut() {
+            w.scale(s);
         }
     }
     Ok(windows)
@@ -146,9 +146,7 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
         for &f in &cfg.speed_scales {
             for i in 0..base {
                 let mut m = train_windows[i].clone();
-                for p in m.pos.iter_mut() {
-                    *p = [p[0] * f, p[1] * f];
-                }
+                m.scale(f);
                 train_windows.push(m);
             }
         }
