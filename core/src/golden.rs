@@ -252,7 +252,12 @@ impl<'a> GoldenSet<'a> {
 /// FNV-1a (32-bit) over the little-endian bytes of `words`: the compact
 /// per-case fingerprint the firmware prints and the host recomputes.
 pub fn fnv1a(words: impl IntoIterator<Item = u32>) -> u32 {
-    let mut h: u32 = 0x811c_9dc5;
+    fnv1a_continue(0x811c_9dc5, words)
+}
+
+/// [`fnv1a`] continued from the hash state `h` (a running hash over several
+/// calls).
+pub fn fnv1a_continue(mut h: u32, words: impl IntoIterator<Item = u32>) -> u32 {
     for w in words {
         for byte in w.to_le_bytes() {
             h ^= byte as u32;

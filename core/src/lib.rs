@@ -130,6 +130,7 @@ pub mod prng;
 pub mod sampling;
 pub mod sine;
 pub mod tracks;
+pub mod units;
 
 pub use blob::{Activation, BlobError, Model, ModelConfig, NumericKind};
 pub use engine::Engine;
@@ -145,11 +146,19 @@ pub enum Error {
     Blob(BlobError),
     /// A prediction was refused.
     Predict(PredictError),
+    /// The caller's unit cannot be used with the model ([`units`]).
+    Unit(units::UnitError),
 }
 
 impl From<BlobError> for Error {
     fn from(e: BlobError) -> Self {
         Error::Blob(e)
+    }
+}
+
+impl From<units::UnitError> for Error {
+    fn from(e: units::UnitError) -> Self {
+        Error::Unit(e)
     }
 }
 
@@ -164,6 +173,7 @@ impl core::fmt::Display for Error {
         match self {
             Error::Blob(e) => write!(f, "{e}"),
             Error::Predict(e) => write!(f, "{e}"),
+            Error::Unit(e) => write!(f, "{e}"),
         }
     }
 }

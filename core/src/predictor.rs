@@ -26,11 +26,12 @@
 //! 32-bit target (the f32 engine's five rows of `W` f32, the model view, the
 //! sampler state): 4,128 B for `W = 128` on a Cortex-M4F. Outputs go to caller-owned buffers; [`Trajectory`] is 260 bytes.
 
-use crate::blob::{Model, NumericKind, MAX_FUTURE};
+use crate::blob::{Model, NumericKind, MAX_FUTURE, MAX_PAST};
 use crate::engine::Engine;
 use crate::fixed::Q15;
 use crate::float::Float;
 use crate::sine::Sine;
+use crate::units::{CallerUnit, Conversion};
 use crate::Error;
 
 /// A predicted trajectory: `future_len` points, the last is the endpoint.
@@ -139,31 +140,87 @@ macro_rules! on_kind {
 }
 pub(crate) use on_kind;
 
+/// The engines of a [`Predictor`], one per numeric kind.
+type Engines<'a, S, const W: usize> = ByKind<Engine<'a, Float<S>, W>, Engine<'a, Q15, W>>;
+
 /// Predicts from any valid blob (see the module docs).
-pub struct Predictor<'a, S: Sine, const W: usize>(
-    ByKind<Engine<'a, Float<S>, W>, Engine<'a, Q15, W>>,
-);
+pub struct Predictor<'a, S: Sine, const W: usize> {
+    engine: Engines<'a, S, W>,
+    units: Conversion,
+}
 
 impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// A predictor for `model`, whatever its numeric kind. Fails with
     /// [`PredictError::ScratchTooSmall`] when [`Model::scratch_width`]
     /// exceeds `W`.
+    ///
+    /// Positions go in and come out in the model's own unit, unchecked
+    /// (pixels for the SDD pixel models, metres for the metric ones): the
+    /// same as [`Predictor::with_units`] with [`CallerUnit::ModelUnit`].
+    /// Prefer `with_units`, which refuses a caller unit the model cannot take.
     pub fn new(model: Model<'a>) -> Result<Self, Error> {
-        Ok(Self(match model.numeric() {
-            NumericKind::F32 => ByKind::F32(Engine::new(model)?),
-            NumericKind::Int16Q15 => ByKind::Q15(Engine::new(model)?),
-        }))
+        Ok(Self {
+            engine: match model.numeric() {
+                NumericKind::F32 => ByKind::F32(Engine::new(model)?),
+                NumericKind::Int16Q15 => ByKind::Q15(Engine::new(model)?),
+            },
+            units: Conversion::IDENTITY,
+        })
+    }
+
+    /// A predictor for a caller whose positions are in `unit`: refused with
+    /// [`Error::Unit`] when the model cannot take them (the rules and the
+    /// exact conversion are in [`crate::units`]), else as [`Predictor::new`],
+    /// converting every input and output where the units differ.
+    pub fn with_units(model: Model<'a>, unit: CallerUnit) -> Result<Self, Error> {
+        let units = Conversion::new(&model, unit)?;
+        let mut p = Self::new(model)?;
+        p.units = units;
+        Ok(p)
+    }
+
+    /// The conversion between the caller's positions and the model's
+    /// ([`Conversion::IDENTITY`] when they are the same).
+    pub fn units(&self) -> Conversion {
+        self.units
+    }
+
+    /// `f(engine, past)` with `past` in the model's unit.
+    fn run<R>(
+        &mut self,
+        past: &[[f32; 2]],
+        f: impl FnOnce(&mut Engines<'a, S, W>, &[[f32; 2]]) -> Result<R, PredictError>,
+    ) -> Result<R, PredictError> {
+        if self.units.is_identity() {
+            f(&mut self.engine, past)
+        } else {
+            self.run_converted(past, f)
+        }
+    }
+
+    /// [`Self::run`] through a converted copy of `past`, out of line so that
+    /// predictors without a conversion do not carry the copy on their stack.
+    #[inline(never)]
+    fn run_converted<R>(
+        &mut self,
+        past: &[[f32; 2]],
+        f: impl FnOnce(&mut Engines<'a, S, W>, &[[f32; 2]]) -> Result<R, PredictError>,
+    ) -> Result<R, PredictError> {
+        let mut buf = [[0.0; 2]; MAX_PAST];
+        let expected = usize::from(self.model().config().past_len);
+        let past = self.units.model_past(past, expected, &mut buf)?;
+        f(&mut self.engine, past)
     }
 
     /// The model.
     pub fn model(&self) -> &Model<'a> {
-        on_kind!(&self.0, e => e.model())
+        on_kind!(&self.engine, e => e.model())
     }
 
     /// Name of the sine this predictor runs the model with (`S::NAME` for
     /// f32 blobs, `q15-table` for fixed-point ones), as golden files name it.
     pub fn sine_name(&self) -> &'static str {
-        match self.0 {
+        match self.engine {
             ByKind::F32(_) => S::NAME,
             ByKind::Q15(_) => crate::fixed::SINE_NAME,
         }
@@ -173,7 +230,9 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// last one the endpoint. Needs a point-forecast head
     /// ([`Model::has_point_head`]); the model's single best guess.
     pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        on_kind!(&mut self.0, e => e.predict_point(past))
+        let mut t = self.run(past, |k, past| on_kind!(k, e => e.predict_point(past)))?;
+        self.units.caller_points(&mut t);
+        Ok(t)
     }
 
     /// The model's endpoint set: `out.len()` endpoints (plain latent samples
@@ -187,7 +246,12 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
+        self.run(
+            past,
+            |k, past| on_kind!(k, e => e.predict_endpoint_set::<N>(past, seed, out)),
+        )?;
+        self.units.caller_points(out);
+        Ok(())
     }
 
     /// `out.len()` plain latent samples (the first endpoints of the stream
@@ -198,7 +262,12 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         seed: u64,
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.predict_samples(past, seed, out))
+        self.run(
+            past,
+            |k, past| on_kind!(k, e => e.predict_samples(past, seed, out)),
+        )?;
+        self.units.caller_points(out);
+        Ok(())
     }
 
     /// `out.len()` full trajectories of plain latent samples (the last point
@@ -209,7 +278,14 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         seed: u64,
         out: &mut [Trajectory],
     ) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.predict_trajectories(past, seed, out))
+        self.run(
+            past,
+            |k, past| on_kind!(k, e => e.predict_trajectories(past, seed, out)),
+        )?;
+        for t in out {
+            self.units.caller_points(t);
+        }
+        Ok(())
     }
 
     /// Starts a sample stream (encodes `past` once); then call
@@ -217,16 +293,21 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// in between if you like. `start` + `k` × `next_endpoint` gives exactly
     /// [`Predictor::predict_samples`] with `k` outputs.
     pub fn start(&mut self, past: &[[f32; 2]], seed: u64) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.start(past, seed))
+        self.run(past, |k, past| on_kind!(k, e => e.start(past, seed)))
     }
 
     /// The next sample's endpoint of the stream begun by [`Predictor::start`].
     pub fn next_endpoint(&mut self) -> Result<[f32; 2], PredictError> {
-        on_kind!(&mut self.0, e => e.next_endpoint())
+        let mut p = [on_kind!(&mut self.engine, e => e.next_endpoint())?];
+        self.units.caller_points(&mut p);
+        let [p] = p;
+        Ok(p)
     }
 
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.
     pub fn last_trajectory(&mut self) -> Result<Trajectory, PredictError> {
-        on_kind!(&mut self.0, e => e.last_trajectory())
+        let mut t = on_kind!(&mut self.engine, e => e.last_trajectory())?;
+        self.units.caller_points(&mut t);
+        Ok(t)
     }
 }

@@ -11,7 +11,6 @@
 /// and case (the lines `cargo xtask qemu` compares with the host's); `true`
 /// when every case matched.
 pub fn run() -> bool {
-    use crate::golden::Line;
     if crate::models::MODELS.is_empty() {
         defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
         return false;
@@ -21,7 +20,25 @@ pub fn run() -> bool {
         true,
         &mut |l| {
             crate::watchdog::feed();
-            match l {
+            print(l)
+        },
+    );
+    crate::golden::resample_scene(&mut print);
+    defmt::println!(
+        "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",
+        s.models,
+        s.cases,
+        s.mismatches,
+        s.errors,
+        s.xchecks
+    );
+    s.ok()
+}
+
+/// One result line as defmt text (the same text as the host's `Line::print`).
+fn print(l: crate::golden::Line<'_>) {
+    use crate::golden::Line;
+    match l {
         Line::Model {
             model,
             numeric,
@@ -59,6 +76,11 @@ pub fn run() -> bool {
                 hash
             )
         }
+        Line::Resample {
+            frames,
+            points,
+            hash,
+        } => defmt::println!("resample {=u32} {=u32} {=u32:08x}", frames, points, hash),
         Line::Error { model, what } => defmt::error!("golden {=str}: {=str}", model, what),
         Line::TooWide {
             model,
@@ -71,15 +93,5 @@ pub fn run() -> bool {
             capacity
         ),
     }
-        },
-    );
-    defmt::println!(
-        "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",
-        s.models,
-        s.cases,
-        s.mismatches,
-        s.errors,
-        s.xchecks
-    );
-    s.ok()
+
 }

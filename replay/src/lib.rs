@@ -12,6 +12,8 @@
 //! golden <model> <case> <fnv32>          one per golden case, sidecar's sine, bit-compared
 //! xcheck <model> <sine> <case> <fnv32>   the same inputs through the other sine paths
 //!                                        (no expected values; host vs target only)
+//! resample <frames> <points> <fnv32>     the timed track table on a jittery 30 Hz scene
+//!                                        ([`resample_scene`]; host vs target only)
 //! ```
 //!
 //! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
@@ -28,8 +30,9 @@
 
 use core::fmt;
 
-use gpecnet_core::golden::{fnv1a, GoldenCase, GoldenSet};
+use gpecnet_core::golden::{fnv1a, fnv1a_continue, GoldenCase, GoldenSet};
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
+use gpecnet_core::tracks::{Observation, TimedTrackTable};
 use gpecnet_core::{fixed, Model, NumericKind, PredictError, Predictor, Trajectory};
 use heapless::Vec;
 
@@ -84,6 +87,15 @@ pub enum Line<'a> {
         /// FNV-1a over the output bit patterns.
         hash: u32,
     },
+    /// `resample <frames> <points> <hash>`: [`resample_scene`]'s result.
+    Resample {
+        /// Camera frames fed to the table.
+        frames: u32,
+        /// Fresh full histories hashed.
+        points: u32,
+        /// FNV-1a over every fresh history's id, end time and position bits.
+        hash: u32,
+    },
     /// Something that prevents verification (counts as a failure).
     Error {
         /// The model's name.
@@ -133,6 +145,11 @@ impl Line<'_> {
                 case,
                 hash,
             } => print(format_args!("xcheck {model} {sine} {case} {hash:08x}"), false),
+            Line::Resample {
+                frames,
+                points,
+                hash,
+            } => print(format_args!("resample {frames} {points} {hash:08x}"), false),
             Line::Error { model, what } => print(format_args!("golden {model}: {what}"), true),
             Line::TooWide {
                 model,
@@ -250,23 +267,30 @@ fn predict_case<S: Sine, const W: usize>(
     Ok((ends, point))
 }
 
-/// (`model` by reference: a `Model` is about 1.5 KiB, copied once, into the predictor.)
-///
+/// A predictor for `blob`, built out of line: the `Model` view it parses
+/// (about 1.5 KiB) lives only in this function's frame, gone before the
+/// cases run, so one model copy (the predictor's) is on the stack while
+/// they do, which the Cortex-M0's 16 KiB of RAM needs.
+#[inline(never)]
+fn predictor_for<S: Sine, const W: usize>(blob: &'static [u8]) -> Option<Predictor<'static, S, W>> {
+    Predictor::new(Model::from_blob(blob).ok()?).ok()
+}
+
 /// Every case of `set` through `Predictor<S>` (the engine follows the blob's kind; `S` is
 /// the sine of f32 blobs). `Err` if the predictor's sine is not `sine`.
 ///
-/// Out of line, and the predictor used where `new` put it (not moved out of
-/// the `Result`): one predictor (4 KiB at `W` = 128) on the stack at a
-/// time, which the Cortex-M0's 16 KiB of RAM needs.
+/// Out of line, and the predictor used where `predictor_for` put it (not moved
+/// out of the `Option`): one predictor (4 KiB at `W` = 128) on the stack at a
+/// time.
 #[inline(never)]
 fn cases_with<S: Sine, const W: usize>(
-    model: &Model<'_>,
+    blob: &'static [u8],
     set: &GoldenSet<'_>,
     sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
 ) -> Result<(), &'static str> {
-    let mut made = Predictor::<S, W>::new(*model);
-    let Ok(p) = made.as_mut() else {
+    let mut made = predictor_for::<S, W>(blob);
+    let Some(p) = made.as_mut() else {
         return Err("no predictor for this blob");
     };
     if p.sine_name() != sine {
@@ -278,35 +302,52 @@ fn cases_with<S: Sine, const W: usize>(
 
 /// [`cases_with`] for the sine named `sine` (fixed-point blobs: `q15-table`).
 fn cases_named<const W: usize>(
-    model: &Model<'_>,
+    blob: &'static [u8],
     set: &GoldenSet<'_>,
     sine: &str,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
 ) -> Result<(), &'static str> {
     match sine {
-        n if n == LibmSine::NAME => cases_with::<LibmSine, W>(model, set, sine, emit),
-        n if n == FastSine::NAME => cases_with::<FastSine, W>(model, set, sine, emit),
+        n if n == LibmSine::NAME => cases_with::<LibmSine, W>(blob, set, sine, emit),
+        n if n == FastSine::NAME => cases_with::<FastSine, W>(blob, set, sine, emit),
         #[cfg(feature = "micromath")]
         n if n == gpecnet_core::sine::MicromathSine::NAME => {
-            cases_with::<gpecnet_core::sine::MicromathSine, W>(model, set, sine, emit)
+            cases_with::<gpecnet_core::sine::MicromathSine, W>(blob, set, sine, emit)
         }
         // A fixed-point blob runs its integer sine whatever `S` is.
-        n if n == fixed::SINE_NAME => cases_with::<LibmSine, W>(model, set, sine, emit),
+        n if n == fixed::SINE_NAME => cases_with::<LibmSine, W>(blob, set, sine, emit),
         _ => Err("golden sine not compiled in (feature micromath?)"),
     }
 }
 
+/// What [`verify_all`] needs of a model besides its cases (the `Model`
+/// view itself is not kept: see [`predictor_for`]).
+struct Opened {
+    /// The golden set.
+    set: GoldenSet<'static>,
+    /// [`Model::scratch_width`].
+    scratch_width: usize,
+    /// [`Model::numeric`].
+    numeric: NumericKind,
+}
+
 impl EmbeddedModel {
-    /// The blob's model and its golden set, checked to belong together; `Err`: why not, as
-    /// [`Line::Error`] reports it.
-    fn open(&self) -> Result<(Model<'static>, GoldenSet<'static>), &'static str> {
+    /// The blob's golden set, checked to belong to the blob, and what the
+    /// replay needs of the model; `Err`: why not, as [`Line::Error`]
+    /// reports it. Out of line, for the reason of [`predictor_for`].
+    #[inline(never)]
+    fn open(&self) -> Result<Opened, &'static str> {
         let model = Model::from_blob(self.blob).map_err(|_| "blob rejected by Model::from_blob")?;
         let set = GoldenSet::parse(self.golden)
             .map_err(|_| "golden sidecar rejected by GoldenSet::parse")?;
         if set.info().model_crc != model.crc() {
             return Err("golden sidecar belongs to another blob (model_crc)");
         }
-        Ok((model, set))
+        Ok(Opened {
+            set,
+            scratch_width: model.scratch_width(),
+            numeric: model.numeric(),
+        })
     }
 }
 
@@ -322,18 +363,22 @@ pub fn verify_all<const W: usize>(
     let mut s = Summary::default();
     for m in models {
         s.models += 1;
-        let (model, set) = match m.open() {
-            Ok(pair) => pair,
+        let Opened {
+            set,
+            scratch_width,
+            numeric,
+        } = match m.open() {
+            Ok(opened) => opened,
             Err(what) => {
                 s.error(out, m.name, what);
                 continue;
             }
         };
-        if model.scratch_width() > W {
+        if scratch_width > W {
             s.errors += 1;
             out(Line::TooWide {
                 model: m.name,
-                needed: model.scratch_width() as u32,
+                needed: scratch_width as u32,
                 capacity: W as u32,
             });
             continue;
@@ -341,7 +386,7 @@ pub fn verify_all<const W: usize>(
         let sine = set.info().sine;
         out(Line::Model {
             model: m.name,
-            numeric: match model.numeric() {
+            numeric: match numeric {
                 NumericKind::F32 => "f32",
                 NumericKind::Int16Q15 => "int16q15",
             },
@@ -363,12 +408,12 @@ pub fn verify_all<const W: usize>(
                 s.error(out, m.name, "prediction failed");
             }
         };
-        if let Err(what) = cases_named::<W>(&model, &set, sine, &mut emit) {
+        if let Err(what) = cases_named::<W>(m.blob, &set, sine, &mut emit) {
             s.error(out, m.name, what);
             continue;
         }
         // The other compiled-in sines of an f32 blob (a fixed-point blob has one path).
-        if xcheck && model.numeric() == NumericKind::F32 {
+        if xcheck && numeric == NumericKind::F32 {
             for &other in SINES.iter().filter(|&&n| n != sine) {
                 let mut emit = |case: u32, r: Result<(u32, bool), ()>| match r {
                     Ok((hash, _)) => {
@@ -384,9 +429,84 @@ pub fn verify_all<const W: usize>(
                         s.error(out, m.name, "prediction failed (xcheck)");
                     }
                 };
-                let _ = cases_named::<W>(&model, &set, other, &mut emit);
+                let _ = cases_named::<W>(m.blob, &set, other, &mut emit);
             }
         }
     }
     s
+}
+
+/// Camera frames of [`resample_scene`].
+pub const RESAMPLE_FRAMES: u32 = 400;
+
+/// The timed track table ([`gpecnet_core::tracks::TimedTrackTable`]) on a
+/// deterministic scene, its result as one [`Line::Resample`]: 12 pedestrians
+/// on accelerating, curving paths (f32 polynomials of time), seen at 30 Hz
+/// with 0–9 ms of jitter, 10 % of detections dropped, one detection in 50
+/// non-finite, some ids repeated in a frame, a pause of 1.5 s that makes
+/// tracks leave, and a clock that starts 5 s before the `u32` wrap. Every
+/// update hashes each fresh full history (id, end time, the positions'
+/// bits): the same bits on every target when the table's arithmetic is
+/// portable, which `cargo xtask qemu` checks on each MCU class.
+pub fn resample_scene(out: &mut dyn FnMut(Line<'_>)) {
+    const PEDESTRIANS: u32 = 12;
+    let period = core::num::NonZeroU32::MIN.saturating_add(399);
+    let mut table: TimedTrackTable<16> = TimedTrackTable::new(period, 1_000);
+    // A 32-bit LCG (Numerical Recipes): jitter, drops, faults.
+    let mut state: u32 = 0x2545_f491;
+    let mut next = move || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        state >> 8
+    };
+    let mut hash_words: [u32; 2 + 16] = [0; 18];
+    let mut h = fnv1a([]);
+    let mut points = 0u32;
+    let start = u32::MAX - 5_000;
+    for frame in 0..RESAMPLE_FRAMES {
+        // 1.5 s without frames halfway through.
+        let pause = if frame >= RESAMPLE_FRAMES / 2 {
+            1_500
+        } else {
+            0
+        };
+        let t_ms = start
+            .wrapping_add(frame * 1000 / 30 + pause)
+            .wrapping_add(next() % 10);
+        let t = (frame * 1000 / 30 + pause) as f32 / 1000.0;
+        let mut seen: Vec<Observation, 16> = Vec::new();
+        for id in 0..PEDESTRIANS {
+            let r = next();
+            if r % 10 == 0 {
+                continue; // dropped
+            }
+            let k = id as f32;
+            let mut pos = [
+                2.0 * k + (0.8 + 0.05 * k) * t + 0.01 * k * t * t,
+                -3.0 + k - 0.6 * t + 0.002 * (k + 1.0) * t * t * t,
+            ];
+            if r % 50 == 1 {
+                pos[0] = f32::NAN;
+            }
+            let _ = seen.push(Observation { id, pos });
+            if r % 97 == 2 {
+                let _ = seen.push(Observation { id, pos }); // a duplicate
+            }
+        }
+        table.update(t_ms, &seen);
+        for track in table.fresh() {
+            hash_words[0] = track.id();
+            hash_words[1] = track.end_ms();
+            for (w, p) in hash_words[2..].chunks_exact_mut(2).zip(track.past().iter()) {
+                w[0] = p[0].to_bits();
+                w[1] = p[1].to_bits();
+            }
+            h = fnv1a_continue(h, hash_words.iter().copied());
+            points += 1;
+        }
+    }
+    out(Line::Resample {
+        frames: RESAMPLE_FRAMES,
+        points,
+        hash: h,
+    });
 }

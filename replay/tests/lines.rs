@@ -45,6 +45,15 @@ fn every_line_kind_has_its_text() {
         printed(xcheck),
         [("xcheck m fast-f32 0 deadbeef".into(), false)]
     );
+    let resample = Line::Resample {
+        frames: 400,
+        points: 77,
+        hash: 0x0102_0304,
+    };
+    assert_eq!(
+        printed(resample),
+        [("resample 400 77 01020304".into(), false)]
+    );
     let error = Line::Error {
         model: "m",
         what: "bad blob",

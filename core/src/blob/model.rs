@@ -68,9 +68,9 @@ impl<'a> Network<'a> {
 /// hyper-parameter and every weight (finite); afterwards inference cannot
 /// fail on the model's account. The view holds only slices into the blob
 /// (about 1.5 KiB on a 32-bit target: five networks of up to eight layer
-/// descriptors), so a blob in flash stays in flash. The version-4 [`Meta`]
-/// record is checked here but not kept in the view (the Cortex-M0's 16 KiB
-/// of RAM has no bytes to spare per copy): [`Meta::of_blob`] reads it.
+/// descriptors), so a blob in flash stays in flash. Of the version-4 [`Meta`]
+/// record the view keeps the numbers (unit, metres per pixel, period:
+/// [`Model::unit`], [`Model::period_s`]); [`Meta::of_blob`] reads the texts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Model<'a> {
     pub(super) name: &'a str,
@@ -83,6 +83,9 @@ pub struct Model<'a> {
     pub(super) point_head: Network<'a>,
     pub(super) ext: Extensions,
     pub(super) crc: u32,
+    pub(super) unit: PositionUnit,
+    pub(super) metres_per_pixel: f32,
+    pub(super) period_s: f32,
 }
 
 impl<'a> Model<'a> {
@@ -134,6 +137,23 @@ impl<'a> Model<'a> {
     /// Numeric kind of the weights.
     pub fn numeric(&self) -> NumericKind {
         self.numeric
+    }
+    /// The unit of every position the model takes and returns
+    /// ([`PositionUnit::Unknown`] for blobs before format version 4).
+    pub fn unit(&self) -> PositionUnit {
+        self.unit
+    }
+    /// For a pixel model trained at one ground scale: its metres per pixel
+    /// (finite, > 0); `None` for metre models, pixel models of several
+    /// scales (the SDD models) and blobs before format version 4.
+    pub fn metres_per_pixel(&self) -> Option<f32> {
+        (self.metres_per_pixel > 0.0).then_some(self.metres_per_pixel)
+    }
+    /// Seconds between consecutive positions of the history and of the
+    /// forecast (0.4 for every shipped model); `None` for blobs before
+    /// format version 4, which do not record it.
+    pub fn period_s(&self) -> Option<f32> {
+        (self.period_s > 0.0).then_some(self.period_s)
     }
     /// Hyper-parameters.
     pub fn config(&self) -> &ModelConfig {
@@ -256,10 +276,13 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         Extensions::default()
     };
-    if pre.version >= META_FORMAT_VERSION {
+    let meta = if pre.version >= META_FORMAT_VERSION {
         let meta: Meta = take(&mut cur)?;
         check_meta(&meta)?;
-    }
+        meta
+    } else {
+        Meta::UNKNOWN
+    };
     let mut nets = [Network::EMPTY; 5];
     let n_nets = if v2 { 5 } else { 4 };
     for net in nets.iter_mut().take(n_nets) {
@@ -287,6 +310,9 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         point_head,
         ext,
         crc: 0,
+        unit: meta.unit,
+        metres_per_pixel: meta.metres_per_pixel,
+        period_s: meta.period_s,
     };
     validate(&model)?;
     Ok(model)

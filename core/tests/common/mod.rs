@@ -292,3 +292,16 @@ pub fn trajectories<S: gpecnet_core::Sine, const W: usize>(
     p.predict_trajectories(past, seed, &mut out)?;
     Ok(out)
 }
+
+/// [`small_blob`]'s networks as a format-4 blob describing itself with `meta`.
+pub fn small_blob_with_meta(meta: gpecnet_core::blob::Meta<'_>) -> Vec<u8> {
+    let head = BlobHead {
+        numeric: NumericKind::F32,
+        name: "test-small",
+        config: config(),
+        extensions: None,
+        meta: Some(meta),
+    };
+    let [a, b, c, d] = &small_nets(Activation::Sine);
+    blob_bytes(&head, [a, b, c, d, &[]]).unwrap()
+}

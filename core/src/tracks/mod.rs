@@ -87,9 +87,15 @@
 //! capacity `N`) is about `8·N + 32` bytes. `update` costs O(N) per
 //! observation (lookup by id) plus O(N) per call (expiry).
 
+mod history;
+pub mod timed;
+
 use core::fmt;
 
 use heapless::Vec;
+
+use history::{lerp2, History};
+pub use timed::{period_ms_of, Sampled, TimedTrack, TimedTrackTable};
 
 /// Steps of history a prediction consumes: the shipped models' `past_len`
 /// (8 × 0.4 s = 3.2 s). A model with another `past_len` cannot take
@@ -158,32 +164,20 @@ impl core::error::Error for ObserveError {}
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Track {
     id: u32,
-    /// Oldest first; the newest is last. Slots not yet filled hold the first
-    /// position (padding, see [`Track::past`]).
-    hist: [Pos; HISTORY],
-    /// Filled steps, 1..=HISTORY.
-    len: u8,
+    /// At least one step: the position the track entered with.
+    hist: History,
     /// Frame of the last position, on the table's unwrapped time line.
     last_seen: u64,
 }
 
 impl Track {
     fn new(id: u32, pos: Pos, now: u64) -> Self {
+        let mut hist = History::EMPTY;
+        hist.push(pos);
         Track {
             id,
-            hist: [pos; HISTORY],
-            len: 1,
+            hist,
             last_seen: now,
-        }
-    }
-
-    fn push(&mut self, pos: Pos) {
-        self.hist.rotate_left(1);
-        if let Some(newest) = self.hist.last_mut() {
-            *newest = pos;
-        }
-        if usize::from(self.len) < HISTORY {
-            self.len += 1;
         }
     }
 
@@ -194,10 +188,9 @@ impl Track {
         let inv = 1.0 / gap as f32;
         let first = gap.saturating_sub(HISTORY as u64 - 1).max(1);
         for s in first..gap {
-            let a = s as f32 * inv;
-            self.push([lerp(p0[0], pos[0], a), lerp(p0[1], pos[1], a)]);
+            self.hist.push(lerp2(p0, pos, s as f32 * inv));
         }
-        self.push(pos);
+        self.hist.push(pos);
     }
 
     /// The track id.
@@ -212,44 +205,30 @@ impl Track {
 
     /// Filled history steps, `1 ..= HISTORY` (interpolated steps count).
     pub fn len(&self) -> usize {
-        usize::from(self.len)
+        self.hist.len()
     }
 
     /// Always `false`: a track holds at least the position it entered with.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.hist.len() == 0
     }
 
     /// `true` once [`HISTORY`] steps are filled.
     pub fn ready(&self) -> bool {
-        usize::from(self.len) == HISTORY
+        self.hist.len() == HISTORY
     }
 
     /// The most recent position (always a measured one).
     pub fn latest(&self) -> Pos {
-        let [.., newest] = self.hist;
-        newest
+        self.hist.latest()
     }
 
     /// The history, oldest first, newest last. Before the track is
     /// [`ready`](Self::ready), the missing older steps are padded with the
     /// oldest known position (the one the track entered with).
     pub fn past(&self) -> [Pos; HISTORY] {
-        self.hist
+        self.hist.past()
     }
-}
-
-/// `p0 + (p1 − p0)·a`, finite for finite inputs: when `p1 − p0` overflows
-/// (coordinates of opposite signs near `f32::MAX`) the equivalent
-/// `p0·(1 − a) + p1·a` is used, and the result is clamped to ±`f32::MAX`.
-fn lerp(p0: f32, p1: f32, a: f32) -> f32 {
-    let d = p1 - p0;
-    let v = if d.is_finite() {
-        p0 + d * a
-    } else {
-        p0 * (1.0 - a) + p1 * a
-    };
-    v.clamp(-f32::MAX, f32::MAX)
 }
 
 /// What one [`TrackTable::update`] changed and refused.
@@ -272,6 +251,58 @@ pub struct FrameDelta<const N: usize> {
     pub non_finite: u32,
     /// The frame was before the table's last frame: the call changed nothing.
     pub stale: bool,
+}
+
+impl<const N: usize> FrameDelta<N> {
+    /// Counts one observation's outcome (`Ok(true)`: its id entered).
+    fn record(&mut self, id: u32, r: Result<bool, ObserveError>) {
+        match r {
+            // At most N entries per call: cannot overflow.
+            Ok(true) => {
+                let _ = self.entered.push(id);
+            }
+            Ok(false) | Err(ObserveError::StaleFrame) => {}
+            Err(ObserveError::NonFinite) => self.non_finite = self.non_finite.saturating_add(1),
+            Err(ObserveError::Duplicate) => self.duplicates = self.duplicates.saturating_add(1),
+            Err(ObserveError::TableFull) => self.rejected = self.rejected.saturating_add(1),
+        }
+    }
+
+    /// Marks the call stale, telling `each` of every observation.
+    fn refuse(&mut self, observations: &[Observation], each: impl FnMut(&Observation)) {
+        self.stale = true;
+        observations.iter().for_each(each);
+    }
+}
+
+/// The unwrapped time of the caller's `t` (a wrapping `u32` counter) after
+/// the unwrapped `last`: `None` when `t` is before it (a serial-number
+/// difference of 2³¹ or more); any `t` when there is no `last`.
+fn advance(last: Option<u64>, t: u32) -> Option<u64> {
+    match last {
+        None => Some(u64::from(t)),
+        Some(last) => {
+            let step = t.wrapping_sub(last as u32);
+            (step < 1 << 31).then(|| last.wrapping_add(u64::from(step)))
+        }
+    }
+}
+
+/// Removes from `tracks` (keeping the order of the others) those `gone`
+/// says have left, listing their ids in `left`.
+fn expire<T, const N: usize>(
+    tracks: &mut Vec<T, N>,
+    left: &mut Vec<u32, N>,
+    gone: impl Fn(&T) -> Option<u32>,
+) {
+    tracks.retain(|t| match gone(t) {
+        Some(id) => {
+            // At most the N tracks present at the start of a call leave.
+            let _ = left.push(id);
+            false
+        }
+        None => true,
+    });
 }
 
 /// A fixed-capacity table of at most `N` tracks (see the module's rules).
@@ -360,35 +391,16 @@ impl<const N: usize> TrackTable<N> {
         mut each: impl FnMut(&Observation, Result<Observed, ObserveError>),
     ) -> FrameDelta<N> {
         let mut d = FrameDelta::default();
-        let now = match self.now {
-            None => u64::from(frame),
-            Some(last) => {
-                let step = frame.wrapping_sub(last as u32);
-                if step >= 1 << 31 {
-                    d.stale = true;
-                    for o in observations {
-                        each(o, Err(ObserveError::StaleFrame));
-                    }
-                    return d;
-                }
-                last.wrapping_add(u64::from(step))
-            }
+        let Some(now) = advance(self.now, frame) else {
+            d.refuse(observations, |o| each(o, Err(ObserveError::StaleFrame)));
+            return d;
         };
         self.now = Some(now);
         let max_missed = u64::from(self.max_missed);
         self.expire(now, max_missed + 1, &mut d.left);
         for o in observations {
             let r = self.observe(now, o);
-            match r {
-                Ok(Observed::Entered) => {
-                    // At most N entries per call: cannot overflow.
-                    let _ = d.entered.push(o.id);
-                }
-                Ok(Observed::Continued { .. }) | Err(ObserveError::StaleFrame) => {}
-                Err(ObserveError::NonFinite) => d.non_finite = d.non_finite.saturating_add(1),
-                Err(ObserveError::Duplicate) => d.duplicates = d.duplicates.saturating_add(1),
-                Err(ObserveError::TableFull) => d.rejected = d.rejected.saturating_add(1),
-            }
+            d.record(o.id, r.map(|r| r == Observed::Entered));
             each(o, r);
         }
         self.expire(now, max_missed, &mut d.left);
@@ -420,13 +432,8 @@ impl<const N: usize> TrackTable<N> {
     /// Removes (keeping the order of the others) the tracks whose last
     /// position is more than `max_age` frames before `now`, listing their ids.
     fn expire(&mut self, now: u64, max_age: u64, left: &mut Vec<u32, N>) {
-        self.tracks.retain(|t| {
-            let keep = now.wrapping_sub(t.last_seen) <= max_age;
-            if !keep {
-                // At most the N tracks present at the start of the call leave.
-                let _ = left.push(t.id);
-            }
-            keep
+        expire(&mut self.tracks, left, |t| {
+            (now.wrapping_sub(t.last_seen) > max_age).then_some(t.id)
         });
     }
 }
