@@ -157,9 +157,69 @@
 // forecast, so nothing is written (`PredictError::OutputOutOfRange`).
 #define GPECNET_E_OUTPUT_OUT_OF_RANGE 40
 
+// The blob does not record its unit (format < 4): declare
+// [`GPECNET_UNIT_MODEL`] to use it as it is.
+#define GPECNET_E_UNIT_UNKNOWN_MODEL 50
+
+// The declared unit is not the model's and cannot be converted (e.g.
+// pixels of an unknown scale into a metre model).
+#define GPECNET_E_UNIT_MISMATCH 51
+
+// The pixel model has no single ground scale: it takes only its own pixels.
+#define GPECNET_E_UNIT_NO_MODEL_SCALE 52
+
+// Metres per pixel (or the conversion factor) not finite or outside [1e-6, 1e6].
+#define GPECNET_E_UNIT_BAD_SCALE 53
+
+// The track table's timestamp is before its last one: the whole update was refused.
+#define GPECNET_E_TRACKS_STALE_TIME 60
+
+// Declared unit: whatever the model takes, unchecked (the only choice for
+// blobs before format 4).
+#define GPECNET_UNIT_MODEL 0
+
+// Declared unit: metres in a ground-plane frame.
+#define GPECNET_UNIT_METRES 1
+
+// Declared unit: the pixels of the camera(s) a pixel model was trained on.
+#define GPECNET_UNIT_PIXELS 2
+
+// Declared unit: pixels of a camera whose metres per pixel are given.
+#define GPECNET_UNIT_SCALED_PIXELS 3
+
+// A model's recorded unit ([`GpecnetModelInfo::unit`]): not recorded.
+#define GPECNET_POSITION_UNKNOWN 0
+
+// A model's recorded unit: metres.
+#define GPECNET_POSITION_METRE 1
+
+// A model's recorded unit: image pixels.
+#define GPECNET_POSITION_PIXEL 2
+
+// Most tracks one table holds.
+#define GPECNET_TRACKS_CAPACITY 32
+
+// Bytes of caller storage [`gpecnet_tracks_init`] needs (an upper bound on
+// every target; [`gpecnet_tracks_size`] gives the exact size).
+#define GPECNET_TRACKS_SIZE 3456
+
+// Alignment of that storage, in bytes.
+#define GPECNET_TRACKS_ALIGN 8
+
+// Points of one history (the shipped models' observed steps).
+#define GPECNET_HISTORY 8
+
+// `period_ms` is 0: the table needs the model's period (400 for the
+// shipped models; `GpecnetModelInfo::period_s` × 1000).
+#define GPECNET_E_TRACKS_BAD_PERIOD 61
+
 // An initialised predictor in caller-owned storage: `(GpecnetPredictor *)storage`
 // after [`gpecnet_init`] returned [`GPECNET_OK`]. Opaque to C.
 typedef struct GpecnetPredictor GpecnetPredictor;
+
+// An initialised track table in caller-owned storage:
+// `(GpecnetTracks *)storage` after [`gpecnet_tracks_init`]. Opaque to C.
+typedef struct GpecnetTracks GpecnetTracks;
 
 // What a blob holds, for [`gpecnet_model_info`].
 typedef struct GpecnetModelInfo {
@@ -186,6 +246,16 @@ typedef struct GpecnetModelInfo {
   uint32_t crc;
   // The model's name, NUL-terminated, cut to fit.
   char name[GPECNET_NAME_LEN];
+  // The unit of the model's positions (`GPECNET_POSITION_*`).
+  uint32_t unit;
+  // Seconds between consecutive history and forecast positions (0.4 for
+  // the shipped models); 0 when the blob does not record it (format < 4).
+  float period_s;
+  // For a pixel model of one ground scale, its metres per pixel; else 0.
+  float metres_per_pixel;
+  // The factor this predictor converts the caller's positions with
+  // (model = caller · factor; 1 when none).
+  float unit_factor;
 } GpecnetModelInfo;
 
 // What a golden file (`weights/<model>.golden`) was produced with.
@@ -224,6 +294,43 @@ typedef struct GpecnetGoldenCase {
   float point_xy[GPECNET_MAX_FUTURE][2];
 } GpecnetGoldenCase;
 
+// One detection of a camera frame: the upstream tracker's id and the position.
+typedef struct GpecnetDetection {
+  // Track id from the upstream tracker (any value).
+  uint32_t id;
+  // Position, x (finite).
+  float x;
+  // Position, y (finite).
+  float y;
+} GpecnetDetection;
+
+// What one [`gpecnet_tracks_update`] did, counted.
+typedef struct GpecnetTracksDelta {
+  // Tracks that entered.
+  uint32_t entered;
+  // Tracks that left (their last detection more than `max_gap_ms` ago).
+  uint32_t left;
+  // Detections of new ids refused because the table was full.
+  uint32_t rejected;
+  // Detections refused because their id already had one at this time.
+  uint32_t duplicates;
+  // Detections refused because a coordinate was not finite.
+  uint32_t non_finite;
+  // Tracks now fresh: a full history that gained a grid point.
+  uint32_t fresh;
+} GpecnetTracksDelta;
+
+// One track's history on the model's period, ready for a prediction.
+typedef struct GpecnetHistory {
+  // Track id.
+  uint32_t id;
+  // Time of the newest point, in the caller's milliseconds: forecast
+  // step `k` (1-based) is at `end_ms + k · period_ms`.
+  uint32_t end_ms;
+  // The history, oldest first, (x, y) per point.
+  float past_xy[GPECNET_HISTORY][2];
+} GpecnetHistory;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -236,7 +343,10 @@ const char *gpecnet_status_str(int32_t status);
 // for (at most [`GPECNET_PREDICTOR_SIZE`]).
 size_t gpecnet_predictor_size(void);
 
-// Validates the blob and builds a predictor in `storage`.
+// Validates the blob and builds a predictor in `storage` that takes and
+// returns positions in the model's own unit, unchecked: the same as
+// [`gpecnet_init_units`] with [`GPECNET_UNIT_MODEL`]. Prefer
+// `gpecnet_init_units`, which refuses a unit the model cannot take.
 //
 // `storage` must be `storage_len >= GPECNET_PREDICTOR_SIZE` bytes aligned to
 // [`GPECNET_PREDICTOR_ALIGN`]; `blob` points to `blob_len` bytes that stay
@@ -250,6 +360,23 @@ size_t gpecnet_predictor_size(void);
 // NULL or valid for reads of `blob_len` bytes for as long as the predictor
 // is used.
 int32_t gpecnet_init(void *storage, size_t storage_len, const uint8_t *blob, size_t blob_len);
+
+// [`gpecnet_init`] for a caller whose positions are in `unit`
+// (`GPECNET_UNIT_*`; `metres_per_pixel` is read only for
+// [`GPECNET_UNIT_SCALED_PIXELS`]): refused with a `GPECNET_E_UNIT_*` code
+// when the model cannot take them, else every input is converted into the
+// model's unit and every output back (`gpecnet_core::units`: `x · f` in,
+// `y / f` out). A `unit` value that is none of the four is
+// [`GPECNET_E_UNIT_MISMATCH`].
+//
+// # Safety
+// As [`gpecnet_init`].
+int32_t gpecnet_init_units(void *storage,
+                           size_t storage_len,
+                           const uint8_t *blob,
+                           size_t blob_len,
+                           uint32_t unit,
+                           float metres_per_pixel);
 
 // The model's deterministic point forecast: `future_len` points (x, y
 // interleaved, the last one the endpoint) into `out_xy`, which has room for
@@ -314,6 +441,52 @@ int32_t gpecnet_golden_case(const uint8_t *golden,
                             size_t len,
                             uint32_t index,
                             struct GpecnetGoldenCase *out);
+
+// The size the table storage actually needs on this target (at most
+// [`GPECNET_TRACKS_SIZE`]).
+size_t gpecnet_tracks_size(void);
+
+// Builds an empty table in `storage` (`storage_len >= GPECNET_TRACKS_SIZE`
+// bytes aligned to [`GPECNET_TRACKS_ALIGN`]) resampling onto `period_ms`
+// (the model's period) and bridging gaps between a track's detections of
+// at most `max_gap_ms`. `period_ms` = 0 is [`GPECNET_E_TRACKS_BAD_PERIOD`].
+//
+// # Safety
+// `storage` is NULL or valid for writes of `storage_len` bytes.
+int32_t gpecnet_tracks_init(void *storage,
+                            size_t storage_len,
+                            uint32_t period_ms,
+                            uint32_t max_gap_ms);
+
+// Applies one camera frame: `n` detections at `dets`, all at timestamp
+// `t_ms` (milliseconds, wrapping `u32`). Counts go to `*out` when `out` is
+// not NULL. A timestamp before the table's last one refuses the whole call
+// ([`GPECNET_E_TRACKS_STALE_TIME`], nothing changes); a frame may be given
+// in several calls with the same `t_ms`. Refused detections (duplicates,
+// non-finite, table full) are counted, not errors.
+//
+// # Safety
+// `t` as in [`table`]; `dets` is NULL (only with `n` = 0) or valid for
+// reads of `n` detections; `out` is NULL or valid for a write.
+int32_t gpecnet_tracks_update(struct GpecnetTracks *t,
+                              uint32_t t_ms,
+                              const struct GpecnetDetection *dets,
+                              size_t n,
+                              struct GpecnetTracksDelta *out);
+
+// Copies the fresh tracks' histories (full, and a grid point newer since
+// time last advanced: the ones to predict for now), in the order they
+// entered, to `out` (room for `cap`); `*out_len` receives their number.
+// When `cap` is smaller, nothing is copied and the status is
+// [`GPECNET_E_BAD_LENGTH`] (`*out_len` still says how many there are).
+//
+// # Safety
+// `t` as in [`table`]; `out` is NULL (only with `cap` = 0) or valid for
+// writes of `cap` histories; `out_len` is NULL or valid for a write.
+int32_t gpecnet_tracks_fresh(struct GpecnetTracks *t,
+                             struct GpecnetHistory *out,
+                             size_t cap,
+                             size_t *out_len);
 
 #ifdef __cplusplus
 }  // extern "C"

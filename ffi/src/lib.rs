@@ -76,9 +76,14 @@ extern crate std;
 use core::ffi::{c_char, c_void};
 use core::mem::{align_of, size_of};
 
+use gpecnet_core::blob::PositionUnit;
 use gpecnet_core::blob::{NetworkId, MAX_FUTURE, MAX_PAST};
 use gpecnet_core::golden::GoldenSet;
+use gpecnet_core::units::{CallerUnit, UnitError};
 use gpecnet_core::{BlobError, Error, LibmSine, Model, PredictError, Predictor};
+
+pub mod tracks;
+pub use tracks::*;
 
 // ---------------------------------------------------------------- constants
 
@@ -182,6 +187,39 @@ pub const GPECNET_E_NOT_STARTED: i32 = 39;
 /// forecast, so nothing is written (`PredictError::OutputOutOfRange`).
 pub const GPECNET_E_OUTPUT_OUT_OF_RANGE: i32 = 40;
 
+/// The blob does not record its unit (format < 4): declare
+/// [`GPECNET_UNIT_MODEL`] to use it as it is.
+pub const GPECNET_E_UNIT_UNKNOWN_MODEL: i32 = 50;
+/// The declared unit is not the model's and cannot be converted (e.g.
+/// pixels of an unknown scale into a metre model).
+pub const GPECNET_E_UNIT_MISMATCH: i32 = 51;
+/// The pixel model has no single ground scale: it takes only its own pixels.
+pub const GPECNET_E_UNIT_NO_MODEL_SCALE: i32 = 52;
+/// Metres per pixel (or the conversion factor) not finite or outside [1e-6, 1e6].
+pub const GPECNET_E_UNIT_BAD_SCALE: i32 = 53;
+/// The track table's timestamp is before its last one: the whole update was refused.
+pub const GPECNET_E_TRACKS_STALE_TIME: i32 = 60;
+/// `period_ms` is 0: the track table needs the model's period (400 for the
+/// shipped models; `GpecnetModelInfo::period_s` × 1000).
+pub const GPECNET_E_TRACKS_BAD_PERIOD: i32 = 61;
+
+/// Declared unit: whatever the model takes, unchecked (the only choice for
+/// blobs before format 4).
+pub const GPECNET_UNIT_MODEL: u32 = 0;
+/// Declared unit: metres in a ground-plane frame.
+pub const GPECNET_UNIT_METRES: u32 = 1;
+/// Declared unit: the pixels of the camera(s) a pixel model was trained on.
+pub const GPECNET_UNIT_PIXELS: u32 = 2;
+/// Declared unit: pixels of a camera whose metres per pixel are given.
+pub const GPECNET_UNIT_SCALED_PIXELS: u32 = 3;
+
+/// A model's recorded unit ([`GpecnetModelInfo::unit`]): not recorded.
+pub const GPECNET_POSITION_UNKNOWN: u32 = 0;
+/// A model's recorded unit: metres.
+pub const GPECNET_POSITION_METRE: u32 = 1;
+/// A model's recorded unit: image pixels.
+pub const GPECNET_POSITION_PIXEL: u32 = 2;
+
 // The header's literals are the core's limits.
 const _: () = {
     assert!(GPECNET_MAX_PAST == MAX_PAST);
@@ -232,10 +270,22 @@ pub fn predict_status(e: PredictError) -> i32 {
     }
 }
 
+/// The status code of a unit error (exhaustive, like [`blob_status`]).
+pub fn unit_status(e: UnitError) -> i32 {
+    match e {
+        UnitError::UnknownModelUnit => GPECNET_E_UNIT_UNKNOWN_MODEL,
+        UnitError::Mismatch { .. } => GPECNET_E_UNIT_MISMATCH,
+        UnitError::NoModelScale => GPECNET_E_UNIT_NO_MODEL_SCALE,
+        UnitError::BadScale => GPECNET_E_UNIT_BAD_SCALE,
+        _ => GPECNET_E_UNKNOWN_ERROR,
+    }
+}
+
 fn error_status(e: Error) -> i32 {
     match e {
         Error::Blob(b) => blob_status(b),
         Error::Predict(p) => predict_status(p),
+        Error::Unit(u) => unit_status(u),
         _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
@@ -280,6 +330,18 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_NO_POINT_HEAD => c"model has no point-forecast head",
         GPECNET_E_NOT_STARTED => c"no sample stream started",
         GPECNET_E_OUTPUT_OUT_OF_RANGE => c"model output outside the plausible range",
+        GPECNET_E_UNIT_UNKNOWN_MODEL => {
+            c"the blob does not record its unit: declare GPECNET_UNIT_MODEL to use it as it is"
+        }
+        GPECNET_E_UNIT_MISMATCH => {
+            c"the declared unit is not the model's (give the camera's metres per pixel)"
+        }
+        GPECNET_E_UNIT_NO_MODEL_SCALE => {
+            c"the pixel model has no single ground scale: it takes only its own pixels"
+        }
+        GPECNET_E_UNIT_BAD_SCALE => c"metres per pixel not finite or outside [1e-6, 1e6]",
+        GPECNET_E_TRACKS_STALE_TIME => c"timestamp before the track table's last one",
+        GPECNET_E_TRACKS_BAD_PERIOD => c"track table period is 0 ms",
         GPECNET_E_UNKNOWN_ERROR => c"an error this build of the C ABI has no code for",
         _ => c"unknown status code",
     };
@@ -322,7 +384,7 @@ pub struct GpecnetPredictor {
 /// Runs the body of an entry point: [`GPECNET_OK`] when `f` succeeds, its status code when
 /// it fails, and [`GPECNET_E_PANIC`] for a panic where std can catch it.
 #[inline]
-fn guard(f: impl FnOnce() -> Result<(), i32>) -> i32 {
+pub(crate) fn guard(f: impl FnOnce() -> Result<(), i32>) -> i32 {
     let status = || match f() {
         Ok(()) => GPECNET_OK,
         Err(e) => e,
@@ -339,7 +401,7 @@ fn guard(f: impl FnOnce() -> Result<(), i32>) -> i32 {
 
 /// [`GPECNET_E_NULL_POINTER`] when `p` is NULL.
 #[inline]
-fn non_null<T>(p: *const T) -> Result<(), i32> {
+pub(crate) fn non_null<T>(p: *const T) -> Result<(), i32> {
     if p.is_null() {
         Err(GPECNET_E_NULL_POINTER)
     } else {
@@ -372,7 +434,10 @@ unsafe fn state<'a>(p: *mut GpecnetPredictor) -> Result<&'a mut Inner, i32> {
     Ok(unsafe { &mut (*s).pred })
 }
 
-/// Validates the blob and builds a predictor in `storage`.
+/// Validates the blob and builds a predictor in `storage` that takes and
+/// returns positions in the model's own unit, unchecked: the same as
+/// [`gpecnet_init_units`] with [`GPECNET_UNIT_MODEL`]. Prefer
+/// `gpecnet_init_units`, which refuses a unit the model cannot take.
 ///
 /// `storage` must be `storage_len >= GPECNET_PREDICTOR_SIZE` bytes aligned to
 /// [`GPECNET_PREDICTOR_ALIGN`]; `blob` points to `blob_len` bytes that stay
@@ -392,6 +457,38 @@ pub unsafe extern "C" fn gpecnet_init(
     blob: *const u8,
     blob_len: usize,
 ) -> i32 {
+    // SAFETY: the caller's contract, passed on unchanged.
+    unsafe {
+        gpecnet_init_units(
+            storage,
+            storage_len,
+            blob,
+            blob_len,
+            GPECNET_UNIT_MODEL,
+            0.0,
+        )
+    }
+}
+
+/// [`gpecnet_init`] for a caller whose positions are in `unit`
+/// (`GPECNET_UNIT_*`; `metres_per_pixel` is read only for
+/// [`GPECNET_UNIT_SCALED_PIXELS`]): refused with a `GPECNET_E_UNIT_*` code
+/// when the model cannot take them, else every input is converted into the
+/// model's unit and every output back (`gpecnet_core::units`: `x · f` in,
+/// `y / f` out). A `unit` value that is none of the four is
+/// [`GPECNET_E_UNIT_MISMATCH`].
+///
+/// # Safety
+/// As [`gpecnet_init`].
+#[no_mangle]
+pub unsafe extern "C" fn gpecnet_init_units(
+    storage: *mut c_void,
+    storage_len: usize,
+    blob: *const u8,
+    blob_len: usize,
+    unit: u32,
+    metres_per_pixel: f32,
+) -> i32 {
     guard(|| {
         non_null(storage)?;
         if (storage as usize) & (GPECNET_PREDICTOR_ALIGN - 1) != 0 {
@@ -405,12 +502,19 @@ pub unsafe extern "C" fn gpecnet_init(
         // bytes (checked above; the caller guarantees storage_len is true).
         unsafe { core::ptr::addr_of_mut!((*s).tag).write(0) };
         non_null(blob)?;
+        let unit = match unit {
+            GPECNET_UNIT_MODEL => CallerUnit::ModelUnit,
+            GPECNET_UNIT_METRES => CallerUnit::Metres,
+            GPECNET_UNIT_PIXELS => CallerUnit::Pixels,
+            GPECNET_UNIT_SCALED_PIXELS => CallerUnit::ScaledPixels { metres_per_pixel },
+            _ => return Err(GPECNET_E_UNIT_MISMATCH),
+        };
         // SAFETY: the caller guarantees `blob_len` readable bytes that outlive
         // every use of the predictor (the documented lifetime contract), hence 'static.
         let bytes: &'static [u8] = unsafe { core::slice::from_raw_parts(blob, blob_len) };
         let pred = Model::from_blob(bytes)
             .map_err(Error::from)
-            .and_then(Inner::new)
+            .and_then(|m| Inner::with_units(m, unit))
             .map_err(error_status)?;
         // SAFETY: as above; State has no drop glue, so overwriting a previous
         // predictor leaks nothing.
@@ -572,7 +676,7 @@ pub unsafe extern "C" fn gpecnet_predict_endpoints(
 
 /// What a blob holds, for [`gpecnet_model_info`].
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GpecnetModelInfo {
     /// [`GPECNET_NUMERIC_F32`] or [`GPECNET_NUMERIC_Q15`].
     pub numeric: u32,
@@ -597,6 +701,16 @@ pub struct GpecnetModelInfo {
     pub crc: u32,
     /// The model's name, NUL-terminated, cut to fit.
     pub name: [c_char; GPECNET_NAME_LEN],
+    /// The unit of the model's positions (`GPECNET_POSITION_*`).
+    pub unit: u32,
+    /// Seconds between consecutive history and forecast positions (0.4 for
+    /// the shipped models); 0 when the blob does not record it (format < 4).
+    pub period_s: f32,
+    /// For a pixel model of one ground scale, its metres per pixel; else 0.
+    pub metres_per_pixel: f32,
+    /// The factor this predictor converts the caller's positions with
+    /// (model = caller · factor; 1 when none).
+    pub unit_factor: f32,
 }
 
 /// Fills `*out` with what the predictor's blob holds.
@@ -629,6 +743,14 @@ pub unsafe extern "C" fn gpecnet_model_info(
             has_predictor: m.has_predictor().into(),
             crc: m.crc(),
             name: c_name(m.name()),
+            unit: match m.unit() {
+                PositionUnit::Metre => GPECNET_POSITION_METRE,
+                PositionUnit::Pixel => GPECNET_POSITION_PIXEL,
+                _ => GPECNET_POSITION_UNKNOWN,
+            },
+            period_s: m.period_s().unwrap_or(0.0),
+            metres_per_pixel: m.metres_per_pixel().unwrap_or(0.0),
+            unit_factor: pred.units().factor(),
         };
         // SAFETY: non-null, writable (caller's contract).
         unsafe { out.write_unaligned(info) };

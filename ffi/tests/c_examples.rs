@@ -63,9 +63,9 @@ fn replay(bin: &Path, model: &str, golden: &str) -> (bool, String) {
     (r.status.success(), text)
 }
 
-/// Golden files replayed by both examples: fixed point with a point head and
-/// test-time sampling, and its f32 twin.
-const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-tiny-v2"];
+/// Golden files replayed by both examples: the pixel MCU model (fixed point,
+/// point head, test-time sampling), its f32 twin, and the metric MCU model.
+const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-tiny-v2", "sdd-m-tiny-qe"];
 
 fn check(bin: &Path, lang: &str) {
     for m in MODELS {
