@@ -134,3 +134,96 @@ fn header_compiles_as_c99_and_cpp11() {
         );
     }
 }
+
+/// The scene of `metric_tracker.c` (and of `core/examples/metric_tracker.rs`):
+/// frame `f`'s timestamp and pedestrian `id`'s position in metres, `None` when missed.
+fn camera(f: u32, id: u32) -> (u32, Option<[f32; 2]>) {
+    let t_ms = f * 1000 / 30 + (f * 7919) % 9;
+    if (f * 31 + id * 17) % 10 == 0 {
+        return (t_ms, None);
+    }
+    let (t, k) = (t_ms as f32 / 1000.0, id as f32);
+    let x = 2.0 * k + (1.1 + 0.05 * k) * t;
+    let y = -3.0 + k + (0.3 - 0.1 * k) * t + 0.05 * t * t;
+    (t_ms, Some([x, y]))
+}
+
+/// The C metric tracker (30 Hz detections in metres → timed track table →
+/// metric model declared in metres) prints the forecasts the core computes
+/// directly, bit for bit, and refuses a blob that does not record its unit.
+#[test]
+fn c_metric_tracker_matches_the_core() {
+    use gpecnet_core::tracks::{period_ms_of, Observation, TimedTrackTable};
+    use gpecnet_core::units::CallerUnit;
+    use gpecnet_core::{LibmSine, Model, Predictor};
+
+    let bin = build(
+        "cc",
+        "c11",
+        "ffi/examples/c/metric_tracker.c",
+        "metric_tracker_c",
+    );
+    let run = |blob: &str| {
+        let r = Command::new(&bin)
+            .arg(root().join("weights").join(blob))
+            .output()
+            .unwrap();
+        let out = String::from_utf8_lossy(&r.stdout).into_owned();
+        (
+            r.status.success(),
+            out + &String::from_utf8_lossy(&r.stderr),
+        )
+    };
+    let (ok, text) = run("sdd-m-tiny-qe.gpec");
+    assert!(ok, "{text}");
+
+    let bytes = std::fs::read(root().join("weights/sdd-m-tiny-qe.gpec")).unwrap();
+    let model = Model::from_blob(&bytes).unwrap();
+    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    let period = period_ms_of(&model).unwrap();
+    let mut table: TimedTrackTable<16> = TimedTrackTable::new(period, 1_000);
+    let mut want = Vec::new();
+    for f in 0..150 {
+        let mut seen = Vec::new();
+        let mut t_ms = 0;
+        for id in 0..6 {
+            let (t, pos) = camera(f, id);
+            t_ms = t;
+            if let Some(pos) = pos {
+                seen.push(Observation { id, pos });
+            }
+        }
+        table.update(t_ms, &seen);
+        for tr in table.fresh() {
+            let end = *p.predict_point(&tr.past()).unwrap().last().unwrap();
+            want.push(format!(
+                "t={:>5} ms id={} [{:08x} {:08x}]",
+                tr.end_ms(),
+                tr.id(),
+                end[0].to_bits(),
+                end[1].to_bits()
+            ));
+        }
+    }
+    let got: Vec<String> = text
+        .lines()
+        .filter(|l| l.starts_with("t="))
+        .map(|l| {
+            let (head, bits) = (
+                l.split(" endpoint").next().unwrap(),
+                l.rsplit('[').next().unwrap(),
+            );
+            format!("{head} [{bits}")
+        })
+        .collect();
+    assert!(want.len() > 20, "{}", want.len());
+    assert_eq!(got, want);
+    assert!(
+        text.starts_with("sdd-m-tiny-qe: unit m, period 400 ms"),
+        "{text}"
+    );
+
+    // A blob that does not record its unit is refused at gpecnet_init_units.
+    let (ok, text) = run("sdd-tiny-v2-qe.gpec");
+    assert!(!ok && text.contains("does not record its unit"), "{text}");
+}
