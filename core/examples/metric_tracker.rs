@@ -31,7 +31,7 @@ const FRAMES: u32 = 150;
 /// missed it (one detection in ten).
 fn camera(f: u32, id: u32) -> (u32, Option<[f32; 2]>) {
     let t_ms = f * 1000 / 30 + (f * 7919) % 9;
-    if (f * 31 + id * 17) % 10 == 0 {
+    if (f * 31 + id * 17).is_multiple_of(10) {
         return (t_ms, None);
     }
     let t = t_ms as f32 / 1000.0;

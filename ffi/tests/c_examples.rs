@@ -139,7 +139,7 @@ fn header_compiles_as_c99_and_cpp11() {
 /// frame `f`'s timestamp and pedestrian `id`'s position in metres, `None` when missed.
 fn camera(f: u32, id: u32) -> (u32, Option<[f32; 2]>) {
     let t_ms = f * 1000 / 30 + (f * 7919) % 9;
-    if (f * 31 + id * 17) % 10 == 0 {
+    if (f * 31 + id * 17).is_multiple_of(10) {
         return (t_ms, None);
     }
     let (t, k) = (t_ms as f32 / 1000.0, id as f32);
