@@ -180,11 +180,11 @@ fn main() {
         src += &format!("    ({n:?}, &BLOB_{i}.0),\n");
     }
     src += "];\n";
-    // The demo tracker's model: GPECNET_DEMO_MODEL=<name>; unset = the shipped MCU model
-    // (sdd-tiny-v2-qe) when embedded, else the first one.
+    // The demo tracker's model: GPECNET_DEMO_MODEL=<name>; unset = the metric MCU model
+    // (sdd-m-tiny-qe) when embedded, else the first metric one (the demo picks it).
     println!("cargo:rerun-if-env-changed=GPECNET_DEMO_MODEL");
     let demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_else(|_| {
-        let default = "sdd-tiny-v2-qe";
+        let default = "sdd-m-tiny-qe";
         if names.iter().any(|n| n == default) {
             default.to_string()
         } else {

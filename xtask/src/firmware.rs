@@ -131,6 +131,33 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
         );
         bad += (!ok) as i32;
     }
+    // A model in the wrong unit: the metric demo given a blob that does not
+    // record its unit must refuse it with the typed unit error and exit 1.
+    let unitless = "sdd-tiny-v2-qe";
+    if require_models(&weights_dir(o))
+        .iter()
+        .any(|m| m == unitless)
+    {
+        let mut c = fw_cargo(o);
+        c.env(gpecnet_mcu_models::ONLY_VAR, unitless)
+            .env("GPECNET_DEMO_MODEL", unitless)
+            .arg("run");
+        mcu::M4F.firmware_args(&mut c, &root(), "demo", &[]);
+        let (rc, out, _) = output(c);
+        let want = "refused for positions in metres";
+        let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
+        let ok = rc == 1 && last.contains("UnknownModelUnit");
+        println!(
+            "fw-faults {:<22} exit {rc} (want 1), log {:?} {}",
+            "unit-mismatch",
+            last.trim(),
+            if ok { "ok" } else { "FAILED" }
+        );
+        bad += (!ok) as i32;
+    } else {
+        println!("fw-faults unit-mismatch          FAILED: weights/{unitless}.gpec missing");
+        bad += 1;
+    }
     (bad != 0) as i32
 }
 
