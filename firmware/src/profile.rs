@@ -4,7 +4,10 @@
 //! fixed-point engine for `Int16Q15` blobs), between `bench_start` and
 //! `bench_end`. The QEMU TCG plugin (tools/insn_window.c) counts the guest
 //! instructions executed between the two markers; on a real board
-//! (`--features board`) DWT CYCCNT gives the cycles.
+//! (`--features board`) DWT CYCCNT gives the cycles. A second window,
+//! once per image after the models, measures the timed track table: one
+//! model period (12 camera frames at 30 Hz) of 16 tracks in steady state
+//! ([`track_table_period`]).
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
@@ -84,6 +87,66 @@ const PAST: [[f32; 2]; 8] = [
     [528.0, 307.5],
 ];
 
+/// Tracks of the track-table measurement.
+pub const TRACKS: usize = 16;
+/// Camera frames per model period at 30 Hz (400 ms / 33.3 ms).
+pub const FRAMES_PER_PERIOD: u32 = 12;
+
+/// Frame `f` of 16 pedestrians at 30 Hz (metres, walking), all detected.
+fn frame_detections(f: u32) -> (u32, Vec<gpecnet_core::tracks::Observation, TRACKS>) {
+    let t_ms = f * 1000 / 30;
+    let t = t_ms as f32 / 1000.0;
+    let mut v = Vec::new();
+    for id in 0..TRACKS as u32 {
+        let k = id as f32;
+        let _ = v.push(gpecnet_core::tracks::Observation {
+            id,
+            pos: [k + 1.2 * t, 0.5 * k - 0.3 * t],
+        });
+    }
+    (t_ms, v)
+}
+
+/// The measured track-table work: the updates of frames `from .. from + n`.
+#[inline(never)]
+#[no_mangle]
+pub fn gpecnet_track_frames(
+    table: &mut gpecnet_core::tracks::TimedTrackTable<TRACKS>,
+    from: u32,
+    n: u32,
+) -> usize {
+    let mut fresh = 0;
+    for f in from..from + n {
+        let (t_ms, obs) = frame_detections(f);
+        table.update(t_ms, &obs);
+        fresh += table.fresh().count();
+    }
+    fresh
+}
+
+/// One model period (12 frames at 30 Hz, one of them completing a grid
+/// point for every track) of a 16-track table in steady state (3.6 s of
+/// frames fed before), between the markers; logs the table's size.
+fn track_table_period() -> bool {
+    use gpecnet_core::tracks::{TimedTrack, TimedTrackTable};
+    let period = core::num::NonZeroU32::MIN.saturating_add(399);
+    let mut table: TimedTrackTable<TRACKS> = TimedTrackTable::new(period, 1_000);
+    let warm = 108; // 3.6 s: every track full
+    gpecnet_track_frames(&mut table, 0, warm);
+    bench_start();
+    let fresh = gpecnet_track_frames(black_box(&mut table), warm, black_box(FRAMES_PER_PERIOD));
+    bench_end();
+    defmt::println!(
+        "tracktable tracks={=usize} frames={=u32} fresh={=usize} table_size={=u32} track_size={=u32}",
+        TRACKS,
+        FRAMES_PER_PERIOD,
+        fresh,
+        core::mem::size_of_val(&table) as u32,
+        core::mem::size_of::<TimedTrack>() as u32
+    );
+    fresh == TRACKS
+}
+
 pub fn run() -> bool {
     let mut ok = !crate::models::BLOBS.is_empty();
     if !ok {
@@ -152,5 +215,7 @@ pub fn run() -> bool {
             }
         }
     }
+    crate::watchdog::feed();
+    ok &= track_table_period();
     ok
 }

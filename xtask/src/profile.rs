@@ -246,6 +246,8 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
         .unwrap_or_else(|e| die(&format!("{}: {e}", out_dir.display())));
     let mut rows = Vec::new();
     let mut failed = false;
+    // The timed track table's window (the second of every image; the same code in each).
+    let mut table: Option<(u64, String)> = None;
     for m in &models {
         let blob = blob_path(&dir, m);
         let blob_len = std::fs::metadata(&blob).map_or(0, |md| md.len() as u32);
@@ -269,6 +271,16 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
                 &format!(",profile={},base=0x08000000", pcprof.display()),
             );
             let insns = run.windows().first().copied();
+            let table_line = run.text.lines().find(|l| l.contains("tracktable tracks="));
+            match (run.windows().get(1), table_line) {
+                (Some(&n), Some(l)) => {
+                    table.get_or_insert((n, l.trim().to_string()));
+                }
+                _ => {
+                    eprintln!("xtask: profile run {m}/{sine}: no track-table window");
+                    failed = true;
+                }
+            }
             let pline = run.profile_lines().first().copied();
             let num = |key: &str| {
                 pline
@@ -391,6 +403,24 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             r.blob,
             opt(r.exec_code.map(u64::from)),
             r.flash
+        );
+    }
+    if let Some((insns, line)) = &table {
+        let num = |k: &str| {
+            field(line, k)
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(0)
+        };
+        let frames = num("frames").max(1);
+        let _ = writeln!(
+            t,
+            "\nTimed track table (`TimedTrackTable<{tracks}>`, {tracks} tracks in steady state, 30 Hz camera, \
+             0.4 s period): {insns} instructions per period ({frames} frames, one completing a grid point for \
+             every track) = {per_frame} per frame on average; RAM {size} B ({track} B per track).",
+            tracks = num("tracks"),
+            per_frame = insns / frames,
+            size = num("table_size"),
+            track = num("track_size"),
         );
     }
     let _ = writeln!(

@@ -84,7 +84,7 @@
 //! # Memory and cost
 //!
 //! A [`TimedTrack`] is 104 bytes on a 32-bit target (the history, id, last
-//! detection, grid end); a `TimedTrackTable<N>` is `104·N + 32` bytes and
+//! detection, grid end); a `TimedTrackTable<N>` is `104·N + 48` bytes and
 //! can live in a `static` ([`TimedTrackTable::new`] is `const`). An update
 //! costs O(N) per observation (lookup by id) plus O(N) per call (expiry),
 //! and at most [`HISTORY`] interpolations per observation
