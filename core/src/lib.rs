@@ -47,8 +47,13 @@
 //!   and a [`Sine`] for f32 blobs ([`LibmSine`] is the reference the shipped
 //!   golden files use; [`FastSine`] is 5–10× cheaper on an FPU and
 //!   bit-reproducible, but not bit-identical to `LibmSine`).
-//! - [`tracks`]: the fixed-capacity, id-keyed track table that turns
-//!   detections into the 8-step histories a prediction needs.
+//! - [`units`]: [`Predictor::with_units`] checks the caller's declared unit
+//!   (metres, pixels, pixels of a known ground scale) against the model's
+//!   ([`Model::unit`], [`Model::period_s`]) and converts exactly.
+//! - [`tracks`]: fixed-capacity, id-keyed track tables that turn detections
+//!   into the 8-step histories a prediction needs: `TimedTrackTable` takes
+//!   timestamped detections at any camera rate and resamples them onto the
+//!   model's period; `TrackTable` takes frames already at that period.
 //! - [`Engine`] with [`float::Float`] or [`fixed::Q15`]: one backend only,
 //!   when the kind is known at build time (less flash).
 //! - On a host: [`batch::BatchPredictor`] (the same bits as [`Predictor`],
@@ -68,7 +73,8 @@
 //! - [`frame`]: input guards and the coordinate frame the networks see.
 //! - [`sampling`]: the blob's endpoint protocol (plain or test-time sampling).
 //! - [`sine`]: reference (`libm`), fast fixed-order f32, and micromath sines.
-//! - [`tracks`]: track table (detections → histories).
+//! - [`units`]: the caller's unit against the model's, and the conversion.
+//! - [`tracks`]: track tables (detections → histories; `tracks::timed` at any camera rate).
 //!
 //! Hidden from the documentation (used by the trainer, the tests and the
 //! firmware; not part of the semver surface, see `tests/public-api.txt`):

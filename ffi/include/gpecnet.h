@@ -174,6 +174,10 @@
 // The track table's timestamp is before its last one: the whole update was refused.
 #define GPECNET_E_TRACKS_STALE_TIME 60
 
+// `period_ms` is 0: the track table needs the model's period (400 for the
+// shipped models; `GpecnetModelInfo::period_s` × 1000).
+#define GPECNET_E_TRACKS_BAD_PERIOD 61
+
 // Declared unit: whatever the model takes, unchecked (the only choice for
 // blobs before format 4).
 #define GPECNET_UNIT_MODEL 0
@@ -208,10 +212,6 @@
 
 // Points of one history (the shipped models' observed steps).
 #define GPECNET_HISTORY 8
-
-// `period_ms` is 0: the table needs the model's period (400 for the
-// shipped models; `GpecnetModelInfo::period_s` × 1000).
-#define GPECNET_E_TRACKS_BAD_PERIOD 61
 
 // An initialised predictor in caller-owned storage: `(GpecnetPredictor *)storage`
 // after [`gpecnet_init`] returned [`GPECNET_OK`]. Opaque to C.
@@ -466,7 +466,8 @@ int32_t gpecnet_tracks_init(void *storage,
 // non-finite, table full) are counted, not errors.
 //
 // # Safety
-// `t` as in [`table`]; `dets` is NULL (only with `n` = 0) or valid for
+// `t` is NULL or a storage passed to [`gpecnet_tracks_init`], not in use by
+// another call; `dets` is NULL (only with `n` = 0) or valid for
 // reads of `n` detections; `out` is NULL or valid for a write.
 int32_t gpecnet_tracks_update(struct GpecnetTracks *t,
                               uint32_t t_ms,
@@ -481,7 +482,7 @@ int32_t gpecnet_tracks_update(struct GpecnetTracks *t,
 // [`GPECNET_E_BAD_LENGTH`] (`*out_len` still says how many there are).
 //
 // # Safety
-// `t` as in [`table`]; `out` is NULL (only with `cap` = 0) or valid for
+// `t` as in [`gpecnet_tracks_update`]; `out` is NULL (only with `cap` = 0) or valid for
 // writes of `cap` histories; `out_len` is NULL or valid for a write.
 int32_t gpecnet_tracks_fresh(struct GpecnetTracks *t,
                              struct GpecnetHistory *out,

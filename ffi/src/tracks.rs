@@ -174,7 +174,8 @@ pub unsafe extern "C" fn gpecnet_tracks_init(
 /// non-finite, table full) are counted, not errors.
 ///
 /// # Safety
-/// `t` as in [`table`]; `dets` is NULL (only with `n` = 0) or valid for
+/// `t` is NULL or a storage passed to [`gpecnet_tracks_init`], not in use by
+/// another call; `dets` is NULL (only with `n` = 0) or valid for
 /// reads of `n` detections; `out` is NULL or valid for a write.
 #[no_mangle]
 pub unsafe extern "C" fn gpecnet_tracks_update(
@@ -240,7 +241,7 @@ pub unsafe extern "C" fn gpecnet_tracks_update(
 /// [`GPECNET_E_BAD_LENGTH`] (`*out_len` still says how many there are).
 ///
 /// # Safety
-/// `t` as in [`table`]; `out` is NULL (only with `cap` = 0) or valid for
+/// `t` as in [`gpecnet_tracks_update`]; `out` is NULL (only with `cap` = 0) or valid for
 /// writes of `cap` histories; `out_len` is NULL or valid for a write.
 #[no_mangle]
 pub unsafe extern "C" fn gpecnet_tracks_fresh(

@@ -2,11 +2,17 @@
 //! of [`HISTORY`] equally spaced positions, ready for a prediction, out.
 //! Fixed capacity (`N` tracks, a const generic), no heap, no panics.
 //!
+//! Two tables. [`TimedTrackTable`] ([`timed`]) takes detections with
+//! millisecond timestamps at the camera's rate, jitter and misses included,
+//! and resamples them onto the model's period: the one a flight computer
+//! wants. [`TrackTable`], described below, takes frames that are already
+//! one model period apart.
+//!
 //! The integrator's detector/tracker delivers, once per *frame*, a list of
 //! [`Observation`]s `(track id, position)`. Association is by id only: run
-//! your own data association / re-identification upstream. A frame is one
-//! step of the model's sampling period (0.4 s, 2.5 Hz, for the shipped
-//! models): feed the table at that rate, not at the camera's. Positions are
+//! your own data association / re-identification upstream. A frame of
+//! [`TrackTable`] is one step of the model's sampling period (0.4 s, 2.5 Hz,
+//! for the shipped models): feed it at that rate, not at the camera's. Positions are
 //! kept in the caller's raw units (the ones the model was trained on: pixels
 //! or metres) and must be finite; the predictor checks its own input range.
 //!
