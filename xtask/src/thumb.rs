@@ -12,6 +12,8 @@ pub(crate) fn build_core_thumb() -> i32 {
         &["--no-default-features", "--features", "defmt"],
         &["--no-default-features", "--features", "micromath"],
         &["--no-default-features", "--features", "defmt,micromath"],
+        &["--no-default-features", "--features", "signed"],
+        &["--no-default-features", "--features", "defmt,signed"],
     ];
     let target_dir = root().join("target/thumb-core");
     let mut failed = 0;

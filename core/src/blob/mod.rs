@@ -38,6 +38,7 @@ mod error;
 mod header;
 mod layer;
 mod model;
+pub mod signed;
 mod validate;
 
 pub use error::{BlobError, NetworkId};

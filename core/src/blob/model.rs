@@ -2,6 +2,8 @@
 //! the parser of a blob's body.
 
 use super::header::take;
+#[cfg(feature = "signed")]
+use super::signed::{SignError, TrustedKey};
 use super::validate::validate;
 use super::{
     Activation, BlobError, Extensions, Layer, Meta, ModelConfig, ModelInfo, NumericKind,
@@ -89,8 +91,39 @@ pub struct Model<'a> {
 }
 
 impl<'a> Model<'a> {
-    /// Validates `bytes` as a blob and returns a view over it.
+    /// Validates `bytes` as a blob and returns a view over it. A signed
+    /// blob ([`super::signed`]) is read without its trailer, unverified: use
+    /// [`Model::from_signed_blob`] (feature `signed`) to require a signature.
     pub fn from_blob(bytes: &'a [u8]) -> Result<Self, BlobError> {
+        match super::signed::split(bytes) {
+            // A trailer-looking tail on an unsigned blob (4 bytes "GSIG" at
+            // that offset by chance) falls back to the whole bytes.
+            Some((blob, _, _)) => {
+                Self::from_unsigned(blob).or_else(|e| Self::from_unsigned(bytes).map_err(|_| e))
+            }
+            None => Self::from_unsigned(bytes),
+        }
+    }
+
+    /// A signed blob's model, after checking that its signature verifies
+    /// under one of `keys` and its version is at least `min_version` (the
+    /// order of the checks: [`super::signed`]); with the blob's
+    /// `model_version`. An unsigned blob is [`SignError::UnsignedBlob`].
+    ///
+    /// Costs one Ed25519 verification (once per boot or update, not per
+    /// prediction; `cargo xtask profile` measures it on the Cortex-M4F).
+    #[cfg(feature = "signed")]
+    pub fn from_signed_blob(
+        bytes: &'a [u8],
+        keys: &[TrustedKey],
+        min_version: u32,
+    ) -> Result<(Self, u32), SignError> {
+        let (blob, version) = super::signed::authenticate(bytes, keys, min_version)?;
+        Ok((Self::from_unsigned(blob)?, version))
+    }
+
+    /// [`Model::from_blob`] of bytes without a trailer.
+    fn from_unsigned(bytes: &'a [u8]) -> Result<Self, BlobError> {
         // Magic and version first, so a wrong file or a newer format is named
         // as such rather than as a checksum failure.
         match bytes.get(..4) {
