@@ -14,7 +14,14 @@ use gpecnet_core::blob::signed::{
 use gpecnet_core::blob::CRC32;
 use gpecnet_core::{LibmSine, Model, Predictor};
 
-const BLOB: &[u8] = include_bytes!("../../weights/sdd-m-tiny-qe.gpec");
+/// The shipped metric blob (signed with the project's test key) and its unsigned blob.
+const SHIPPED: &[u8] = include_bytes!("../../weights/sdd-m-tiny-qe.gpec");
+/// The public half of the test key the shipped MCU blob is signed with.
+const TEST_KEY: &str = include_str!("../../weights/test-signing-key.pub");
+
+fn unsigned() -> &'static [u8] {
+    signed::split(SHIPPED).map_or(SHIPPED, |(b, _, _)| b)
+}
 
 fn hex<const N: usize>(s: &str) -> [u8; N] {
     let v: Vec<u8> = (0..s.len())
@@ -89,11 +96,11 @@ fn sign(blob: &[u8], k: &SigningKey, version: u32) -> Vec<u8> {
 #[test]
 fn signed_blob_loads_with_its_version_and_predicts_the_same() {
     let k = key(7);
-    let s = sign(BLOB, &k, 12);
-    assert_eq!(s.len(), BLOB.len() + TRAILER_LEN);
+    let s = sign(unsigned(), &k, 12);
+    assert_eq!(s.len(), unsigned().len() + TRAILER_LEN);
     let (m, v) = Model::from_signed_blob(&s, &[trusted(&key(1)), trusted(&k)], 12).unwrap();
     assert_eq!(v, 12);
-    let plain = Model::from_blob(BLOB).unwrap();
+    let plain = Model::from_blob(unsigned()).unwrap();
     assert_eq!(m.crc(), plain.crc());
     // The unverified reader sees the same model in the signed bytes.
     assert_eq!(Model::from_blob(&s).unwrap().crc(), plain.crc());
@@ -119,9 +126,9 @@ fn signed_blob_loads_with_its_version_and_predicts_the_same() {
 fn refusals_are_typed() {
     let k = key(7);
     let keys = [trusted(&k)];
-    let s = sign(BLOB, &k, 5);
+    let s = sign(unsigned(), &k, 5);
     assert_eq!(
-        Model::from_signed_blob(BLOB, &keys, 0).err(),
+        Model::from_signed_blob(unsigned(), &keys, 0).err(),
         Some(SignError::UnsignedBlob)
     );
     assert_eq!(
@@ -146,7 +153,7 @@ fn refusals_are_typed() {
     ));
     // An unknown trailer version.
     let mut t = s.clone();
-    let at = BLOB.len() + 4;
+    let at = unsigned().len() + 4;
     t[at] = 2;
     assert_eq!(
         Model::from_signed_blob(&t, &keys, 0).err(),
@@ -177,8 +184,8 @@ fn refusals_are_typed() {
 fn every_changed_byte_is_refused() {
     let k = key(7);
     let keys = [trusted(&k)];
-    let s = sign(BLOB, &k, 5);
-    let body = BLOB.len() - 4;
+    let s = sign(unsigned(), &k, 5);
+    let body = unsigned().len() - 4;
     let mut refused = [0usize; 4];
     let mut crc_only_accepts = 0;
     for i in 0..s.len() {
@@ -188,7 +195,7 @@ fn every_changed_byte_is_refused() {
             // Re-seal the inner blob: its CRC is valid again.
             let crc = CRC32.checksum(&t[..body]).to_le_bytes();
             t[body..body + 4].copy_from_slice(&crc);
-            crc_only_accepts += Model::from_blob(&t[..BLOB.len()]).is_ok() as usize;
+            crc_only_accepts += Model::from_blob(&t[..unsigned().len()]).is_ok() as usize;
         }
         let e = Model::from_signed_blob(&t, &keys, 0).err();
         let slot = match e {
@@ -206,5 +213,17 @@ fn every_changed_byte_is_refused() {
     assert_eq!(refused[0], s.len() - 14);
     // Most re-sealed body flips are weights: the unsigned reader takes them.
     assert!(crc_only_accepts > body / 2, "{crc_only_accepts} of {body}");
-    assert_eq!(s.len() - BLOB.len() - SIGNED_TRAILER_LEN, 64);
+    assert_eq!(s.len() - unsigned().len() - SIGNED_TRAILER_LEN, 64);
+}
+
+/// The shipped MCU blob verifies under the documented test key, at version 1.
+#[test]
+fn shipped_blob_is_signed_with_the_test_key() {
+    let key = TrustedKey::new(hex::<32>(TEST_KEY.trim()));
+    let (m, v) = Model::from_signed_blob(SHIPPED, &[key], 1).unwrap();
+    assert_eq!((m.name(), v), ("sdd-m-tiny-qe", 1));
+    assert_eq!(
+        Model::from_signed_blob(SHIPPED, &[key], 2).err(),
+        Some(SignError::RolledBack { have: 1, min: 2 })
+    );
 }

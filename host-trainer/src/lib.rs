@@ -21,6 +21,7 @@ pub mod rng;
 pub mod rundir;
 pub mod select;
 pub mod ship;
+pub mod signing;
 pub mod social;
 pub mod synth;
 pub mod train;

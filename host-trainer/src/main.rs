@@ -93,6 +93,91 @@ enum Command {
     /// shipped f32 blobs (scripts/peers/check.py, tolerance 0.01 px; docs/peers.md).
     #[command(verbatim_doc_comment)]
     Onnx(OnnxArgs),
+    /// Make an Ed25519 key pair for signing blobs: DIR/gpecnet-signing.key (the private
+    /// seed, hex, mode 0600, never printed) and DIR/gpecnet-signing.pub (the public key,
+    /// hex). Never overwrites a key. Keep the private file off the drone and out of
+    /// version control; compile the public one into the firmware.
+    Keygen(KeygenArgs),
+    /// Sign a blob: writes --out = the blob, then an 82-byte trailer (key id, --version,
+    /// Ed25519 signature; weights/FORMAT.md). Predictions are unchanged (the blob's bytes
+    /// and CRC are kept). Never writes over the blob or the key; the output is verified
+    /// before it is in place.
+    Sign(SignArgs),
+    /// Verify a signed blob against a public key (and a minimum version): prints the
+    /// model, key id and version, or why it is refused (unsigned, unknown key, bad
+    /// signature, rolled back, invalid blob) and exits 1.
+    Verify(VerifyArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct KeygenArgs {
+    /// Folder for the two key files (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct SignArgs {
+    /// The unsigned blob.
+    #[arg(long)]
+    blob: PathBuf,
+    /// The private key file (gpecnet keygen).
+    #[arg(long)]
+    key: PathBuf,
+    /// The model's release number: firmware refuses versions below the last it accepted.
+    #[arg(long)]
+    version: u32,
+    /// The signed blob to write (a new file or a regular file; never the input).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct VerifyArgs {
+    /// The signed blob.
+    #[arg(long)]
+    blob: PathBuf,
+    /// The public key file (gpecnet keygen).
+    #[arg(long)]
+    pubkey: PathBuf,
+    /// Refuse versions below this one.
+    #[arg(long, default_value_t = 0)]
+    min_version: u32,
+}
+
+fn cmd_keygen(a: KeygenArgs) -> Result<()> {
+    use gpecnet_trainer::signing;
+    let (sk, pk, id) = signing::keygen(&a.out)?;
+    println!("private key: {} (mode 0600; keep it secret)", sk.display());
+    println!("public key:  {}", pk.display());
+    println!("key id:      {}", signing::key_id_hex(&id));
+    Ok(())
+}
+
+fn cmd_sign(a: SignArgs) -> Result<()> {
+    use gpecnet_trainer::signing;
+    let id = signing::sign_file(&a.blob, &a.key, a.version, &a.out)?;
+    println!(
+        "signed {} -> {} (key id {}, version {})",
+        a.blob.display(),
+        a.out.display(),
+        signing::key_id_hex(&id),
+        a.version
+    );
+    Ok(())
+}
+
+fn cmd_verify(a: VerifyArgs) -> Result<()> {
+    use gpecnet_trainer::signing;
+    let v = signing::verify_file(&a.blob, &a.pubkey, a.min_version)?;
+    println!(
+        "{}: signature ok: model {}, key id {}, version {}",
+        a.blob.display(),
+        v.name,
+        signing::key_id_hex(&v.key_id),
+        v.model_version
+    );
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
@@ -855,5 +940,8 @@ fn main() -> Result<()> {
         Command::RlTrain(a) => cmd_rl_train(a),
         Command::Sweep(a) => cmd_sweep(a),
         Command::Onnx(a) => cmd_onnx(a),
+        Command::Keygen(a) => cmd_keygen(a),
+        Command::Sign(a) => cmd_sign(a),
+        Command::Verify(a) => cmd_verify(a),
     }
 }
