@@ -227,3 +227,64 @@ fn shipped_blob_is_signed_with_the_test_key() {
         Some(SignError::RolledBack { have: 1, min: 2 })
     );
 }
+
+/// The forgery search, run for its numbers, not in CI (`docs/signing.md`):
+/// `GPECNET_FORGERIES=10000000 cargo test --release -p gpecnet-core --features
+/// signed --test signed -- --ignored --nocapture`. Each trial edits 1–4 random
+/// bytes of a signed blob, each edit in the body (the inner CRC recomputed
+/// half of the time, so the CRC-only reader would take it), the trailer head
+/// or the signature, keeping the rest, and must be refused.
+#[test]
+#[ignore]
+fn random_signature_preserving_edits_are_never_accepted() {
+    let k = key(7);
+    let keys = [trusted(&k)];
+    let s = sign(unsigned(), &k, 5);
+    let n: u64 = std::env::var("GPECNET_FORGERIES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100_000);
+    let body = unsigned().len() - 4;
+    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng
+    };
+    let mut t = s.clone();
+    let (mut resealed, mut by_kind) = (0u64, [0u64; 4]);
+    for _ in 0..n {
+        t.copy_from_slice(&s);
+        let edits = 1 + next() % 4;
+        let mut reseal = false;
+        for _ in 0..edits {
+            let r = next();
+            let i = match r % 3 {
+                0 => (r >> 8) as usize % body,
+                1 => unsigned().len() + (r >> 8) as usize % SIGNED_TRAILER_LEN,
+                _ => s.len() - 64 + (r >> 8) as usize % 64,
+            };
+            let v = (r >> 40) as u8;
+            t[i] = if v == s[i] { v ^ 0x80 } else { v };
+            reseal |= i < body && r & (1 << 60) != 0;
+        }
+        if reseal {
+            let crc = CRC32.checksum(&t[..body]).to_le_bytes();
+            t[body..body + 4].copy_from_slice(&crc);
+            resealed += 1;
+        }
+        match Model::from_signed_blob(&t, &keys, 0) {
+            Ok(_) => panic!("forgery accepted: {:?}", &t[..16]),
+            Err(SignError::BadSignature) => by_kind[0] += 1,
+            Err(SignError::UnknownKey) => by_kind[1] += 1,
+            Err(SignError::UnsignedBlob | SignError::BadTrailer) => by_kind[2] += 1,
+            Err(_) => by_kind[3] += 1,
+        }
+    }
+    println!(
+        "{n} edited blobs ({resealed} with the inner CRC recomputed): 0 accepted; \
+         bad signature {}, unknown key {}, trailer {}, other {}",
+        by_kind[0], by_kind[1], by_kind[2], by_kind[3]
+    );
+}
