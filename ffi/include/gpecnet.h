@@ -178,6 +178,24 @@
 // shipped models; `GpecnetModelInfo::period_s` × 1000).
 #define GPECNET_E_TRACKS_BAD_PERIOD 61
 
+// The blob is not signed (`gpecnet_init_signed`).
+#define GPECNET_E_SIGN_UNSIGNED 70
+
+// The signature trailer's version is unknown.
+#define GPECNET_E_SIGN_BAD_TRAILER 71
+
+// No trusted key has the blob's key id.
+#define GPECNET_E_SIGN_UNKNOWN_KEY 72
+
+// The signature does not verify (a changed byte, or a forgery).
+#define GPECNET_E_SIGN_BAD_SIGNATURE 73
+
+// The blob's model version is below the caller's minimum.
+#define GPECNET_E_SIGN_ROLLED_BACK 74
+
+// Most trusted keys one `gpecnet_init_signed` call takes.
+#define GPECNET_MAX_TRUSTED_KEYS 8
+
 // Declared unit: whatever the model takes, unchecked (the only choice for
 // blobs before format 4).
 #define GPECNET_UNIT_MODEL 0
@@ -220,6 +238,12 @@ typedef struct GpecnetPredictor GpecnetPredictor;
 // An initialised track table in caller-owned storage:
 // `(GpecnetTracks *)storage` after [`gpecnet_tracks_init`]. Opaque to C.
 typedef struct GpecnetTracks GpecnetTracks;
+
+// One trusted Ed25519 public key (RFC 8032 encoding) for [`gpecnet_init_signed`].
+typedef struct GpecnetTrustedKey {
+  // The 32-byte public key; its first 8 bytes are its key id.
+  uint8_t public_key[32];
+} GpecnetTrustedKey;
 
 // What a blob holds, for [`gpecnet_model_info`].
 typedef struct GpecnetModelInfo {
@@ -377,6 +401,28 @@ int32_t gpecnet_init_units(void *storage,
                            size_t blob_len,
                            uint32_t unit,
                            float metres_per_pixel);
+
+// [`gpecnet_init_units`] for a signed blob only: refused unless the blob's
+// Ed25519 signature verifies under one of the `n_keys` keys at `keys`
+// (at most [`GPECNET_MAX_TRUSTED_KEYS`]) and its model version is at least
+// `min_version` (`GPECNET_E_SIGN_*`, checked before the blob is parsed;
+// the trailer: `weights/FORMAT.md`, "Signed blobs"). On success
+// `*out_version` (when not NULL) receives the blob's model version: store
+// it as the next `min_version` where it survives a reset.
+//
+// # Safety
+// As [`gpecnet_init`]; `keys` is NULL (only with `n_keys` = 0) or valid for
+// reads of `n_keys` keys; `out_version` is NULL or valid for a write.
+int32_t gpecnet_init_signed(void *storage,
+                            size_t storage_len,
+                            const uint8_t *blob,
+                            size_t blob_len,
+                            const struct GpecnetTrustedKey *keys,
+                            size_t n_keys,
+                            uint32_t min_version,
+                            uint32_t unit,
+                            float metres_per_pixel,
+                            uint32_t *out_version);
 
 // The model's deterministic point forecast: `future_len` points (x, y
 // interleaved, the last one the endpoint) into `out_xy`, which has room for

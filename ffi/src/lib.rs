@@ -76,6 +76,7 @@ extern crate std;
 use core::ffi::{c_char, c_void};
 use core::mem::{align_of, size_of};
 
+use gpecnet_core::blob::signed::{SignError, TrustedKey};
 use gpecnet_core::blob::PositionUnit;
 use gpecnet_core::blob::{NetworkId, MAX_FUTURE, MAX_PAST};
 use gpecnet_core::golden::GoldenSet;
@@ -203,6 +204,19 @@ pub const GPECNET_E_TRACKS_STALE_TIME: i32 = 60;
 /// shipped models; `GpecnetModelInfo::period_s` × 1000).
 pub const GPECNET_E_TRACKS_BAD_PERIOD: i32 = 61;
 
+/// The blob is not signed (`gpecnet_init_signed`).
+pub const GPECNET_E_SIGN_UNSIGNED: i32 = 70;
+/// The signature trailer's version is unknown.
+pub const GPECNET_E_SIGN_BAD_TRAILER: i32 = 71;
+/// No trusted key has the blob's key id.
+pub const GPECNET_E_SIGN_UNKNOWN_KEY: i32 = 72;
+/// The signature does not verify (a changed byte, or a forgery).
+pub const GPECNET_E_SIGN_BAD_SIGNATURE: i32 = 73;
+/// The blob's model version is below the caller's minimum.
+pub const GPECNET_E_SIGN_ROLLED_BACK: i32 = 74;
+/// Most trusted keys one `gpecnet_init_signed` call takes.
+pub const GPECNET_MAX_TRUSTED_KEYS: usize = 8;
+
 /// Declared unit: whatever the model takes, unchecked (the only choice for
 /// blobs before format 4).
 pub const GPECNET_UNIT_MODEL: u32 = 0;
@@ -281,6 +295,19 @@ pub fn unit_status(e: UnitError) -> i32 {
     }
 }
 
+/// The status code of a signed-blob refusal (exhaustive, like [`blob_status`]).
+pub fn sign_status(e: SignError) -> i32 {
+    match e {
+        SignError::UnsignedBlob => GPECNET_E_SIGN_UNSIGNED,
+        SignError::BadTrailer => GPECNET_E_SIGN_BAD_TRAILER,
+        SignError::UnknownKey => GPECNET_E_SIGN_UNKNOWN_KEY,
+        SignError::BadSignature => GPECNET_E_SIGN_BAD_SIGNATURE,
+        SignError::RolledBack { .. } => GPECNET_E_SIGN_ROLLED_BACK,
+        SignError::Blob(b) => blob_status(b),
+        _ => GPECNET_E_UNKNOWN_ERROR,
+    }
+}
+
 fn error_status(e: Error) -> i32 {
     match e {
         Error::Blob(b) => blob_status(b),
@@ -342,6 +369,11 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_UNIT_BAD_SCALE => c"metres per pixel not finite or outside [1e-6, 1e6]",
         GPECNET_E_TRACKS_STALE_TIME => c"timestamp before the track table's last one",
         GPECNET_E_TRACKS_BAD_PERIOD => c"track table period is 0 ms",
+        GPECNET_E_SIGN_UNSIGNED => c"the blob is not signed",
+        GPECNET_E_SIGN_BAD_TRAILER => c"unknown signature trailer version",
+        GPECNET_E_SIGN_UNKNOWN_KEY => c"signed by a key that is not trusted",
+        GPECNET_E_SIGN_BAD_SIGNATURE => c"the signature does not verify",
+        GPECNET_E_SIGN_ROLLED_BACK => c"model version older than the minimum accepted",
         GPECNET_E_UNKNOWN_ERROR => c"an error this build of the C ABI has no code for",
         _ => c"unknown status code",
     };
@@ -489,6 +521,103 @@ pub unsafe extern "C" fn gpecnet_init_units(
     unit: u32,
     metres_per_pixel: f32,
 ) -> i32 {
+    // SAFETY: the caller's contract, passed on unchanged.
+    unsafe {
+        init_with(
+            storage,
+            storage_len,
+            blob,
+            blob_len,
+            unit,
+            metres_per_pixel,
+            |bytes| Model::from_blob(bytes).map_err(blob_status),
+        )
+    }
+}
+
+/// One trusted Ed25519 public key (RFC 8032 encoding) for [`gpecnet_init_signed`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpecnetTrustedKey {
+    /// The 32-byte public key; its first 8 bytes are its key id.
+    pub public_key: [u8; 32],
+}
+
+/// [`gpecnet_init_units`] for a signed blob only: refused unless the blob's
+/// Ed25519 signature verifies under one of the `n_keys` keys at `keys`
+/// (at most [`GPECNET_MAX_TRUSTED_KEYS`]) and its model version is at least
+/// `min_version` (`GPECNET_E_SIGN_*`, checked before the blob is parsed;
+/// the trailer: `weights/FORMAT.md`, "Signed blobs"). On success
+/// `*out_version` (when not NULL) receives the blob's model version: store
+/// it as the next `min_version` where it survives a reset.
+///
+/// # Safety
+/// As [`gpecnet_init`]; `keys` is NULL (only with `n_keys` = 0) or valid for
+/// reads of `n_keys` keys; `out_version` is NULL or valid for a write.
+#[no_mangle]
+pub unsafe extern "C" fn gpecnet_init_signed(
+    storage: *mut c_void,
+    storage_len: usize,
+    blob: *const u8,
+    blob_len: usize,
+    keys: *const GpecnetTrustedKey,
+    n_keys: usize,
+    min_version: u32,
+    unit: u32,
+    metres_per_pixel: f32,
+    out_version: *mut u32,
+) -> i32 {
+    let mut trusted = [TrustedKey::new([0; 32]); GPECNET_MAX_TRUSTED_KEYS];
+    if n_keys > GPECNET_MAX_TRUSTED_KEYS {
+        return GPECNET_E_BAD_LENGTH;
+    }
+    if n_keys > 0 && keys.is_null() {
+        return GPECNET_E_NULL_POINTER;
+    }
+    for (i, t) in trusted.iter_mut().take(n_keys).enumerate() {
+        // SAFETY: i < n_keys, and the caller guarantees n_keys readable keys.
+        *t = TrustedKey::new(unsafe { keys.add(i).read_unaligned() }.public_key);
+    }
+    let trusted = trusted.get(..n_keys).unwrap_or(&[]);
+    let mut version = 0;
+    // SAFETY: the caller's contract, passed on unchanged.
+    let status = unsafe {
+        init_with(
+            storage,
+            storage_len,
+            blob,
+            blob_len,
+            unit,
+            metres_per_pixel,
+            |bytes| {
+                let (m, v) =
+                    Model::from_signed_blob(bytes, trusted, min_version).map_err(sign_status)?;
+                version = v;
+                Ok(m)
+            },
+        )
+    };
+    if status == GPECNET_OK && !out_version.is_null() {
+        // SAFETY: non-null, writable (caller's contract).
+        unsafe { out_version.write_unaligned(version) };
+    }
+    status
+}
+
+/// The body of the init functions: checks the storage, reads the model with
+/// `model` and builds the predictor for `unit` in the storage.
+///
+/// # Safety
+/// As [`gpecnet_init`].
+unsafe fn init_with(
+    storage: *mut c_void,
+    storage_len: usize,
+    blob: *const u8,
+    blob_len: usize,
+    unit: u32,
+    metres_per_pixel: f32,
+    model: impl FnOnce(&'static [u8]) -> Result<Model<'static>, i32>,
+) -> i32 {
     guard(|| {
         non_null(storage)?;
         if (storage as usize) & (GPECNET_PREDICTOR_ALIGN - 1) != 0 {
@@ -512,10 +641,7 @@ pub unsafe extern "C" fn gpecnet_init_units(
         // SAFETY: the caller guarantees `blob_len` readable bytes that outlive
         // every use of the predictor (the documented lifetime contract), hence 'static.
         let bytes: &'static [u8] = unsafe { core::slice::from_raw_parts(blob, blob_len) };
-        let pred = Model::from_blob(bytes)
-            .map_err(Error::from)
-            .and_then(|m| Inner::with_units(m, unit))
-            .map_err(error_status)?;
+        let pred = Inner::with_units(model(bytes)?, unit).map_err(error_status)?;
         // SAFETY: as above; State has no drop glue, so overwriting a previous
         // predictor leaks nothing.
         unsafe { s.write(State { tag: LIVE, pred }) };

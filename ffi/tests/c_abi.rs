@@ -89,6 +89,7 @@ fn status_strings_cover_every_code_and_are_distinct() {
         .chain(30..=40)
         .chain(50..=53)
         .chain(60..=61)
+        .chain(70..=74)
         .collect();
     let mut texts = std::collections::BTreeSet::new();
     for &c in &codes {
@@ -97,7 +98,7 @@ fn status_strings_cover_every_code_and_are_distinct() {
         let t = unsafe { CStr::from_ptr(gpecnet_status_str(c)) };
         assert!(texts.insert(t.to_owned()), "code {c}: duplicate text");
     }
-    for c in [7, 41, 49, 54, 59, 62, -1, i32::MAX] {
+    for c in [7, 41, 49, 54, 59, 62, 69, 75, -1, i32::MAX] {
         assert!(!known(c), "{c}");
     }
 }

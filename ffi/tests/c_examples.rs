@@ -148,9 +148,10 @@ fn camera(f: u32, id: u32) -> (u32, Option<[f32; 2]>) {
     (t_ms, Some([x, y]))
 }
 
-/// The C metric tracker (30 Hz detections in metres → timed track table →
-/// metric model declared in metres) prints the forecasts the core computes
-/// directly, bit for bit, and refuses a blob that does not record its unit.
+/// The C metric tracker (the signed metric model verified under the test key,
+/// 30 Hz detections in metres → timed track table → the model declared in
+/// metres) prints the forecasts the core computes directly, bit for bit, and
+/// refuses an unsigned blob.
 #[test]
 fn c_metric_tracker_matches_the_core() {
     use gpecnet_core::tracks::{period_ms_of, Observation, TimedTrackTable};
@@ -166,6 +167,7 @@ fn c_metric_tracker_matches_the_core() {
     let run = |blob: &str| {
         let r = Command::new(&bin)
             .arg(root().join("weights").join(blob))
+            .arg(root().join("weights/test-signing-key.pub"))
             .output()
             .unwrap();
         let out = String::from_utf8_lossy(&r.stdout).into_owned();
@@ -219,11 +221,11 @@ fn c_metric_tracker_matches_the_core() {
     assert!(want.len() > 20, "{}", want.len());
     assert_eq!(got, want);
     assert!(
-        text.starts_with("sdd-m-tiny-qe: unit m, period 400 ms"),
+        text.starts_with("signature ok: model version 1\nsdd-m-tiny-qe: unit m, period 400 ms"),
         "{text}"
     );
 
-    // A blob that does not record its unit is refused at gpecnet_init_units.
+    // An unsigned blob is refused by gpecnet_init_signed.
     let (ok, text) = run("sdd-tiny-v2-qe.gpec");
-    assert!(!ok && text.contains("does not record its unit"), "{text}");
+    assert!(!ok && text.contains("the blob is not signed"), "{text}");
 }

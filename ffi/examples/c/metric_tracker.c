@@ -2,7 +2,11 @@
  *
  *   cc -std=c11 -I ffi/include ffi/examples/c/metric_tracker.c \
  *      target/debug/libgpecnet_ffi.a -lpthread -ldl -lm -o metric_tracker
- *   ./metric_tracker weights/sdd-m-tiny-qe.gpec
+ *   ./metric_tracker weights/sdd-m-tiny-qe.gpec [weights/test-signing-key.pub]
+ *
+ * With a public key file, the blob must be signed by that key
+ * (gpecnet_init_signed: Ed25519, model version at least 1), as a drone that
+ * takes weights over the air would load it.
  *
  * Detections in metres with millisecond timestamps (jitter, one in ten
  * missed) go into the timed track table, which resamples them onto the
@@ -58,9 +62,23 @@ static unsigned char *read_file(const char *path, size_t *len) {
     return buf;
 }
 
+/* A public key file: 64 hex digits. */
+static int read_key(const char *path, GpecnetTrustedKey *key) {
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    int ok = 1;
+    for (int i = 0; i < 32 && ok; i++) {
+        unsigned v;
+        ok = fscanf(f, "%2x", &v) == 1;
+        key->public_key[i] = (uint8_t)v;
+    }
+    fclose(f);
+    return ok;
+}
+
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s MODEL.gpec\n", argv[0]);
+    if (argc != 2 && argc != 3) {
+        fprintf(stderr, "usage: %s MODEL.gpec [PUBLIC.key]\n", argv[0]);
         return 2;
     }
     size_t blob_len = 0;
@@ -69,11 +87,24 @@ int main(int argc, char **argv) {
         fprintf(stderr, "cannot read %s\n", argv[1]);
         return 2;
     }
-    /* Metres in, metres out. */
-    int32_t s = gpecnet_init_units(predictor_mem, sizeof predictor_mem, blob, blob_len,
-                                   GPECNET_UNIT_METRES, 0.0f);
+    /* Metres in, metres out; with a key, only a blob signed by it (version >= 1). */
+    int32_t s;
+    if (argc == 3) {
+        GpecnetTrustedKey key;
+        if (!read_key(argv[2], &key)) {
+            fprintf(stderr, "%s: not a public key file\n", argv[2]);
+            return 2;
+        }
+        uint32_t version = 0;
+        s = gpecnet_init_signed(predictor_mem, sizeof predictor_mem, blob, blob_len, &key, 1, 1,
+                                GPECNET_UNIT_METRES, 0.0f, &version);
+        if (s == GPECNET_OK) printf("signature ok: model version %u\n", (unsigned)version);
+    } else {
+        s = gpecnet_init_units(predictor_mem, sizeof predictor_mem, blob, blob_len,
+                               GPECNET_UNIT_METRES, 0.0f);
+    }
     if (s != GPECNET_OK) {
-        fprintf(stderr, "gpecnet_init_units: %s (%d)\n", gpecnet_status_str(s), (int)s);
+        fprintf(stderr, "gpecnet_init: %s (%d)\n", gpecnet_status_str(s), (int)s);
         return 1;
     }
     GpecnetPredictor *p = (GpecnetPredictor *)predictor_mem;
