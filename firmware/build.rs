@@ -179,11 +179,11 @@ fn main() {
     for (i, n) in names.iter().enumerate() {
         src += &format!("    ({n:?}, &BLOB_{i}.0),\n");
     }
-    src += "];\n";
     // The demo tracker's model: GPECNET_DEMO_MODEL=<name>; unset = the metric MCU model
     // (sdd-m-tiny-qe) when embedded, else the first metric one (the demo picks it).
     println!("cargo:rerun-if-env-changed=GPECNET_DEMO_MODEL");
-    let demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_else(|_| {
+    let mut forged_static = String::new();
+    let mut demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_else(|_| {
         let default = "sdd-m-tiny-qe";
         if names.iter().any(|n| n == default) {
             default.to_string()
@@ -191,7 +191,64 @@ fn main() {
             String::new()
         }
     });
+    // `force-forged-blob` (fault proof): a copy of the demo model with one weight byte
+    // changed and its CRC recomputed (valid for the unsigned reader, the signature kept),
+    // embedded as the demo model; the genuine one stays embedded as the last good model.
+    if env::var_os("CARGO_FEATURE_FORCE_FORGED_BLOB").is_some() && !demo.is_empty() {
+        let src_blob = blob_path(&weights, &demo);
+        let mut bytes = fs::read(&src_blob).unwrap_or_else(|e| panic!("{}: {e}", src_blob.display()));
+        let inner = match bytes.len().checked_sub(82) {
+            Some(i) if bytes[i..i + 4] == *b"GSIG" => i,
+            _ => bytes.len(),
+        };
+        let body = inner - 4;
+        bytes[body - 100] ^= 0x01;
+        let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&bytes[..body]);
+        bytes[body..inner].copy_from_slice(&crc.to_le_bytes());
+        let forged = format!("{demo}-forged");
+        let dst = out.join(format!("{forged}.gpec"));
+        fs::write(&dst, &bytes).unwrap_or_else(|e| panic!("{}: {e}", dst.display()));
+        src += &format!("    ({forged:?}, &BLOB_FORGED.0),\n");
+        forged_static = format!(
+            "static BLOB_FORGED: AlignedBlob<{}> = AlignedBlob(*include_bytes!({:?}));\n",
+            bytes.len(),
+            dst.display().to_string()
+        );
+        demo = forged;
+    }
+    src += "];\n";
+    src += &forged_static;
     src += &format!("pub static DEMO_MODEL: &str = {:?};\n", demo.trim());
+    // The keys the firmware trusts: weights/test-signing-key.pub (hex; GPECNET_TRUSTED_KEY
+    // names another file), or with `force-untrusted-key` RFC 8032's first test key only.
+    println!("cargo:rerun-if-env-changed=GPECNET_TRUSTED_KEY");
+    let key_file = env::var_os("GPECNET_TRUSTED_KEY")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("weights/test-signing-key.pub"));
+    println!("cargo:rerun-if-changed={}", key_file.display());
+    let hex = if env::var_os("CARGO_FEATURE_FORCE_UNTRUSTED_KEY").is_some() {
+        "d75a980182b10ab7d54bfed3c964073a0ee172f3daa62325af021a68f707511a".to_string()
+    } else {
+        fs::read_to_string(&key_file)
+            .unwrap_or_else(|e| panic!("{}: {e}", key_file.display()))
+            .trim()
+            .to_string()
+    };
+    assert!(
+        hex.len() == 64 && hex.bytes().all(|b| b.is_ascii_hexdigit()),
+        "{}: not a public key (64 hex digits)",
+        key_file.display()
+    );
+    let key: Vec<String> = (0..32)
+        .map(|i| format!("0x{}", &hex[2 * i..2 * i + 2]))
+        .collect();
+    src += &format!(
+        "pub static TRUSTED_KEYS: &[gpecnet_core::blob::signed::TrustedKey] = &[gpecnet_core::blob::signed::TrustedKey::new([{}])];\n",
+        key.join(", ")
+    );
+    // `force-rollback`: the stored minimum version starts above the shipped model's (1).
+    let floor = if env::var_os("CARGO_FEATURE_FORCE_ROLLBACK").is_some() { 2 } else { 0 };
+    src += &format!("pub static MIN_VERSION_FLOOR: u32 = {floor};\n");
     // Numeric path of the profile build (one sine per image, so flash/RAM are per path).
     println!("cargo:rerun-if-env-changed=GPECNET_SINE");
     println!(

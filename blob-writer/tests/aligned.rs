@@ -9,6 +9,8 @@ use gpecnet_core::blob::{
 };
 use gpecnet_core::{BlobError, Model, NumericKind};
 
+/// The shipped blobs, without the signature trailer of those that are signed (the trailer
+/// follows the blob; `gpecnet_core::blob::signed`).
 fn shipped() -> Vec<(String, Vec<u8>)> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights");
     let mut v: Vec<_> = [
@@ -20,10 +22,11 @@ fn shipped() -> Vec<(String, Vec<u8>)> {
     ]
     .iter()
     .map(|n| {
-        (
-            n.to_string(),
-            std::fs::read(dir.join(format!("{n}.gpec"))).unwrap(),
-        )
+        let bytes = std::fs::read(dir.join(format!("{n}.gpec"))).unwrap();
+        let unsigned = gpecnet_core::blob::signed::split(&bytes)
+            .map_or(&bytes[..], |(blob, _, _)| blob)
+            .to_vec();
+        (n.to_string(), unsigned)
     })
     .collect();
     v.sort();

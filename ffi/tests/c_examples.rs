@@ -226,6 +226,6 @@ fn c_metric_tracker_matches_the_core() {
     );
 
     // An unsigned blob is refused by gpecnet_init_signed.
-    let (ok, text) = run("sdd-tiny-v2-qe.gpec");
+    let (ok, text) = run("sdd-tiny-qe.gpec");
     assert!(!ok && text.contains("the blob is not signed"), "{text}");
 }

@@ -130,12 +130,8 @@ pub async fn run(spawner: Spawner) -> bool {
         }
         return false;
     };
-    let model = match Model::from_blob(blob) {
-        Ok(m) => m,
-        Err(e) => {
-            defmt::error!("demo: model {=str} rejected: {}", name, e);
-            return false;
-        }
+    let Some((name, model)) = trusted_model(name, blob) else {
+        return false;
     };
     // The scene is in metres: a model in another unit is refused here.
     let predictor = match Predictor::<DemoSine, SCRATCH>::with_units(model, CallerUnit::Metres) {
@@ -170,6 +166,44 @@ pub async fn run(spawner: Spawner) -> bool {
     let n = DONE.wait().await;
     defmt::println!("demo: done, {=u32} predictions", n);
     n > 0
+}
+
+/// The model to run: `blob` when its signature verifies under the
+/// firmware's trusted keys at a version not below the stored minimum, else
+/// the first other embedded blob that does (the last good model), else
+/// none. Each refusal is logged with its reason; the stored minimum is
+/// raised to the accepted model's version.
+fn trusted_model(name: &'static str, blob: &'static [u8]) -> Option<(&'static str, Model<'static>)> {
+    let keys = crate::models::TRUSTED_KEYS;
+    let min = crate::persist::min_version();
+    let verified = |n: &'static str, b: &'static [u8]| match Model::from_signed_blob(b, keys, min) {
+        Ok((m, version)) => {
+            defmt::println!("demo: model {=str} signature ok, version {=u32} (minimum {=u32})", n, version, min);
+            crate::persist::raise_min_version(version);
+            Some((n, m))
+        }
+        Err(e) => {
+            defmt::error!("demo: model {=str} refused: {}", n, e);
+            None
+        }
+    };
+    if let Some(ok) = verified(name, blob) {
+        return Some(ok);
+    }
+    let fallback = crate::models::BLOBS
+        .iter()
+        .filter(|(n, b)| *n != name && gpecnet_core::blob::signed::split(b).is_some())
+        .find_map(|&(n, b)| verified(n, b));
+    match fallback {
+        Some((n, m)) => {
+            defmt::warn!("demo: falling back to the last good model {=str}", n);
+            Some((n, m))
+        }
+        None => {
+            defmt::error!("demo: no trusted model embedded, not predicting");
+            None
+        }
+    }
 }
 
 /// Camera frame `frame`'s timestamp (ms): 30 Hz with 0–8 ms of jitter.

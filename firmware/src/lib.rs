@@ -23,6 +23,7 @@ pub mod demo;
 pub mod fatal;
 pub mod golden_run;
 pub mod guard;
+pub mod persist;
 pub mod profile;
 pub mod stack;
 pub mod watchdog;

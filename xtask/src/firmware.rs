@@ -84,6 +84,12 @@ pub(crate) fn fw_build(o: &Opts, extra: &[&str]) -> i32 {
 pub(crate) fn fw_run(o: &Opts) -> i32 {
     require(true);
     let mut c = fw_cargo(o);
+    // The demo embeds its signed model only, unless told otherwise (all the
+    // models and the signature verifier do not fit one flash).
+    let demo = o.rest.windows(2).any(|w| w[0] == "--bin" && w[1] == "demo");
+    if demo && std::env::var_os(gpecnet_mcu_models::ONLY_VAR).is_none() {
+        c.env(gpecnet_mcu_models::ONLY_VAR, crate::replay::DEMO_MODEL);
+    }
     c.arg("run");
     fw_class_args(o, &mut c);
     c.args(&o.rest);
@@ -157,6 +163,47 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
     } else {
         println!("fw-faults unit-mismatch          FAILED: weights/{unitless}.gpec missing");
         bad += 1;
+    }
+    // Signed weights: each attack ends in its defined state, named in the log. A forged
+    // copy (valid CRC, broken signature) is refused and the demo runs the last good model
+    // (exit 0); with only an untrusted key, or a stored minimum version above the model's,
+    // nothing is run (exit 1).
+    for (f, want_rc, wants) in [
+        (
+            "force-forged-blob",
+            0,
+            &[
+                "refused: BadSignature",
+                "falling back to the last good model",
+            ][..],
+        ),
+        (
+            "force-untrusted-key",
+            1,
+            &["refused: UnknownKey", "no trusted model"][..],
+        ),
+        (
+            "force-rollback",
+            1,
+            &["refused: RolledBack", "no trusted model"][..],
+        ),
+    ] {
+        let mut c = fw_cargo(o);
+        c.env(gpecnet_mcu_models::ONLY_VAR, crate::replay::DEMO_MODEL)
+            .arg("run");
+        mcu::M4F.firmware_args(&mut c, &root(), "demo", &[f]);
+        let (rc, out, _) = output(c);
+        let found: Vec<&str> = wants
+            .iter()
+            .filter_map(|w| out.lines().find(|l| l.contains(w)))
+            .collect();
+        let ok = rc == want_rc && found.len() == wants.len();
+        println!(
+            "fw-faults {f:<22} exit {rc} (want {want_rc}), log {:?} {}",
+            found.iter().map(|l| l.trim()).collect::<Vec<_>>(),
+            if ok { "ok" } else { "FAILED" }
+        );
+        bad += (!ok) as i32;
     }
     (bad != 0) as i32
 }
