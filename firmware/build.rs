@@ -196,7 +196,8 @@ fn main() {
     // embedded as the demo model; the genuine one stays embedded as the last good model.
     if env::var_os("CARGO_FEATURE_FORCE_FORGED_BLOB").is_some() && !demo.is_empty() {
         let src_blob = blob_path(&weights, &demo);
-        let mut bytes = fs::read(&src_blob).unwrap_or_else(|e| panic!("{}: {e}", src_blob.display()));
+        let mut bytes =
+            fs::read(&src_blob).unwrap_or_else(|e| panic!("{}: {e}", src_blob.display()));
         let inner = match bytes.len().checked_sub(82) {
             Some(i) if bytes[i..i + 4] == *b"GSIG" => i,
             _ => bytes.len(),
@@ -247,7 +248,11 @@ fn main() {
         key.join(", ")
     );
     // `force-rollback`: the stored minimum version starts above the shipped model's (1).
-    let floor = if env::var_os("CARGO_FEATURE_FORCE_ROLLBACK").is_some() { 2 } else { 0 };
+    let floor = if env::var_os("CARGO_FEATURE_FORCE_ROLLBACK").is_some() {
+        2
+    } else {
+        0
+    };
     src += &format!("pub static MIN_VERSION_FLOOR: u32 = {floor};\n");
     // Numeric path of the profile build (one sine per image, so flash/RAM are per path).
     println!("cargo:rerun-if-env-changed=GPECNET_SINE");

@@ -19,11 +19,11 @@
 //! TIM/RTC time driver from your HAL (e.g. embassy-stm32's `time-driver-tim2`).
 use core::cell::RefCell;
 
+use core::num::NonZeroU32;
 use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::{raw::ThreadModeRawMutex, Mutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
-use core::num::NonZeroU32;
 
 use gpecnet_core::blob::PositionUnit;
 use gpecnet_core::units::CallerUnit;
@@ -72,8 +72,9 @@ fn forecast(
     Ok((ends, point))
 }
 
-static TABLE: Mutex<ThreadModeRawMutex, RefCell<TimedTrackTable<MAX_TRACKS>>> =
-    Mutex::new(RefCell::new(TimedTrackTable::new(DEFAULT_PERIOD, MAX_GAP_MS)));
+static TABLE: Mutex<ThreadModeRawMutex, RefCell<TimedTrackTable<MAX_TRACKS>>> = Mutex::new(
+    RefCell::new(TimedTrackTable::new(DEFAULT_PERIOD, MAX_GAP_MS)),
+);
 /// ingest -> predict: the frame's timestamp (ms), `None` = end of stream.
 static FRAME_TICKS: Channel<ThreadModeRawMutex, Option<u32>, 1> = Channel::new();
 /// predict -> ingest: the frame's ready histories are copied out, the table may move on.
@@ -137,7 +138,11 @@ pub async fn run(spawner: Spawner) -> bool {
     let predictor = match Predictor::<DemoSine, SCRATCH>::with_units(model, CallerUnit::Metres) {
         Ok(p) => p,
         Err(e) => {
-            defmt::error!("demo: model {=str} refused for positions in metres: {}", name, e);
+            defmt::error!(
+                "demo: model {=str} refused for positions in metres: {}",
+                name,
+                e
+            );
             return false;
         }
     };
@@ -173,12 +178,20 @@ pub async fn run(spawner: Spawner) -> bool {
 /// the first other embedded blob that does (the last good model), else
 /// none. Each refusal is logged with its reason; the stored minimum is
 /// raised to the accepted model's version.
-fn trusted_model(name: &'static str, blob: &'static [u8]) -> Option<(&'static str, Model<'static>)> {
+fn trusted_model(
+    name: &'static str,
+    blob: &'static [u8],
+) -> Option<(&'static str, Model<'static>)> {
     let keys = crate::models::TRUSTED_KEYS;
     let min = crate::persist::min_version();
     let verified = |n: &'static str, b: &'static [u8]| match Model::from_signed_blob(b, keys, min) {
         Ok((m, version)) => {
-            defmt::println!("demo: model {=str} signature ok, version {=u32} (minimum {=u32})", n, version, min);
+            defmt::println!(
+                "demo: model {=str} signature ok, version {=u32} (minimum {=u32})",
+                n,
+                version,
+                min
+            );
             crate::persist::raise_min_version(version);
             Some((n, m))
         }
@@ -281,8 +294,10 @@ async fn predict(mut p: Predictor<'static, DemoSine, SCRATCH>) {
         // Copy the fresh histories out, so the table is not held during inference.
         let (period, fresh) = TABLE.lock(|t| {
             let t = t.borrow();
-            let fresh: Vec<(u32, u32, [[f32; 2]; HISTORY]), MAX_TRACKS> =
-                t.fresh().map(|tr| (tr.end_ms(), tr.id(), tr.past())).collect();
+            let fresh: Vec<(u32, u32, [[f32; 2]; HISTORY]), MAX_TRACKS> = t
+                .fresh()
+                .map(|tr| (tr.end_ms(), tr.id(), tr.past()))
+                .collect();
             (t.period_ms(), fresh)
         });
         let horizon = period * u32::from(p.model().config().future_len);

@@ -15,14 +15,11 @@ pub fn run() -> bool {
         defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
         return false;
     }
-    let s = crate::golden::verify_all::<{ crate::SCRATCH }>(
-        crate::models::MODELS,
-        true,
-        &mut |l| {
+    let s =
+        crate::golden::verify_all::<{ crate::SCRATCH }>(crate::models::MODELS, true, &mut |l| {
             crate::watchdog::feed();
             print(l)
-        },
-    );
+        });
     crate::golden::resample_scene(&mut print);
     defmt::println!(
         "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",
@@ -93,5 +90,4 @@ fn print(l: crate::golden::Line<'_>) {
             capacity
         ),
     }
-
 }

@@ -33,6 +33,10 @@ pub fn min_version() -> u32 {
 pub fn raise_min_version(version: u32) {
     if version > min_version() {
         // SAFETY: as in `min_version`; a volatile write of this static's two words.
-        unsafe { addr_of_mut!(STORE).cast::<[u32; 2]>().write_volatile([MAGIC, version]) };
+        unsafe {
+            addr_of_mut!(STORE)
+                .cast::<[u32; 2]>()
+                .write_volatile([MAGIC, version])
+        };
     }
 }
