@@ -7,7 +7,8 @@
 //! (`--features board`) DWT CYCCNT gives the cycles. A second window,
 //! once per image after the models, measures the timed track table: one
 //! model period (12 camera frames at 30 Hz) of 16 tracks in steady state
-//! ([`track_table_period`]).
+//! ([`track_table_period`]); a third, when the image embeds a signed blob,
+//! one signature verification ([`verify_first_signed`]).
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
@@ -147,6 +148,40 @@ fn track_table_period() -> bool {
     fresh == TRACKS
 }
 
+/// The measured verification: a signed blob against the compiled-in keys.
+#[inline(never)]
+#[no_mangle]
+pub fn gpecnet_verify_blob(blob: &'static [u8]) -> Option<u32> {
+    Model::from_signed_blob(blob, crate::models::TRUSTED_KEYS, 0)
+        .ok()
+        .map(|(_, v)| v)
+}
+
+/// One Ed25519 verification of the first embedded signed blob (once per
+/// boot or update on a drone, not per prediction), between the markers,
+/// with its stack; `true` when there is none or it verified.
+fn verify_first_signed() -> bool {
+    let Some(&(name, blob)) = crate::models::BLOBS
+        .iter()
+        .find(|(_, b)| gpecnet_core::blob::signed::split(b).is_some())
+    else {
+        return true;
+    };
+    let base = crate::stack::repaint();
+    bench_start();
+    let v = gpecnet_verify_blob(black_box(blob));
+    bench_end();
+    let used = crate::stack::high_water().saturating_sub(base);
+    defmt::println!(
+        "verify model={=str} bytes={=usize} ok={=bool} verify_stack={=u32}",
+        name,
+        blob.len(),
+        v.is_some(),
+        used as u32
+    );
+    v.is_some()
+}
+
 pub fn run() -> bool {
     let mut ok = !crate::models::BLOBS.is_empty();
     if !ok {
@@ -217,5 +252,7 @@ pub fn run() -> bool {
     }
     crate::watchdog::feed();
     ok &= track_table_period();
+    crate::watchdog::feed();
+    ok &= verify_first_signed();
     ok
 }

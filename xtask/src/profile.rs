@@ -248,6 +248,9 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
     let mut failed = false;
     // The timed track table's window (the second of every image; the same code in each).
     let mut table: Option<(u64, String)> = None;
+    // The signature verification's window (the third, in images of signed blobs) and the
+    // verifier's code: the functions of ed25519-dalek, curve25519-dalek, sha2 and the trailer.
+    let mut verify: Option<(u64, String, u64)> = None;
     for m in &models {
         let blob = blob_path(&dir, m);
         let blob_len = std::fs::metadata(&blob).map_or(0, |md| md.len() as u32);
@@ -272,6 +275,27 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             );
             let insns = run.windows().first().copied();
             let table_line = run.text.lines().find(|l| l.contains("tracktable tracks="));
+            if let (Some(&n), Some(l)) = (
+                run.windows().get(2),
+                run.text.lines().find(|l| l.contains("verify model=")),
+            ) {
+                let code: u64 = elf
+                    .functions
+                    .iter()
+                    .filter(|(_, _, f)| {
+                        [
+                            "curve25519_dalek",
+                            "ed25519_dalek",
+                            "sha2::",
+                            "blob::signed",
+                        ]
+                        .iter()
+                        .any(|c| f.contains(c))
+                    })
+                    .map(|(_, size, _)| u64::from(*size))
+                    .sum();
+                verify.get_or_insert((n, l.trim().to_string(), code));
+            }
             match (run.windows().get(1), table_line) {
                 (Some(&n), Some(l)) => {
                     table.get_or_insert((n, l.trim().to_string()));
@@ -421,6 +445,17 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             per_frame = insns / frames,
             size = num("table_size"),
             track = num("track_size"),
+        );
+    }
+    if let Some((insns, line, code)) = &verify {
+        let stack = field(line, "verify_stack").unwrap_or("-");
+        let model = field(line, "model").unwrap_or("-");
+        let _ = writeln!(
+            t,
+            "\nSignature verification (`Model::from_signed_blob`, Ed25519 by ed25519-dalek, once per boot or \
+             update) of {model}: {insns} instructions; {stack} B of stack on top of the caller; {code} B of code \
+             (the functions of ed25519-dalek, curve25519-dalek, sha2 and the trailer reader; linked only where \
+             it is called).",
         );
     }
     let _ = writeln!(
