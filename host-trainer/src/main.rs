@@ -253,6 +253,28 @@ struct QuantizeArgs {
     /// minFDE is further from its f32 source's than the tolerance (0.5 px / 0.02 m).
     #[arg(long)]
     force: bool,
+    #[command(flatten)]
+    signing: SignOptions,
+}
+
+/// Signing a blob as it is written.
+#[derive(clap::Args, Debug)]
+struct SignOptions {
+    /// Write the blob signed with this private key (gpecnet keygen); needs --sign-version.
+    #[arg(long, value_name = "KEY", requires = "sign_version")]
+    sign_key: Option<PathBuf>,
+    /// The model version to sign with (monotonic per product); needs --sign-key.
+    #[arg(long, value_name = "N", requires = "sign_key")]
+    sign_version: Option<u32>,
+}
+
+impl SignOptions {
+    fn spec(&self) -> Result<Option<gpecnet_trainer::signing::SignSpec>> {
+        match (&self.sign_key, self.sign_version) {
+            (Some(k), Some(v)) => Ok(Some(gpecnet_trainer::signing::SignSpec::load(k, v)?)),
+            _ => Ok(None),
+        }
+    }
 }
 
 fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
@@ -267,6 +289,7 @@ fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
         a.endpoint_only,
         a.dataset.as_ref(),
         a.force,
+        a.signing.spec()?.as_ref(),
     )?;
     let (f, x) = (&c.test_f32, &c.test_fixed);
     let ds = c.dataset.as_deref().unwrap_or("sdd");
@@ -312,6 +335,8 @@ struct ExportArgs {
     /// Replace existing artefacts of the same name in --out (never done without it).
     #[arg(long)]
     force: bool,
+    #[command(flatten)]
+    signing: SignOptions,
 }
 
 #[derive(clap::Args, Debug)]
@@ -363,8 +388,16 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
         sigma: a.sigma,
         tts: a.tts,
     };
-    let card =
-        gpecnet_trainer::ship::ship_with(&a.run, &a.name, &a.out, &a.data, settings, a.force)?;
+    let sign = a.signing.spec()?;
+    let card = gpecnet_trainer::ship::ship_with(
+        &a.run,
+        &a.name,
+        &a.out,
+        &a.data,
+        settings,
+        a.force,
+        sign.as_ref(),
+    )?;
     let m = card.test;
     println!(
         "exported {} (epoch {}, {} parameters, {} bytes) to {}",

@@ -312,12 +312,13 @@ pub fn ship(
     data_root: &Path,
     settings: ExportSettings,
 ) -> Result<ModelCard> {
-    ship_with(run, name, out_dir, data_root, settings, false)
+    ship_with(run, name, out_dir, data_root, settings, false, None)
 }
 
 /// Exports run `run` as model `name` into `out_dir` as one verified set
 /// ([`crate::outpath::ArtefactWriter`]); existing artefacts of that name are replaced only
-/// with `force`.
+/// with `force`; with `sign`, the blob is written signed (the golden file and the cards
+/// describe the blob inside, whose bytes and CRC signing does not change).
 pub fn ship_with(
     run: &Path,
     name: &str,
@@ -325,6 +326,7 @@ pub fn ship_with(
     data_root: &Path,
     settings: ExportSettings,
     force: bool,
+    sign: Option<&crate::signing::SignSpec>,
 ) -> Result<ModelCard> {
     let ExportSettings {
         sine, k, base_seed, ..
@@ -420,6 +422,10 @@ pub fn ship_with(
         val_point: val_point.filter(|_| test_point.is_some()),
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
+    };
+    let blob = match sign {
+        Some(s) => s.sign(&blob)?,
+        None => blob,
     };
     writer.commit(
         &blob,

@@ -170,6 +170,48 @@ pub fn sign_bytes(blob: &[u8], seed: &[u8; 32], version: u32) -> Vec<u8> {
     out
 }
 
+/// A key and a version to sign with as a blob is written (`gpecnet export` and
+/// `gpecnet quantize` with `--sign-key K --sign-version V`).
+#[derive(Clone)]
+pub struct SignSpec {
+    seed: [u8; 32],
+    version: u32,
+}
+
+impl std::fmt::Debug for SignSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Never print the private key.
+        write!(f, "SignSpec {{ version: {} }}", self.version)
+    }
+}
+
+impl SignSpec {
+    /// The private key in `key` (a keygen file) and `version`.
+    pub fn load(key: &Path, version: u32) -> Result<Self, SigningError> {
+        Ok(SignSpec {
+            seed: read_key(key)?,
+            version,
+        })
+    }
+
+    /// `blob` signed, checked with the verifier before it is returned.
+    pub fn sign(&self, blob: &[u8]) -> Result<Vec<u8>, SigningError> {
+        let signed_bytes = sign_bytes(blob, &self.seed, self.version);
+        let key = TrustedKey::new(
+            SigningKey::from_bytes(&self.seed)
+                .verifying_key()
+                .to_bytes(),
+        );
+        Model::from_signed_blob(&signed_bytes, &[key], self.version).map_err(|source| {
+            SigningError::Refused {
+                path: PathBuf::from("(the blob being written)"),
+                source,
+            }
+        })?;
+        Ok(signed_bytes)
+    }
+}
+
 /// `gpecnet sign --blob B --key K --version V --out O`: writes the signed
 /// blob to `out` (never over `blob` or the key), verified before it is in
 /// place; returns the key id.

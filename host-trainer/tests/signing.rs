@@ -142,3 +142,58 @@ fn shipped_mcu_blob_verifies_with_the_test_key() {
     ]);
     assert!(ok && text.contains("model sdd-m-tiny-qe"), "{text}");
 }
+
+/// `quantize --sign-key K --sign-version V` writes the fixed-point blob signed, its golden
+/// file naming the blob inside; half the signing options are refused by the parser.
+#[test]
+fn quantize_signs_as_it_writes() {
+    let dir = temp_dir("sign-quantize");
+    let keys = dir.join("keys");
+    assert!(run(&["keygen", "--out", s(&keys)]).0);
+    let src = dir.join("sdd-tiny.gpec");
+    for ext in ["gpec", "golden", "json", "md"] {
+        std::fs::copy(
+            weights(&format!("sdd-tiny.{ext}")),
+            dir.join(format!("sdd-tiny.{ext}")),
+        )
+        .unwrap();
+    }
+    let out = dir.join("q.gpec");
+    let key = keys.join("gpecnet-signing.key");
+    let (ok, text) = run(&[
+        "quantize",
+        "--blob",
+        s(&src),
+        "--out",
+        s(&out),
+        "--sign-key",
+        s(&key),
+    ]);
+    assert!(!ok && text.contains("--sign-version"), "{text}");
+    let (ok, text) = run(&[
+        "quantize",
+        "--blob",
+        s(&src),
+        "--out",
+        s(&out),
+        "--sign-key",
+        s(&key),
+        "--sign-version",
+        "4",
+    ]);
+    assert!(ok, "{text}");
+    let (ok, text) = run(&[
+        "verify",
+        "--blob",
+        s(&out),
+        "--pubkey",
+        s(&keys.join("gpecnet-signing.pub")),
+        "--min-version",
+        "4",
+    ]);
+    assert!(ok && text.contains("version 4"), "{text}");
+    // The golden file belongs to the blob inside: eval replays and reproduces the card.
+    let (ok, text) = run(&["eval", "--blob", s(&out)]);
+    assert!(ok && text.contains("reproduced exactly"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -93,6 +93,7 @@ pub fn quantize_blob_with(
     endpoint_only: bool,
     dataset: Option<&crate::data::DatasetSpec>,
     force: bool,
+    sign: Option<&crate::signing::SignSpec>,
 ) -> Result<QuantCard> {
     use crate::data::{DatasetSpec, Split};
     let name = out
@@ -226,6 +227,10 @@ pub fn quantize_blob_with(
         .with_context(|| format!("quantizing {} to {name}", src.display()))?;
     let data = crate::ship::CardData::new(q.config.meta.as_ref(), &spec, test.windows.len());
     let md = quant_card_md(&card, &exponents(&q), q.nets.predictor.is_empty(), &data);
+    let blob = match sign {
+        Some(s) => s.sign(&blob)?,
+        None => blob,
+    };
     writer.commit(
         &blob,
         &golden,
