@@ -448,6 +448,11 @@ pub const RESAMPLE_FRAMES: u32 = 400;
 /// update hashes each fresh full history (id, end time, the positions'
 /// bits): the same bits on every target when the table's arithmetic is
 /// portable, which `cargo xtask qemu` checks on each MCU class.
+///
+/// Out of line: its table (1.7 KiB) must not join its caller's frame, which
+/// is live during the golden replay's deepest calls (the Cortex-M0 has no
+/// stack to spare).
+#[inline(never)]
 pub fn resample_scene(out: &mut dyn FnMut(Line<'_>)) {
     const PEDESTRIANS: u32 = 12;
     let period = core::num::NonZeroU32::MIN.saturating_add(399);
