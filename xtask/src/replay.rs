@@ -255,7 +255,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     }) {
         println!("firmware| {l}");
     }
-    let keep = ["model ", "golden ", "xcheck ", "resample "];
+    let keep = ["model ", "golden ", "xcheck "];
     let fl = lines_with(&fw_out, &keep);
     let hl = lines_with(&host_out, &keep);
     let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
@@ -272,11 +272,20 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
             .filter(|l| l.starts_with(prefix) && l.len() > prefix.len())
             .count()
     };
-    // The timed track table's scene runs once per image, on both sides.
-    let resampled = fl.iter().any(|l| l.starts_with("resample "));
-    if !resampled {
-        println!("qemu: no `resample` line from the firmware  <- NOT VERIFIED");
-    }
+    // The timed track table's scene: once per firmware image, once on the host; every
+    // image's line must be the host's.
+    let fw_resample = lines_with(&fw_out, &["resample "]);
+    let host_resample = lines_with(&host_out, &["resample "]);
+    let resampled = !fw_resample.is_empty()
+        && host_resample.len() == 1
+        && fw_resample.iter().all(|l| Some(l) == host_resample.first());
+    println!(
+        "qemu: timed track table scene: {} firmware image(s) {:?}, host {:?}{}",
+        fw_resample.len(),
+        fw_resample.first().copied().unwrap_or("<none>"),
+        host_resample.first().copied().unwrap_or("<none>"),
+        if resampled { "" } else { "  <- NOT VERIFIED" }
+    );
     let run_ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && resampled;
     // Every embedded model must have been verified, each with all its cases.
     let mut missing_models = 0;
