@@ -1,6 +1,6 @@
 //! The blob reader's contract: every byte string gives `Ok` or a typed error,
 //! never a panic or an out-of-bounds read.
-mod common;
+use crate::common;
 
 use common::*;
 use gpecnet_core::blob::{

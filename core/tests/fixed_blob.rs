@@ -2,8 +2,8 @@
 //! every truncation, every bit flip (with and without a valid CRC), random
 //! bytes and each error path give a typed error, never a panic; and the
 //! fixed predictor runs on what the reader accepts.
+use crate::common;
 use gpecnet_core::blob::{Activation, NetworkId, NumericKind};
-mod common;
 
 use common::*;
 use gpecnet_core::fixed::Q15;

@@ -1,7 +1,7 @@
 //! The predictor against independent computations: by hand, in f64, and a
 #![allow(clippy::needless_range_loop)]
 //! naive f32 pass in the documented order (which must agree bit for bit).
-mod common;
+use crate::common;
 
 use common::*;
 use gpecnet_core::blob::Activation;

@@ -5,7 +5,7 @@
 //! purpose:
 //!
 //! ```sh
-//! UPDATE_PUBLIC_API=1 cargo test -p gpecnet-core --test public_api
+//! UPDATE_PUBLIC_API=1 cargo test -p gpecnet-core --test it public_api::
 //! ```
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -230,7 +230,7 @@ fn shipped_blob_is_signed_with_the_test_key() {
 
 /// The forgery search, run for its numbers, not in CI (`docs/signing.md`):
 /// `GPECNET_FORGERIES=10000000 cargo test --release -p gpecnet-core --features
-/// signed --test signed -- --ignored --nocapture`. Each trial edits 1–4 random
+/// signed --test it signed:: -- --ignored --nocapture`. Each trial edits 1–4 random
 /// bytes of a signed blob, each edit in the body (the inner CRC recomputed
 /// half of the time, so the CRC-only reader would take it), the trailer head
 /// or the signature, keeping the rest, and must be refused.

@@ -2,7 +2,7 @@
 //! a model's recorded unit with a caller's declared one, on shipped blobs of
 //! both numeric kinds and on written test blobs, and the conversion's exact
 //! arithmetic (`x · f` in, `y / f` out) bit for bit.
-mod common;
+use crate::common;
 
 use gpecnet_core::blob::{Meta, PositionUnit};
 use gpecnet_core::tracks::period_ms_of;

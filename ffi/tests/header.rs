@@ -1,6 +1,6 @@
 //! `ffi/include/gpecnet.h` is what cbindgen generates from `ffi/src/lib.rs`
 //! with `ffi/cbindgen.toml`: this test fails when the checked-in header is
-//! stale. `UPDATE_HEADER=1 cargo test -p gpecnet-ffi --test header` rewrites it.
+//! stale. `UPDATE_HEADER=1 cargo test -p gpecnet-ffi --test it header::` rewrites it.
 use std::path::Path;
 
 #[test]
@@ -23,7 +23,7 @@ fn header_is_fresh() {
     let checked_in = std::fs::read_to_string(&path).unwrap_or_default();
     assert!(
         checked_in == generated,
-        "{} is stale: run `UPDATE_HEADER=1 cargo test -p gpecnet-ffi --test header` and commit it",
+        "{} is stale: run `UPDATE_HEADER=1 cargo test -p gpecnet-ffi --test it header::` and commit it",
         path.display()
     );
 }

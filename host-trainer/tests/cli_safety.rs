@@ -2,7 +2,7 @@
 //! as one, user-given files are read bounded and without blocking, nothing is skipped
 //! silently (docs/errors-and-safety.md).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -2,7 +2,7 @@
 //! each error names the key and the allowed range, the exit status is not 0 and the run
 //! folder is not even created.
 
-mod common;
+use crate::common;
 
 use common::*;
 use gpecnet_trainer::config::TrainConfig;

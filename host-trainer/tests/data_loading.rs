@@ -1,6 +1,6 @@
 //! Data loading on the real benchmark files (shared/data) and on malformed temp files.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::{Path, PathBuf};

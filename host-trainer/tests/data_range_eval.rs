@@ -2,7 +2,7 @@
 //! (`gpecnet_core::frame::MAX_COORDINATE`) or non-finite are rejected at load time with
 //! file:line; `gpecnet eval` on a test set with no window fails instead of printing NaN.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,7 +1,7 @@
 //! Metric definitions on hand-made predictions, and the constant-velocity baselines on the
 //! real test sets. Run with `-- --nocapture` to see the baseline numbers.
 
-mod common;
+use crate::common;
 
 use gpecnet_trainer::data::*;
 use gpecnet_trainer::eval::*;

@@ -2,7 +2,7 @@
 //! the run lock, no silent overwrite, `--resume` config and data checks, stale temp files,
 //! the previous-checkpoint fallback.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::time::{Duration, Instant};

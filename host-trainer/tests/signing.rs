@@ -3,7 +3,7 @@
 //! and every refusal named: wrong key, tampered byte, truncated file, an
 //! unsigned blob, a rolled-back version, an output over an input.
 
-mod common;
+use crate::common;
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! never split groups, the pooling arithmetic against a hand computation, a 2-epoch run with
 //! exact resume, and the export refusal.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 

@@ -7,7 +7,7 @@
 //!
 //! All tests pin `threads = 2`, so the process-wide thread setting is the same for all of them.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

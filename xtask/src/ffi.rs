@@ -153,7 +153,9 @@ pub fn arm_example() -> i32 {
         eprintln!("xtask: error: cannot install {}", APT.join(" "));
         return 2;
     }
-    let target_dir = root().join("target/thumb-ffi");
+    // The target directory of `build-core-thumb`: the target's `core` and
+    // gpecnet-core (no features, as here) are built once for both.
+    let target_dir = root().join("target/thumb-core");
     let mut c = thumb_build("gpecnet-ffi", &["--lib"], &target_dir);
     c.arg("--no-default-features");
     if status(c) != 0 {

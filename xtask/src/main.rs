@@ -14,6 +14,8 @@
 //! | [`elf`] | sections, symbols and functions of an ELF (`object`) |
 //! | [`defmt`] | the defmt stream decoded in-process (`defmt-decoder`) |
 //! | [`ffi`] | `ffi-arm`: the C golden replay on the Cortex-M4F |
+//! | [`fuzz`] | `fuzz-smoke`: every fuzz target of core/fuzz for a minute, without cargo-fuzz |
+//! | [`modules`] | `check-modules`: no mutual imports between modules, every test file compiled |
 use std::path::PathBuf;
 use std::process::exit;
 
@@ -23,7 +25,9 @@ mod defmt;
 mod elf;
 mod ffi;
 mod firmware;
+mod fuzz;
 mod mcu;
+mod modules;
 mod profile;
 mod replay;
 mod thumb;
@@ -61,12 +65,32 @@ enum Cmd {
     /// corrupted embedded blob must each log their cause and end the run with exit 1.
     FwFaults(FwArgs),
     /// Host side of the firmware: the golden replay's and the model selection's tests (gpecnet-replay, gpecnet-mcu-models) and the host tools built.
-    FwTest,
+    FwTest {
+        /// Only build the host tools: the tests are the workspace's too, and CI has just run
+        /// `cargo test --workspace` (this command's own run would build them a second time,
+        /// with the two crates' features instead of the workspace's).
+        #[arg(long)]
+        no_tests: bool,
+    },
     /// Flash/RAM/stack/instruction count per model and numeric path on the STM32F405 (TCG plugin),
     /// and where the instructions go per function (the dense layers' share, instructions per MAC).
     Profile(ProfileArgs),
     /// gpecnet-ffi on a Cortex-M4F: the C golden replay (arm-none-eabi-gcc, newlib) in QEMU.
     FfiArm,
+    /// Build every fuzz target of core/fuzz (cargo-fuzz's flags, no cargo-fuzz install) and run
+    /// each for N seconds; fails on a crash (its input in target/fuzz-smoke/artifacts/).
+    FuzzSmoke {
+        /// Seconds per target.
+        #[arg(long, default_value_t = 60)]
+        seconds: u32,
+        /// Only this target (blob, blob_resealed, blob_structured, golden).
+        #[arg(long)]
+        target: Option<String>,
+    },
+    /// No module of a crate's src/ imports a module that imports it back (known cycles:
+    /// xtask/known-module-cycles.txt), and every file of a tests/ folder with a tests/it.rs is
+    /// compiled into that binary.
+    CheckModules,
     /// Decode a raw defmt stream (stdin) with ELF's table; used by firmware/qemu-run.sh.
     DefmtDecode {
         /// The firmware ELF that produced the stream.
@@ -188,12 +212,14 @@ fn main() {
         Cmd::FwRun(a) => firmware::fw_run(&a.opts()),
         Cmd::Qemu(a) => replay::qemu(&a.opts()),
         Cmd::FwFaults(a) => firmware::fw_faults(&a.opts()),
-        Cmd::FwTest => firmware::fw_test(),
+        Cmd::FwTest { no_tests } => firmware::fw_test(!no_tests),
         Cmd::Profile(a) => {
             let only_fixed = a.path.as_deref().map(|p| p == "q15");
             profile::profile(&a.fw.opts(), only_fixed, a.out.as_deref())
         }
         Cmd::FfiArm => ffi::arm_example(),
+        Cmd::FuzzSmoke { seconds, target } => fuzz::fuzz_smoke(seconds, target.as_deref()),
+        Cmd::CheckModules => modules::check_modules(),
         Cmd::DefmtDecode { elf } => defmt::decode_stdin(&elf),
     };
     exit(code)

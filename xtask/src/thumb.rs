@@ -3,7 +3,7 @@
 //! linked for the MCU.
 
 use crate::root;
-use crate::toolchain::{require, status, thumb_build};
+use crate::toolchain::{require, status, thumb_build, thumb_cargo};
 
 pub(crate) fn build_core_thumb() -> i32 {
     require(false);
@@ -30,16 +30,18 @@ pub(crate) fn build_core_thumb() -> i32 {
     }
     // The embassy task skeleton (core/examples/embassy_task.rs), linked with the
     // repository's memory.x through cortex-m-rt's link.x: the example an
-    // integrator starts from must build for the MCU, not only on the host.
-    let mut c = thumb_build(
+    // integrator starts from must build for the MCU, not only on the host. The
+    // link flags go to the example alone (`cargo rustc`), so the target's `core`
+    // and the library above come from the same target directory.
+    let mut c = thumb_cargo(
+        "rustc",
         "gpecnet-core",
         &["--example", "embassy_task"],
-        &root().join("target/thumb-examples"),
+        &target_dir,
     );
-    c.env(
-        "RUSTFLAGS",
-        format!("-C link-arg=-Tlink.x -L {}", root().display()),
-    );
+    c.arg("--")
+        .args(["-C", "link-arg=-Tlink.x", "-L"])
+        .arg(root());
     let rc = status(c);
     println!(
         "build-core-thumb {:<40} {}",

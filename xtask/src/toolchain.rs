@@ -65,8 +65,15 @@ pub(crate) fn deb_cargo(dir: &Path) -> Command {
 /// selects the artefact (`["--lib"]`, `["--example", NAME]`); append more arguments to the
 /// returned command.
 pub(crate) fn thumb_build(package: &str, what: &[&str], target_dir: &Path) -> Command {
+    thumb_cargo("build", package, what, target_dir)
+}
+
+/// [`thumb_build`] with another cargo command: `rustc` takes flags for the final crate
+/// alone after `--`, so every crate below it is shared with the `build`s of the same
+/// target directory (flags in RUSTFLAGS would rebuild them all, `core` included).
+pub(crate) fn thumb_cargo(verb: &str, package: &str, what: &[&str], target_dir: &Path) -> Command {
     let mut c = deb_cargo(&root());
-    c.args(["build", "--locked", "--release", "-p", package])
+    c.args([verb, "--locked", "--release", "-p", package])
         .args(what)
         .args(["--target", TARGET, "-Zbuild-std=core", "--target-dir"])
         .arg(target_dir);

@@ -162,6 +162,8 @@ fn model(u: &mut Unstructured<'_>) -> Result<Vec<u8>> {
         name: "fuzz",
         config,
         extensions,
+        // Format 3 (no meta record): the networks are what this target varies.
+        meta: None,
     };
     let blob = blob_bytes(&head_, [&enc, &dec, &dest, &pred, &head]);
     // Only what the generator cannot rule out may be refused: a zero-width result, or a
