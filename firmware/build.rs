@@ -254,6 +254,13 @@ fn main() {
         0
     };
     src += &format!("pub static MIN_VERSION_FLOOR: u32 = {floor};\n");
+    // The profile build's extra windows (timed track table, signature verification):
+    // GPECNET_PROFILE_EXTRAS=1 (`cargo xtask profile`), off in the MCU x model table.
+    println!("cargo:rerun-if-env-changed=GPECNET_PROFILE_EXTRAS");
+    println!("cargo::rustc-check-cfg=cfg(prof_extras)");
+    if env::var("GPECNET_PROFILE_EXTRAS").is_ok_and(|v| v == "1") {
+        println!("cargo:rustc-cfg=prof_extras");
+    }
     // Numeric path of the profile build (one sine per image, so flash/RAM are per path).
     println!("cargo:rerun-if-env-changed=GPECNET_SINE");
     println!(

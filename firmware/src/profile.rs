@@ -88,11 +88,14 @@ const PAST: [[f32; 2]; 8] = [
     [528.0, 307.5],
 ];
 
+#[cfg(prof_extras)]
 /// Tracks of the track-table measurement.
 pub const TRACKS: usize = 16;
+#[cfg(prof_extras)]
 /// Camera frames per model period at 30 Hz (400 ms / 33.3 ms).
 pub const FRAMES_PER_PERIOD: u32 = 12;
 
+#[cfg(prof_extras)]
 /// Frame `f` of 16 pedestrians at 30 Hz (metres, walking), all detected.
 fn frame_detections(f: u32) -> (u32, Vec<gpecnet_core::tracks::Observation, TRACKS>) {
     let t_ms = f * 1000 / 30;
@@ -108,6 +111,7 @@ fn frame_detections(f: u32) -> (u32, Vec<gpecnet_core::tracks::Observation, TRAC
     (t_ms, v)
 }
 
+#[cfg(prof_extras)]
 /// The measured track-table work: the updates of frames `from .. from + n`.
 #[inline(never)]
 #[no_mangle]
@@ -125,6 +129,7 @@ pub fn gpecnet_track_frames(
     fresh
 }
 
+#[cfg(prof_extras)]
 /// One model period (12 frames at 30 Hz, one of them completing a grid
 /// point for every track) of a 16-track table in steady state (3.6 s of
 /// frames fed before), between the markers; logs the table's size.
@@ -148,6 +153,7 @@ fn track_table_period() -> bool {
     fresh == TRACKS
 }
 
+#[cfg(prof_extras)]
 /// The measured verification: a signed blob against the compiled-in keys.
 #[inline(never)]
 #[no_mangle]
@@ -157,6 +163,7 @@ pub fn gpecnet_verify_blob(blob: &'static [u8]) -> Option<u32> {
         .map(|(_, v)| v)
 }
 
+#[cfg(prof_extras)]
 /// One Ed25519 verification of the first embedded signed blob (once per
 /// boot or update on a drone, not per prediction), between the markers,
 /// with its stack; `true` when there is none or it verified.
@@ -250,9 +257,14 @@ pub fn run() -> bool {
             }
         }
     }
-    crate::watchdog::feed();
-    ok &= track_table_period();
-    crate::watchdog::feed();
-    ok &= verify_first_signed();
+    // `cargo xtask profile` only (GPECNET_PROFILE_EXTRAS=1): the multi-model images of
+    // the MCU x model table keep one window per model and no verifier in flash.
+    #[cfg(prof_extras)]
+    {
+        crate::watchdog::feed();
+        ok &= track_table_period();
+        crate::watchdog::feed();
+        ok &= verify_first_signed();
+    }
     ok
 }

@@ -135,17 +135,23 @@ pub(crate) fn blob_has_point_head(path: &std::path::Path) -> bool {
 
 /// Builds the `profile` firmware for `mcu` with `models` (comma-separated) on the numeric path
 /// `sine` (plus the firmware `features`), copies its ELF to `elf_copy` and reads it.
+/// `extras`: after the models' windows, the image also measures the timed track table and
+/// the signature verification (`cargo xtask profile`'s one-model images; the MCU x model
+/// table's multi-model images leave them out, so their windows are the models' and the
+/// verifier is not linked into a Cortex-M0's flash).
 pub(crate) fn build_profile_image(
     o: &Opts,
     mcu: &mcu::Mcu,
     models: &str,
     sine: &str,
     features: &[&str],
+    extras: bool,
     elf_copy: &Path,
 ) -> Elf {
     let mut c = fw_cargo(o);
     c.env(gpecnet_mcu_models::ONLY_VAR, models)
         .env("GPECNET_SINE", sine)
+        .env("GPECNET_PROFILE_EXTRAS", if extras { "1" } else { "0" })
         .arg("build");
     mcu.firmware_args(&mut c, &root(), "profile", features);
     let (rc, _, err) = output(c);
@@ -261,7 +267,7 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
         let paths: &[&str] = if fixed { &[FIXED_PATH] } else { SINES };
         for &sine in paths {
             let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
-            let elf = build_profile_image(o, &mcu::M4F, m, sine, &["micromath"], &elf_copy);
+            let elf = build_profile_image(o, &mcu::M4F, m, sine, &["micromath"], true, &elf_copy);
             let log = out_dir.join(format!("{m}-{sine}.plugin.log"));
             let pcprof = out_dir.join(format!("{m}-{sine}.pcprof"));
             let _ = std::fs::remove_file(&pcprof);
