@@ -208,7 +208,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     ) -> Result<R, PredictError> {
         let mut buf = [[0.0; 2]; MAX_PAST];
         let expected = usize::from(self.model().config().past_len);
-        let past = self.units.model_past(past, expected, &mut buf)?;
+        let past = model_past(self.units, past, expected, &mut buf)?;
         f(&mut self.engine, past)
     }
 
@@ -231,7 +231,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// ([`Model::has_point_head`]); the model's single best guess.
     pub fn predict_point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
         let mut t = self.run(past, |k, past| on_kind!(k, e => e.predict_point(past)))?;
-        self.units.caller_points(&mut t);
+        caller_points(self.units, &mut t);
         Ok(t)
     }
 
@@ -250,7 +250,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
             past,
             |k, past| on_kind!(k, e => e.predict_endpoint_set::<N>(past, seed, out)),
         )?;
-        self.units.caller_points(out);
+        caller_points(self.units, out);
         Ok(())
     }
 
@@ -266,7 +266,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
             past,
             |k, past| on_kind!(k, e => e.predict_samples(past, seed, out)),
         )?;
-        self.units.caller_points(out);
+        caller_points(self.units, out);
         Ok(())
     }
 
@@ -283,7 +283,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
             |k, past| on_kind!(k, e => e.predict_trajectories(past, seed, out)),
         )?;
         for t in out {
-            self.units.caller_points(t);
+            caller_points(self.units, t);
         }
         Ok(())
     }
@@ -299,7 +299,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// The next sample's endpoint of the stream begun by [`Predictor::start`].
     pub fn next_endpoint(&mut self) -> Result<[f32; 2], PredictError> {
         let mut p = [on_kind!(&mut self.engine, e => e.next_endpoint())?];
-        self.units.caller_points(&mut p);
+        caller_points(self.units, &mut p);
         let [p] = p;
         Ok(p)
     }
@@ -307,7 +307,47 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.
     pub fn last_trajectory(&mut self) -> Result<Trajectory, PredictError> {
         let mut t = on_kind!(&mut self.engine, e => e.last_trajectory())?;
-        self.units.caller_points(&mut t);
+        caller_points(self.units, &mut t);
         Ok(t)
+    }
+}
+
+/// `past` in the model's unit, in `buf` (`x · f` per coordinate, the
+/// conversion of [`crate::units`]). Non-finite inputs stay non-finite (the
+/// engine names them); a finite input whose product is not is
+/// [`PredictError::InputOutOfRange`].
+fn model_past<'p>(
+    units: Conversion,
+    past: &[[f32; 2]],
+    expected: usize,
+    buf: &'p mut [[f32; 2]; MAX_PAST],
+) -> Result<&'p [[f32; 2]], PredictError> {
+    let n = past.len();
+    let Some(out) = buf.get_mut(..n) else {
+        return Err(PredictError::WrongPastLength { expected, got: n });
+    };
+    let f = units.factor();
+    for (o, p) in out.iter_mut().zip(past) {
+        for (o, &x) in o.iter_mut().zip(p) {
+            *o = x * f;
+            if x.is_finite() && !o.is_finite() {
+                return Err(PredictError::InputOutOfRange);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Model positions into the caller's unit, in place (`y / f`; nothing for
+/// the identity).
+fn caller_points(units: Conversion, points: &mut [[f32; 2]]) {
+    if units.is_identity() {
+        return;
+    }
+    let f = units.factor();
+    for p in points {
+        for v in p {
+            *v /= f;
+        }
     }
 }

@@ -33,7 +33,7 @@
 //! before the model sees it, and every output coordinate `y` (endpoints,
 //! trajectories, the point forecast) becomes `y / f` (one f32 division)
 //! before the caller sees it. An input whose product is not finite is
-//! [`PredictError::InputOutOfRange`]; outputs stay finite (the model's
+//! [`crate::PredictError::InputOutOfRange`]; outputs stay finite (the model's
 //! outputs are bounded by [`crate::frame::MAX_OUTPUT`] and `f ≥ MIN_SCALE`).
 //! The endpoint set's k-means reduction runs in the model's unit, before the
 //! conversion.
@@ -61,11 +61,7 @@
 
 use core::fmt;
 
-use crate::blob::{Model, PositionUnit, MAX_PAST};
-use crate::predictor::PredictError;
-
-/// A 2-D position.
-type Pos = [f32; 2];
+use crate::blob::{Model, PositionUnit};
 
 /// The smallest scale or conversion factor accepted (1 µm per pixel).
 pub const MIN_SCALE: f32 = 1e-6;
@@ -202,41 +198,5 @@ impl Conversion {
     /// `true` when positions pass untouched (`f` = 1).
     pub fn is_identity(&self) -> bool {
         self.factor == 1.0
-    }
-
-    /// `past` in the model's unit, in `buf` (`x · f` per coordinate).
-    /// Non-finite inputs stay non-finite (the predictor names them); a
-    /// finite input whose product is not is [`PredictError::InputOutOfRange`].
-    pub(crate) fn model_past<'p>(
-        &self,
-        past: &[Pos],
-        expected: usize,
-        buf: &'p mut [Pos; MAX_PAST],
-    ) -> Result<&'p [Pos], PredictError> {
-        let n = past.len();
-        let Some(out) = buf.get_mut(..n) else {
-            return Err(PredictError::WrongPastLength { expected, got: n });
-        };
-        for (o, p) in out.iter_mut().zip(past) {
-            for (o, &x) in o.iter_mut().zip(p) {
-                *o = x * self.factor;
-                if x.is_finite() && !o.is_finite() {
-                    return Err(PredictError::InputOutOfRange);
-                }
-            }
-        }
-        Ok(out)
-    }
-
-    /// Model positions into the caller's unit, in place (`y / f`).
-    pub(crate) fn caller_points(&self, points: &mut [Pos]) {
-        if self.is_identity() {
-            return;
-        }
-        for p in points {
-            for v in p {
-                *v /= self.factor;
-            }
-        }
     }
 }

@@ -81,6 +81,9 @@ pub(crate) fn fw_build(o: &Opts, extra: &[&str]) -> i32 {
     status(c)
 }
 
+/// The model the firmware demo runs (signed, metric).
+pub(crate) const DEMO_MODEL: &str = "sdd-m-tiny-qe";
+
 pub(crate) fn fw_run(o: &Opts) -> i32 {
     require(true);
     let mut c = fw_cargo(o);
@@ -88,7 +91,7 @@ pub(crate) fn fw_run(o: &Opts) -> i32 {
     // models and the signature verifier do not fit one flash).
     let demo = o.rest.windows(2).any(|w| w[0] == "--bin" && w[1] == "demo");
     if demo && std::env::var_os(gpecnet_mcu_models::ONLY_VAR).is_none() {
-        c.env(gpecnet_mcu_models::ONLY_VAR, crate::replay::DEMO_MODEL);
+        c.env(gpecnet_mcu_models::ONLY_VAR, DEMO_MODEL);
     }
     c.arg("run");
     fw_class_args(o, &mut c);
@@ -189,8 +192,7 @@ pub(crate) fn fw_faults(o: &Opts) -> i32 {
         ),
     ] {
         let mut c = fw_cargo(o);
-        c.env(gpecnet_mcu_models::ONLY_VAR, crate::replay::DEMO_MODEL)
-            .arg("run");
+        c.env(gpecnet_mcu_models::ONLY_VAR, DEMO_MODEL).arg("run");
         mcu::M4F.firmware_args(&mut c, &root(), "demo", &[f]);
         let (rc, out, _) = output(c);
         let found: Vec<&str> = wants

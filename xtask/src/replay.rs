@@ -92,9 +92,6 @@ fn high_water(text: &str) -> Option<u32> {
         .and_then(|n| n.parse().ok())
 }
 
-/// The model the firmware demo runs (signed, metric).
-pub(crate) const DEMO_MODEL: &str = "sdd-m-tiny-qe";
-
 /// `cargo xtask qemu [--mcu NAME | --all-targets]`.
 pub fn qemu(o: &Opts) -> i32 {
     qemu_models(o, None)
@@ -205,10 +202,11 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     // The tracker demo, its own binary, with the signed metric MCU model only (the
     // demo verifies its signature at boot; more models would not fit the flash beside
     // the verifier).
-    if mcu.demo && models.iter().any(|m| m == DEMO_MODEL) {
+    if mcu.demo && models.iter().any(|m| m == crate::firmware::DEMO_MODEL) {
         eprintln!("xtask: {} demo", mcu.name);
         let mut c = fw_cargo(o);
-        c.env(gpecnet_mcu_models::ONLY_VAR, DEMO_MODEL).arg("run");
+        c.env(gpecnet_mcu_models::ONLY_VAR, crate::firmware::DEMO_MODEL)
+            .arg("run");
         mcu.firmware_args(&mut c, &root(), "demo", &[]);
         let (rc, out, err) = output(c);
         fw_out.push_str(&out);
