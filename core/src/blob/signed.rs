@@ -15,10 +15,10 @@
 //!               trailer bytes 0..18)
 //! ```
 //!
-//! [`Model::from_blob`] reads the blob of a signed blob and ignores the
+//! [`Model::from_blob`](crate::Model::from_blob) reads the blob of a signed blob and ignores the
 //! trailer (the golden replay and the host tools work on signed and unsigned
 //! blobs alike; the blob's CRC, and so every prediction, is unchanged by
-//! signing). With the cargo feature `signed`, [`Model::from_signed_blob`]
+//! signing). With the cargo feature `signed`, [`Model::from_signed_blob`](crate::Model::from_signed_blob)
 //! accepts a blob only when its signature verifies under one of the trusted
 //! keys and its version is at least the caller's minimum, in this order of
 //! checks: trailer present ([`SignError::UnsignedBlob`]), trailer version
