@@ -15,7 +15,8 @@ pub use gpecnet_core::blob::{
     Activation, Extensions, Meta, ModelConfig, NumericKind, PositionUnit,
 };
 use gpecnet_core::blob::{
-    ModelInfo, Preamble, ALIGNED_FORMAT_VERSION, CRC32, MAGIC, META_FORMAT_VERSION, TENSOR_ALIGN,
+    ModelInfo, Preamble, ALIGNED_FORMAT_VERSION, CRC32, MAGIC, META_FORMAT_VERSION,
+    PROPOSAL_FORMAT_VERSION, TENSOR_ALIGN,
 };
 pub use gpecnet_core::golden::GoldenInfo;
 use gpecnet_core::golden::{
@@ -233,12 +234,42 @@ pub struct BlobHead<'a> {
 /// padding that aligns it to [`TENSOR_ALIGN`] bytes from the blob's start, and the
 /// CRC-32; checked by `gpecnet-core`'s reader.
 pub fn blob_bytes(head: &BlobHead<'_>, networks: [&[WireLayer]; 5]) -> Result<Vec<u8>, WriteError> {
+    blob_bytes_with_proposal(head, networks, None)
+}
+
+/// A learned latent proposal for [`blob_bytes_with_proposal`]: the network
+/// (`fdim → K·zdim`, last layer linear) and the clamp `±bound` of every latent
+/// component.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProposalWire<'a> {
+    /// The layers.
+    pub layers: &'a [WireLayer],
+    /// The latent bound (finite, > 0).
+    pub bound: f32,
+}
+
+/// [`blob_bytes`], and with `Some` proposal format version 5
+/// ([`PROPOSAL_FORMAT_VERSION`]): the meta record (required), then the
+/// latent bound (f32), the five networks and the proposal as a sixth.
+pub fn blob_bytes_with_proposal(
+    head: &BlobHead<'_>,
+    networks: [&[WireLayer]; 5],
+    proposal: Option<ProposalWire<'_>>,
+) -> Result<Vec<u8>, WriteError> {
+    if proposal.is_some() && head.meta.is_none() {
+        return Err(WriteError::Shape(
+            "a blob with a latent proposal (format version 5) must state its unit and clock"
+                .into(),
+        ));
+    }
     let mut out = Vec::new();
     push(
         &mut out,
         &Preamble {
             magic: MAGIC,
-            version: if head.meta.is_some() {
+            version: if proposal.is_some() {
+                PROPOSAL_FORMAT_VERSION
+            } else if head.meta.is_some() {
                 META_FORMAT_VERSION
             } else {
                 ALIGNED_FORMAT_VERSION
@@ -257,7 +288,11 @@ pub fn blob_bytes(head: &BlobHead<'_>, networks: [&[WireLayer]; 5]) -> Result<Ve
     if let Some(meta) = &head.meta {
         push(&mut out, meta)?;
     }
-    for net in networks {
+    if let Some(p) = &proposal {
+        push(&mut out, &p.bound)?;
+    }
+    let sixth = proposal.map(|p| p.layers);
+    for net in networks.into_iter().chain(sixth) {
         push(&mut out, &narrow::<u8>("layers in a network", net.len())?)?;
         for l in net {
             l.push(&mut out, head.numeric)?;
@@ -396,6 +431,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         wire(model.encoder_dest()),
         wire(model.predictor()),
         wire(model.point_head()),
+        wire(model.proposal()),
     ];
     let head = BlobHead {
         numeric: model.numeric(),
@@ -404,7 +440,15 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         extensions: Some(*model.extensions()),
         meta: Some(meta).filter(|m| m.unit != PositionUnit::Unknown),
     };
-    let out = blob_bytes(&head, [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]])?;
+    let proposal = model.has_proposal().then(|| ProposalWire {
+        layers: &nets[5],
+        bound: model.latent_bound(),
+    });
+    let out = blob_bytes_with_proposal(
+        &head,
+        [&nets[0], &nets[1], &nets[2], &nets[3], &nets[4]],
+        proposal,
+    )?;
     // The same model, tensor for tensor (only the framing may differ).
     let again = gpecnet_core::Model::from_blob(&out).map_err(|e| WriteError::Rejected {
         what: "rewritten blob",
@@ -417,6 +461,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
             m.encoder_dest(),
             m.predictor(),
             m.point_head(),
+            m.proposal(),
         ]
         .into_iter()
         .flat_map(|n| n.layers())
@@ -429,6 +474,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
     if tensors(&model) != tensors(&again)
         || model.config() != again.config()
         || model.extensions() != again.extensions()
+        || model.latent_bound().to_bits() != again.latent_bound().to_bits()
         || Meta::of_blob(&out).ok() != Some(meta)
     {
         return Err(WriteError::Shape(

@@ -275,6 +275,9 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         if trajectories && !self.model.has_predictor() {
             return Err(QueryError::of_call(PredictError::NoPredictor));
         }
+        if self.model.has_proposal() {
+            return self.run_scalar(queries, k, trajectories, emit);
+        }
         for (gi, group) in queries.chunks(L).enumerate() {
             let base = gi * L;
             // A guard error of track `base + bad` ends the call after the
@@ -292,6 +295,36 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             self.group_samples(n, enc, base, k, trajectories, &mut emit)?;
             if let Some(e) = guard {
                 return Err(e);
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Batch::run`] for a proposal model, track by track on the scalar
+    /// engine: its `k ≤ K` latents are computed per track (the proposal's
+    /// last layer, `zdim` rows per latent), which lanes would not share.
+    fn run_scalar(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        trajectories: bool,
+        mut emit: impl FnMut(usize, usize, LaneOut<'_>) -> Result<(), PredictError>,
+    ) -> Result<(), QueryError> {
+        for (index, q) in queries.iter().enumerate() {
+            let fail = |error| QueryError { index, error };
+            self.scalar.start(q.past, q.seed).map_err(fail)?;
+            for sample in 0..k {
+                let endpoint = self.scalar.next_endpoint().map_err(fail)?;
+                let traj = if trajectories {
+                    Some(self.scalar.last_trajectory().map_err(fail)?)
+                } else {
+                    None
+                };
+                let out = LaneOut {
+                    endpoint,
+                    trajectory: traj.as_ref(),
+                };
+                emit(index, sample, out).map_err(fail)?;
             }
         }
         Ok(())

@@ -135,6 +135,20 @@ fn run_network<'s, B: Backend>(
     layers::<B>(net.layers(), a, b, n)
 }
 
+/// [`run_network`] over some of a network's layers.
+fn run_network_layers<'s, 'l, 'a: 'l, B: Backend>(
+    net: impl Iterator<Item = &'l Layer<'a>>,
+    input: &[B::Act],
+    a: &'s mut [B::Act],
+    b: &'s mut [B::Act],
+) -> &'s [B::Act] {
+    let n = input.len().min(a.len());
+    if let (Some(dst), Some(src)) = (a.get_mut(..n), input.get(..n)) {
+        dst.copy_from_slice(src);
+    }
+    layers::<B>(net, a, b, n)
+}
+
 /// Runs `layers` on the first `width` values of `a`; returns the output.
 fn layers<'s, 'l, 'a: 'l, B: Backend>(
     layers: impl Iterator<Item = &'l Layer<'a>>,
@@ -177,6 +191,11 @@ pub struct Engine<'a, B: Backend, const W: usize> {
     b: Row<B::Act, W>,
     feat: Row<B::Act, W>,
     z: Row<B::Act, W>,
+    /// A proposal model's hidden vector (the input of its last layer).
+    prop: Row<B::Act, W>,
+    prop_width: usize,
+    /// Samples drawn since [`Engine::start`].
+    drawn: usize,
     part: [B::Acc; W],
     frame: Frame,
     last: [f32; 2],
@@ -207,6 +226,9 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             b: Row([B::Act::default(); W]),
             feat: Row([B::Act::default(); W]),
             z: Row([B::Act::default(); W]),
+            prop: Row([B::Act::default(); W]),
+            prop_width: 0,
+            drawn: 0,
             part: [B::Acc::default(); W],
             frame: Frame::raw(),
             last: [0.0; 2],
@@ -287,6 +309,17 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         if let Some(l0) = self.model.decoder().layer(0) {
             B::partial(l0, &self.feat.0[..fdim], &mut self.part);
         }
+        let prop = self.model.proposal();
+        let hidden = prop.len().saturating_sub(1);
+        let h = run_network_layers::<B>(
+            prop.layers().take(hidden),
+            &self.feat.0[..fdim],
+            &mut self.a.0,
+            &mut self.b.0,
+        );
+        self.prop_width = h.len();
+        self.prop.0[..h.len()].copy_from_slice(h);
+        self.drawn = 0;
         self.frame = frame;
         self.last = past.last().copied().unwrap_or([0.0; 2]);
         self.gauss = Gaussian::new(seed);
@@ -309,20 +342,25 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             c.sigma,
             c.data_scale,
         );
-        let dec = self.model.decoder();
-        let ez = in_exp(dec);
-        // Two draws at a time (the same stream order as one `next()` per
-        // element), an odd last element alone.
-        let mut pairs = self.z.0[..zdim].chunks_exact_mut(2);
-        for p in &mut pairs {
-            let g = self.gauss.next_pair();
-            for (zi, &gi) in p.iter_mut().zip(&g) {
-                *zi = B::from_f32(sigma * gi, ez);
+        let ez = in_exp(self.model.decoder());
+        if self.model.has_proposal() {
+            self.proposed_latent(zdim, ez)?;
+        } else {
+            // Two draws at a time (the same stream order as one `next()` per
+            // element), an odd last element alone.
+            let mut pairs = self.z.0[..zdim].chunks_exact_mut(2);
+            for p in &mut pairs {
+                let g = self.gauss.next_pair();
+                for (zi, &gi) in p.iter_mut().zip(&g) {
+                    *zi = B::from_f32(sigma * gi, ez);
+                }
+            }
+            for zi in pairs.into_remainder() {
+                *zi = B::from_f32(sigma * self.gauss.next_alone(), ez);
             }
         }
-        for zi in pairs.into_remainder() {
-            *zi = B::from_f32(sigma * self.gauss.next_alone(), ez);
-        }
+        self.drawn = self.drawn.saturating_add(1);
+        let dec = self.model.decoder();
         let Some(l0) = dec.layer(0) else {
             return Err(PredictError::NonFiniteOutput);
         };
@@ -345,6 +383,36 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             .frame
             .output([B::to_f32(d0, eo), B::to_f32(d1, eo)], scale);
         crate::frame::check_output(e)
+    }
+
+    /// Step 4 of a proposal model: latent `i` (the `i`-th sample since
+    /// [`Engine::start`]) into `z`: rows `i·zdim ..` of the proposal's last
+    /// layer on its hidden vector, each value as f32 (its output exponent),
+    /// clamped to `±latent_bound` (NaN stays NaN), converted with the
+    /// decoder's input exponent `ez`. [`PredictError::BadSampleCount`] past
+    /// the model's [`Model::proposal_latents`].
+    fn proposed_latent(&mut self, zdim: usize, ez: i8) -> Result<(), PredictError> {
+        let prop = self.model.proposal();
+        let rows = prop
+            .layers()
+            .last()
+            .and_then(|l| l.rows(self.drawn.checked_mul(zdim)?, zdim))
+            .ok_or(PredictError::BadSampleCount)?;
+        let hw = self.prop_width.min(W);
+        B::dense(&rows, &self.prop.0[..hw], &mut self.z.0[..zdim]);
+        let (eo, bound) = (rows.out_exp(), self.model.latent_bound());
+        for zi in self.z.0[..zdim].iter_mut() {
+            let v = B::to_f32(*zi, eo);
+            let v = if v > bound {
+                bound
+            } else if v < -bound {
+                -bound
+            } else {
+                v
+            };
+            *zi = B::from_f32(v, ez);
+        }
+        Ok(())
     }
 
     /// Step 6 for the sample [`Engine::next_endpoint`] drew last: its full

@@ -7,6 +7,14 @@
 //!   `N` latent samples (the same stream, so sample `i` does not depend on
 //!   `N`), and [`crate::cluster::kmeans_reduce`] reduces them to `k` centres
 //!   with the blob's initialisation and iteration count. `k ≤ N` is required.
+//! * Learned proposal (format version 5, [`crate::Model::has_proposal`]):
+//!   plain sampling whose stream is not drawn from the prior but computed
+//!   from the past: sample `i` decodes the proposal's latent `i` (rows
+//!   `i·zdim ..` of its last layer on its hidden vector, each component
+//!   clamped to `±latent_bound`), so the seed does not matter and the stream
+//!   ends after [`crate::Model::proposal_latents`] samples (`k` beyond that is
+//!   [`PredictError::BadSampleCount`]). The latents are trained as a set
+//!   for `K` endpoints: ask for all `K`.
 //!
 //! The engines call `endpoint_set` (crate-private) with a closure that draws `n` samples
 //! into a caller-sized buffer of capacity `N` (a const generic: 8 bytes of
@@ -76,6 +84,16 @@ pub fn max_endpoints(ext: &Extensions, capacity: usize) -> usize {
         0 => capacity,
         n if n > capacity => 0,
         n => n.min(crate::cluster::MAX_CENTERS),
+    }
+}
+
+/// [`max_endpoints`] for `model`, which also knows a proposal's stream
+/// length: `min(K, capacity)` for a proposal model.
+pub fn max_endpoints_of(model: &crate::Model<'_>, capacity: usize) -> usize {
+    if model.has_proposal() {
+        model.proposal_latents().min(capacity)
+    } else {
+        max_endpoints(model.extensions(), capacity)
     }
 }
 

@@ -8,6 +8,7 @@ mod fixed_blob;
 mod fixed_sine;
 mod guards;
 mod predictor;
+mod proposal;
 mod public_api;
 mod signed;
 mod timed_tracks;

@@ -89,13 +89,13 @@ pub use tracks::*;
 // ---------------------------------------------------------------- constants
 
 /// Bytes of caller storage [`gpecnet_init`] needs on a 32-bit target
-/// (Cortex-M: 4,136 B used today; the header picks the value by `UINTPTR_MAX`).
+/// (Cortex-M: 4,136 B used before the latent proposal, checked at compile time; the header picks the value by `UINTPTR_MAX`).
 #[cfg(target_pointer_width = "32")]
-pub const GPECNET_PREDICTOR_SIZE: usize = 4160;
+pub const GPECNET_PREDICTOR_SIZE: usize = 5120;
 /// Bytes of caller storage [`gpecnet_init`] needs on a 64-bit target
-/// (x86-64: 5,608 B used today; the header picks the value by `UINTPTR_MAX`).
+/// (x86-64: 6,736 B used today; the header picks the value by `UINTPTR_MAX`).
 #[cfg(target_pointer_width = "64")]
-pub const GPECNET_PREDICTOR_SIZE: usize = 5632;
+pub const GPECNET_PREDICTOR_SIZE: usize = 6784;
 /// Alignment of that storage, in bytes.
 pub const GPECNET_PREDICTOR_ALIGN: usize = 8;
 /// Scratch width of the predictor: models wider than this are refused.
@@ -256,7 +256,8 @@ pub fn blob_status(e: BlobError) -> i32 {
             | NetworkId::Decoder
             | NetworkId::EncoderDest
             | NetworkId::Predictor
-            | NetworkId::PointHead,
+            | NetworkId::PointHead
+            | NetworkId::Proposal,
         ) => GPECNET_E_BLOB_SHAPE_MISMATCH,
         BlobError::BadConfig => GPECNET_E_BLOB_BAD_CONFIG,
         BlobError::ExceedsCapacity => GPECNET_E_BLOB_EXCEEDS_CAPACITY,
@@ -854,7 +855,8 @@ pub unsafe extern "C" fn gpecnet_model_info(
         let pred = unsafe { state(p) }?;
         let m = pred.model();
         let ext = m.extensions();
-        let max_endpoints = gpecnet_core::sampling::max_endpoints(ext, GPECNET_MAX_SAMPLES) as u32;
+        let max_endpoints =
+            gpecnet_core::sampling::max_endpoints_of(m, GPECNET_MAX_SAMPLES) as u32;
         let info = GpecnetModelInfo {
             numeric: match m.numeric() {
                 gpecnet_core::NumericKind::F32 => GPECNET_NUMERIC_F32,

@@ -117,6 +117,7 @@ fn run_scene(a: &Args, scene: &str) -> Result<Row> {
         base_seed: 0,
         sigma: Some(sigma),
         tts: Some(tts),
+        proposal: None,
     };
     settings.apply(&mut model, K)?;
     let blob = blob_bytes(&model)?;

@@ -62,9 +62,14 @@ pub fn blob_bytes<K: Numeric>(model: &InferenceModel<K>) -> Result<Vec<u8>> {
         .nets
         .in_blob_order()
         .map(|n| n.iter().map(Layer::wire).collect());
-    Ok(gpecnet_blob_writer::blob_bytes(
+    let proposal: Vec<WireLayer> = model.nets.proposal.iter().map(Layer::wire).collect();
+    Ok(gpecnet_blob_writer::blob_bytes_with_proposal(
         &head,
         nets.each_ref().map(Vec::as_slice),
+        (!proposal.is_empty()).then_some(gpecnet_blob_writer::ProposalWire {
+            layers: &proposal,
+            bound: c.latent_bound,
+        }),
     )?)
 }
 
@@ -107,6 +112,7 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
             tts_samples: m.extensions().tts_samples as usize,
             tts_iters: m.extensions().tts_iters,
             tts_init: m.extensions().tts_init,
+            latent_bound: m.latent_bound(),
             meta: ModelMeta::of_blob(bytes),
         },
         nets: Networks {
@@ -115,6 +121,7 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
             encoder_dest: net(m.encoder_dest()),
             predictor: net(m.predictor()),
             point_head: net(m.point_head()),
+            proposal: net(m.proposal()),
         },
     })
 }

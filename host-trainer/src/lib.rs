@@ -15,6 +15,7 @@ pub mod network;
 pub mod onnx;
 pub mod optim;
 pub mod outpath;
+pub mod propose;
 pub mod quantize;
 pub mod reference;
 pub mod rng;

@@ -107,6 +107,9 @@ enum Command {
     /// model, key id and version, or why it is refused (unsigned, unknown key, bad
     /// signature, rolled back, invalid blob) and exits 1.
     Verify(VerifyArgs),
+    /// Train a learned latent proposal (K latents from the past, DLow-like, or a fixed code
+    /// book) for a frozen f32 blob, selected on validation; writes <out>/proposal.json.
+    Propose(gpecnet_trainer::propose::ProposeArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -332,6 +335,11 @@ struct ExportArgs {
     /// (3 Lloyd iterations, first-K init); 0 = plain sampling. Choose it with `gpecnet select`.
     #[arg(long, value_name = "N")]
     tts: Option<usize>,
+    /// A learned latent proposal for this run's encoder and decoder (`gpecnet propose`'s
+    /// proposal.json): the blob (format version 5) computes its K latents from the past
+    /// instead of drawing them. Needs --tts 0.
+    #[arg(long, value_name = "FILE")]
+    proposal: Option<PathBuf>,
     /// Replace existing artefacts of the same name in --out (never done without it).
     #[arg(long)]
     force: bool,
@@ -387,6 +395,7 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
         base_seed: a.sampling.seed,
         sigma: a.sigma,
         tts: a.tts,
+        proposal: a.proposal.clone(),
     };
     let sign = a.signing.spec()?;
     let card = gpecnet_trainer::ship::ship_with(
@@ -976,5 +985,17 @@ fn main() -> Result<()> {
         Command::Keygen(a) => cmd_keygen(a),
         Command::Sign(a) => cmd_sign(a),
         Command::Verify(a) => cmd_verify(a),
+        Command::Propose(a) => {
+            let p = a.run()?;
+            println!(
+                "best epoch {}: validation minFDE {:.4} (K = {}), clamped {:.4} %, mean |z| {:.2}",
+                p.epoch,
+                p.val.val_min_fde,
+                p.settings.k,
+                100.0 * p.val.val_clamped,
+                p.val.val_z_norm
+            );
+            Ok(())
+        }
     }
 }

@@ -1054,6 +1054,7 @@ impl Model {
                 Some(h) => h.export()?,
                 None => Vec::new(),
             },
+            proposal: Vec::new(),
         })
     }
 }

@@ -161,6 +161,9 @@ pub struct Networks<K: Numeric = F32> {
     pub predictor: Vec<Layer<K>>,
     /// The point-forecast head `2·past_len → 2·future_len`, empty when absent.
     pub point_head: Vec<Layer<K>>,
+    /// The learned latent proposal `fdim → K·zdim` (format version 5, with
+    /// [`RefConfig::latent_bound`]), empty when the latents are drawn from the prior.
+    pub proposal: Vec<Layer<K>>,
 }
 
 /// The networks' names in the blob's order.
@@ -184,11 +187,12 @@ impl<K: Numeric> Networks<K> {
         ]
     }
 
-    /// Weights and biases of all layers.
+    /// Weights and biases of all layers (the proposal's too).
     pub fn parameter_count(&self) -> usize {
         self.in_blob_order()
             .iter()
             .flat_map(|n| n.iter())
+            .chain(&self.proposal)
             .map(|l| l.w.len() + l.b.len())
             .sum()
     }
@@ -261,6 +265,19 @@ impl<K: Numeric> InferenceModel<K> {
                 2 * c.past_len,
                 Some(2 * c.future_len),
             )?;
+        }
+        if !n.proposal.is_empty() {
+            let out = chain("proposal", &n.proposal, c.fdim, None)?;
+            if out % c.zdim != 0 || !(c.latent_bound.is_finite() && c.latent_bound > 0.0) {
+                bail!(
+                    "proposal: {out} outputs are not whole latents of {} or the bound {} is not > 0",
+                    c.zdim,
+                    c.latent_bound
+                );
+            }
+            if c.tts_samples != 0 {
+                bail!("a proposal model draws no test-time samples (tts_samples must be 0)");
+            }
         }
         if c.heading_steps >= c.past_len {
             bail!(

@@ -45,6 +45,9 @@ pub struct RefConfig {
     /// Its initialisation: 0 = first K samples, 1 = farthest point.
     #[serde(default)]
     pub tts_init: u8,
+    /// Latent clamp of a proposal model (format version 5; 0 without a proposal).
+    #[serde(default)]
+    pub latent_bound: f32,
     /// What the numbers mean (unit, period, training data, licence): written as the blob's
     /// version-4 record; `None` for blobs before format version 4, which do not say.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -314,6 +317,18 @@ fn run(net: &[Layer<F32>], x: &[f32], kind: SineKind) -> Vec<f32> {
     cur
 }
 
+/// A proposed latent component clamped to `±bound` (NaN passes), as `gpecnet_core`'s
+/// engine does before the decoder.
+pub(crate) fn clamp_latent(v: f32, bound: f32) -> f32 {
+    if v > bound {
+        bound
+    } else if v < -bound {
+        -bound
+    } else {
+        v
+    }
+}
+
 /// Reduces the `tts_samples` samples of a model with test-time sampling to `k` centres.
 pub(crate) fn tts_reduce(c: &RefConfig, samples: &[[f32; 2]], k: usize) -> Result<Vec<[f32; 2]>> {
     if k > samples.len() {
@@ -412,6 +427,14 @@ impl RefModel {
         past.iter().flat_map(|p| fr.input(*p, ds)).collect()
     }
 
+    /// The frame of `past` and the encoder's features `f` (step 2 of the computation).
+    pub(crate) fn features(&self, past: &[[f32; 2]], kind: SineKind) -> (RefFrame, Vec<f32>) {
+        let fr = self.frame(past);
+        let x = self.input(&fr, past);
+        let f = run(&self.nets.encoder_past, &x, kind);
+        (fr, f)
+    }
+
     /// The deterministic point forecast of the point head (`future_len` points, caller's
     /// units), or `None` without a head.
     pub fn predict_point(&self, past: &[[f32; 2]], kind: SineKind) -> Option<Vec<[f32; 2]>> {
@@ -451,10 +474,18 @@ impl RefModel {
             trajectories: Vec::new(),
         };
         let mut input = f.clone();
-        for _ in 0..k {
+        let proposed = (!self.nets.proposal.is_empty()).then(|| run(&self.nets.proposal, &f, kind));
+        for i in 0..k {
             input.truncate(c.fdim);
-            for _ in 0..c.zdim {
-                input.push(c.sigma * normals.next_normal());
+            if let Some(p) = &proposed {
+                let Some(z) = p.get(i * c.zdim..(i + 1) * c.zdim) else {
+                    break;
+                };
+                input.extend(z.iter().map(|&v| clamp_latent(v, c.latent_bound)));
+            } else {
+                for _ in 0..c.zdim {
+                    input.push(c.sigma * normals.next_normal());
+                }
             }
             let d = run(&self.nets.decoder, &input, kind);
             let e = fr.output([d[0], d[1]], c.data_scale);

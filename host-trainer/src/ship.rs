@@ -146,6 +146,20 @@ pub struct Inference {
     pub tts_init: u8,
     /// Whether the blob has a point-forecast head.
     pub point_head: bool,
+    /// Latents of a learned proposal (format version 5; 0 = drawn from the prior).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub proposal_latents: usize,
+    /// Their clamp `±latent_bound` (0 without a proposal).
+    #[serde(default, skip_serializing_if = "is_zero_f32")]
+    pub latent_bound: f32,
+}
+
+fn is_zero(v: &usize) -> bool {
+    *v == 0
+}
+
+fn is_zero_f32(v: &f32) -> bool {
+    *v == 0.0
 }
 
 impl Inference {
@@ -158,6 +172,12 @@ impl Inference {
             tts_iters: m.config.tts_iters,
             tts_init: m.config.tts_init,
             point_head: !m.nets.point_head.is_empty(),
+            proposal_latents: m
+                .nets
+                .proposal
+                .last()
+                .map_or(0, |l| l.out_dim / m.config.zdim.max(1)),
+            latent_bound: m.config.latent_bound,
         })
     }
 }
@@ -222,7 +242,12 @@ pub fn card_v2_rows(
             "| inference | heading frame over {} step(s); sigma {}; {} | – |\n",
             i.heading_steps,
             i.sigma,
-            if i.tts_samples > 0 {
+            if i.proposal_latents > 0 {
+                format!(
+                    "a learned proposal gives the {} latents (each component clamped to ±{}; the sigma is unused)",
+                    i.proposal_latents, i.latent_bound
+                )
+            } else if i.tts_samples > 0 {
                 format!(
                     "{} latent samples reduced to K by k-means ({} Lloyd iterations, {} init)",
                     i.tts_samples,
@@ -259,6 +284,7 @@ pub fn model_from_run(run: &Path, name: &str) -> Result<(TrainConfig, RefModel, 
             hidden_act: cfg.activation,
             heading_steps: cfg.heading_steps,
             tts_samples: 0,
+            latent_bound: 0.0,
             tts_iters: 0,
             tts_init: 0,
             meta: Some(blob_meta(&cfg)?),
@@ -330,7 +356,7 @@ pub fn ship_with(
 ) -> Result<ModelCard> {
     let ExportSettings {
         sine, k, base_seed, ..
-    } = settings;
+    } = settings.clone();
     if name.is_empty()
         || !name
             .chars()
@@ -652,7 +678,7 @@ pub fn model_card_md(
 
 /// What `gpecnet export` evaluates with (sine, K, seeds) and the inference settings it
 /// writes into the blob (format 2 when any is used).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ExportSettings {
     /// Sine of the reported numbers and golden vectors.
     pub sine: SineKind,
@@ -665,6 +691,9 @@ pub struct ExportSettings {
     /// Test-time samples N (0 / `None` = plain sampling); 3 Lloyd iterations, first-K init
     /// (the best of the validation grid in `docs/tts.md`).
     pub tts: Option<usize>,
+    /// A learned latent proposal (`gpecnet propose`'s `proposal.json`) trained for this very
+    /// encoder and decoder; it replaces the prior's draws (format version 5).
+    pub proposal: Option<PathBuf>,
 }
 
 impl ExportSettings {
@@ -686,6 +715,27 @@ impl ExportSettings {
             m.config.tts_samples = n;
             m.config.tts_iters = 3;
             m.config.tts_init = 0;
+        }
+        if let Some(path) = &self.proposal {
+            let p = crate::propose::ProposalFile::read(path)?;
+            if p.frozen != crate::propose::frozen_fingerprint(m) {
+                bail!(
+                    "{}: this proposal was trained for other encoder/decoder weights",
+                    path.display()
+                );
+            }
+            if p.settings.k != k {
+                bail!(
+                    "{}: the proposal gives {} latents, the card evaluates K = {k}",
+                    path.display(),
+                    p.settings.k
+                );
+            }
+            if m.config.tts_samples != 0 {
+                bail!("a proposal model draws no test-time samples: use --tts 0");
+            }
+            m.nets.proposal = p.layers();
+            m.config.latent_bound = p.settings.bound;
         }
         Ok(())
     }

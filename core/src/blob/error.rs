@@ -16,6 +16,8 @@ pub enum NetworkId {
     Predictor,
     /// Point-forecast head: `2·past_len → 2·future_len` (optional, format version 2).
     PointHead,
+    /// Latent proposal: `fdim → K·zdim` (optional, format version 5).
+    Proposal,
 }
 
 /// Every way a byte string can fail to be a usable model blob.

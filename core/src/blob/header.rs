@@ -18,8 +18,14 @@ pub const MAGIC: [u8; 4] = *b"GPEC";
 /// loads of the Cortex-M kernels' fast paths). Version 4 adds [`Meta`] after
 /// the extensions: the unit of positions, the sample period, the training
 /// data and its licence. The writer emits version 4 when it is given a
-/// [`Meta`] and version 3 otherwise.
-pub const FORMAT_VERSION: u16 = 4;
+/// [`Meta`] and version 3 otherwise. Version 5 adds a learned latent
+/// proposal (a sixth network and its latent bound) after the five networks'
+/// place; the writer emits it only for a model that has one.
+pub const FORMAT_VERSION: u16 = 5;
+/// The first format version that may carry a latent proposal network.
+pub const PROPOSAL_FORMAT_VERSION: u16 = 5;
+/// Most latents a proposal may give per prediction (the endpoints it returns).
+pub const MAX_PROPOSAL_LATENTS: usize = 64;
 /// The first format version that describes its unit, clock and data ([`Meta`]).
 pub const META_FORMAT_VERSION: u16 = 4;
 /// Longest [`Meta::data`] or [`Meta::licence`] text (bytes).

@@ -162,6 +162,32 @@ impl<'a> Layer<'a> {
     pub fn macs(&self) -> usize {
         self.in_dim * self.out_dim
     }
+    /// Rows `first .. first + n` of this layer as a layer of `n` outputs (the
+    /// same inputs, activation and exponents); `None` when out of range.
+    /// The engine computes one latent of a proposal this way.
+    pub(crate) fn rows(&self, first: usize, n: usize) -> Option<Layer<'a>> {
+        let end = first.checked_add(n).filter(|&e| e <= self.out_dim)?;
+        let wsize = self
+            .weights
+            .len()
+            .checked_div(self.in_dim.checked_mul(self.out_dim)?)?;
+        let w = self
+            .weights
+            .get(first * self.in_dim * wsize..end * self.in_dim * wsize)?;
+        let bias = self.bias.get(first * 4..end * 4)?;
+        let shifts = if self.shifts.is_empty() {
+            self.shifts
+        } else {
+            self.shifts.get(first..end)?
+        };
+        Some(Layer {
+            out_dim: n,
+            weights: w,
+            bias,
+            shifts,
+            ..*self
+        })
+    }
 }
 
 #[inline]

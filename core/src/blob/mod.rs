@@ -8,7 +8,9 @@
 //! Preamble { magic: [u8; 4] = "GPEC", version: u16 }
 //! ModelInfo { numeric: NumericKind, name: &str, config: ModelConfig }
 //! Extensions (version 2 on), Meta { unit, metres_per_pixel, period_s, data, licence } (version 4 on)
-//! Network × 4  (encoder_past, decoder, encoder_dest, predictor), each:
+//! latent_bound: f32 (version 5 on)
+//! Network × 4  (encoder_past, decoder, encoder_dest, predictor; point_head from
+//!     version 2, proposal from version 5), each:
 //!     n_layers: u8, then n_layers × LayerWire { in_dim: u16, out_dim: u16,
 //!         activation: Activation, weights: &[u8], bias: &[u8] }
 //!     (or, for NumericKind::Int16Q15, LayerWireQ { in_dim, out_dim, activation,
@@ -45,7 +47,7 @@ pub use error::{BlobError, NetworkId};
 pub use header::{
     Activation, Extensions, Meta, ModelConfig, NumericKind, PositionUnit, ALIGNED_FORMAT_VERSION,
     FORMAT_VERSION, MAGIC, MAX_FUTURE, MAX_LAYERS, MAX_META_TEXT, MAX_PAST, MAX_TTS_SAMPLES,
-    META_FORMAT_VERSION, MIN_FORMAT_VERSION,
+    MAX_PROPOSAL_LATENTS, META_FORMAT_VERSION, MIN_FORMAT_VERSION, PROPOSAL_FORMAT_VERSION,
 };
 #[doc(hidden)]
 pub use header::{ModelInfo, Preamble, CRC32};

@@ -8,7 +8,7 @@ use super::validate::validate;
 use super::{
     Activation, BlobError, Extensions, Layer, Meta, ModelConfig, ModelInfo, NumericKind,
     PositionUnit, Preamble, ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS,
-    META_FORMAT_VERSION, MIN_FORMAT_VERSION, TENSOR_ALIGN,
+    META_FORMAT_VERSION, MIN_FORMAT_VERSION, PROPOSAL_FORMAT_VERSION, TENSOR_ALIGN,
 };
 
 /// A validated network: up to [`MAX_LAYERS`] layers whose widths chain.
@@ -69,7 +69,7 @@ impl<'a> Network<'a> {
 /// Construction checks the magic, version, CRC, every dimension, every
 /// hyper-parameter and every weight (finite); afterwards inference cannot
 /// fail on the model's account. The view holds only slices into the blob
-/// (about 1.5 KiB on a 32-bit target: five networks of up to eight layer
+/// (about 1.8 KiB on a 32-bit target: six networks of up to eight layer
 /// descriptors), so a blob in flash stays in flash. Of the version-4 [`Meta`]
 /// record the view keeps the numbers (unit, metres per pixel, period:
 /// [`Model::unit`], [`Model::period_s`]); [`Meta::of_blob`] reads the texts.
@@ -83,6 +83,8 @@ pub struct Model<'a> {
     pub(super) encoder_dest: Network<'a>,
     pub(super) predictor: Network<'a>,
     pub(super) point_head: Network<'a>,
+    pub(super) proposal: Network<'a>,
+    pub(super) latent_bound: f32,
     pub(super) ext: Extensions,
     pub(super) crc: u32,
     pub(super) unit: PositionUnit,
@@ -208,15 +210,16 @@ impl<'a> Model<'a> {
             (l.weights.as_ptr() as usize | l.bias.as_ptr() as usize).is_multiple_of(TENSOR_ALIGN)
         })
     }
-    /// The five networks in blob order (encoder_past, decoder, encoder_dest,
-    /// predictor, point_head; absent ones empty).
-    fn networks(&self) -> [&Network<'a>; 5] {
+    /// The six networks in blob order (encoder_past, decoder, encoder_dest,
+    /// predictor, point_head, proposal; absent ones empty).
+    fn networks(&self) -> [&Network<'a>; 6] {
         [
             &self.encoder_past,
             &self.decoder,
             &self.encoder_dest,
             &self.predictor,
             &self.point_head,
+            &self.proposal,
         ]
     }
     /// Every layer of every network, in blob order.
@@ -251,17 +254,49 @@ impl<'a> Model<'a> {
     pub fn has_point_head(&self) -> bool {
         !self.point_head.is_empty()
     }
+    /// The learned latent proposal (format version 5; empty when the model
+    /// draws its latents from the prior): `fdim → K·zdim` on the encoder's
+    /// features, K = [`Model::proposal_latents`]. See [`crate::sampling`].
+    pub fn proposal(&self) -> &Network<'a> {
+        &self.proposal
+    }
+    /// Whether the model computes its latents with a proposal network.
+    pub fn has_proposal(&self) -> bool {
+        !self.proposal.is_empty()
+    }
+    /// The latents one prediction of a proposal model gives (its most
+    /// endpoints), 0 without a proposal.
+    pub fn proposal_latents(&self) -> usize {
+        let zdim = (self.config.zdim as usize).max(1);
+        self.proposal.out_dim() / zdim
+    }
+    /// Every proposed latent component is clamped to `±latent_bound`
+    /// before the decoder (0 without a proposal).
+    pub fn latent_bound(&self) -> f32 {
+        self.latent_bound
+    }
     /// The version-2 settings (all 0 for a version-1 blob).
     pub fn extensions(&self) -> &Extensions {
         &self.ext
     }
     /// The widest layer of any network: the scratch width a predictor needs.
+    /// A proposal's last layer counts as `zdim` wide: the engine computes one
+    /// latent (`zdim` of its rows) at a time.
     pub fn max_width(&self) -> usize {
+        let proposal = self
+            .proposal
+            .layers()
+            .map(|l| l.in_dim)
+            .chain(self.proposal.layers().take(self.proposal.len().saturating_sub(1)).map(|l| l.out_dim))
+            .max()
+            .unwrap_or(0);
         self.networks()
             .into_iter()
+            .take(5)
             .map(Network::max_width)
             .max()
             .unwrap_or(0)
+            .max(proposal)
     }
     /// The scratch width a predictor for this model needs: its widest layer,
     /// and at least `fdim + zdim` (the decoder's input). Choose `W` of
@@ -290,11 +325,20 @@ impl<'a> Model<'a> {
         self.all_layers().map(|l| l.macs() + l.out_dim).sum()
     }
     /// Multiply-accumulates to predict `k` endpoints (encoder once, the
-    /// decoder's feature columns once, its latent columns and the rest `k` times).
+    /// decoder's feature columns once, its latent columns and the rest `k` times;
+    /// with a proposal, its hidden layers once and `zdim` rows of its last
+    /// layer per latent).
     pub fn endpoint_macs(&self, k: usize) -> usize {
         let fdim = self.config.fdim as usize;
         let first = self.decoder.layer(0).map_or(0, |l| l.out_dim);
-        self.encoder_past.macs() + first * fdim + k * (self.decoder.macs() - first * fdim)
+        let proposal = match self.proposal.layers().last() {
+            None => 0,
+            Some(last) => {
+                let rows = k * self.config.zdim as usize;
+                self.proposal.macs() - last.macs() + rows * last.in_dim
+            }
+        };
+        self.encoder_past.macs() + first * fdim + k * (self.decoder.macs() - first * fdim) + proposal
     }
 }
 
@@ -316,8 +360,19 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         Meta::UNKNOWN
     };
-    let mut nets = [Network::EMPTY; 5];
-    let n_nets = if v2 { 5 } else { 4 };
+    let latent_bound: f32 = if pre.version >= PROPOSAL_FORMAT_VERSION {
+        take(&mut cur)?
+    } else {
+        0.0
+    };
+    let mut nets = [Network::EMPTY; 6];
+    let n_nets = if pre.version >= PROPOSAL_FORMAT_VERSION {
+        6
+    } else if v2 {
+        5
+    } else {
+        4
+    };
     for net in nets.iter_mut().take(n_nets) {
         let n: u8 = take(&mut cur)?;
         if n as usize > MAX_LAYERS {
@@ -331,7 +386,7 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     if !cur.is_empty() {
         return Err(BlobError::TrailingBytes);
     }
-    let [encoder_past, decoder, encoder_dest, predictor, point_head] = nets;
+    let [encoder_past, decoder, encoder_dest, predictor, point_head, proposal] = nets;
     let model = Model {
         name: info.name,
         numeric: info.numeric,
@@ -341,6 +396,8 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         encoder_dest,
         predictor,
         point_head,
+        proposal,
+        latent_bound,
         ext,
         crc: 0,
         unit: meta.unit,

@@ -4,7 +4,7 @@
 
 use super::{
     Activation, BlobError, Model, Network, NetworkId, NumericKind, MAX_EXP, MAX_FUTURE, MAX_PAST,
-    MAX_TTS_SAMPLES, MIN_EXP,
+    MAX_PROPOSAL_LATENTS, MAX_TTS_SAMPLES, MIN_EXP,
 };
 
 pub(super) fn validate(m: &Model<'_>) -> Result<(), BlobError> {
@@ -46,6 +46,7 @@ pub(super) fn validate(m: &Model<'_>) -> Result<(), BlobError> {
         let (p2, f2) = (2 * c.past_len as usize, 2 * c.future_len as usize);
         check_network(&m.point_head, NetworkId::PointHead, p2, f2, q)?;
     }
+    check_proposal(m)?;
     let e = &m.ext;
     if e.heading_steps >= c.past_len || e.tts_init > 1 {
         return Err(BlobError::BadConfig);
@@ -57,6 +58,37 @@ pub(super) fn validate(m: &Model<'_>) -> Result<(), BlobError> {
         check_boundary_exps(m)?;
     }
     Ok(())
+}
+
+/// The latent proposal (format version 5): present exactly when the bound
+/// is (a finite value > 0; else [`BlobError::BadConfig`]), `fdim → K·zdim`
+/// with `1 ≤ K ≤` [`MAX_PROPOSAL_LATENTS`] and a linear last layer
+/// ([`BlobError::ShapeMismatch`]), and never together with test-time
+/// sampling (one endpoint protocol per model: [`BlobError::BadConfig`]).
+fn check_proposal(m: &Model<'_>) -> Result<(), BlobError> {
+    let b = m.latent_bound;
+    if m.proposal.is_empty() {
+        return if b == 0.0 {
+            Ok(())
+        } else {
+            Err(BlobError::BadConfig)
+        };
+    }
+    if !(b.is_finite() && b > 0.0) || m.ext.tts_samples != 0 {
+        return Err(BlobError::BadConfig);
+    }
+    let (fdim, zdim) = (m.config.fdim as usize, m.config.zdim as usize);
+    let out = m.proposal.out_dim();
+    let k = out / zdim;
+    let last_linear = m
+        .proposal
+        .layers()
+        .last()
+        .is_some_and(|l| l.activation == Activation::Linear);
+    if !out.is_multiple_of(zdim) || k == 0 || k > MAX_PROPOSAL_LATENTS || !last_linear {
+        return Err(BlobError::ShapeMismatch(NetworkId::Proposal));
+    }
+    check_network(&m.proposal, NetworkId::Proposal, fdim, out, m.numeric)
 }
 
 /// Exponent of a network's input (first layer) and output (last layer).
@@ -88,6 +120,17 @@ fn check_boundary_exps(m: &Model<'_>) -> Result<(), BlobError> {
     // The point head reads the same quantised input vector as encoder_past.
     if !m.point_head.is_empty() && net_exps(&m.point_head).0 != net_exps(&m.encoder_past).0 {
         return Err(BlobError::BadScale(NetworkId::PointHead));
+    }
+    // The proposal reads the features; its output and the decoder's input
+    // (the feature exponent) must both hold ±bound, so saturation only ever
+    // meets values the clamp cuts to the bound anyway: nothing is clipped
+    // that the format does not say.
+    if !m.proposal.is_empty() {
+        let (p_in, p_out) = net_exps(&m.proposal);
+        let holds = |e: i8| m.latent_bound <= 32767.0 * crate::fixed::pow2(-(e as i32));
+        if p_in != f || !holds(d_in) || !holds(p_out) {
+            return Err(BlobError::BadScale(NetworkId::Proposal));
+        }
     }
     Ok(())
 }

@@ -11,7 +11,9 @@ pub struct Calibration {
     pub input: f64,
     /// Per network (enc, dec, dest, pred, point head), per layer: max |output|.
     pub layers: [Vec<f64>; 5],
-    /// The latent (`sigma · N(0, 1)`).
+    /// The latent proposal, per layer: max |output| (empty without one).
+    pub proposal: Vec<f64>,
+    /// The latent (`sigma · N(0, 1)`, or a proposal's clamped latents and its bound).
     pub z: f64,
     /// `initial_pos`.
     pub init: f64,
@@ -41,14 +43,20 @@ fn run_f64(net: &[Layer], x: &[f64], maxes: &mut [f64]) -> Vec<f64> {
     cur
 }
 
-/// Runs `model` on `windows` with `k` latent samples each (window `i` uses seed `i`).
+/// Runs `model` on `windows` with `k` latent samples each (window `i` uses seed `i`), or all
+/// of a proposal model's latents.
 pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration {
     let c = &model.config;
     let nets = model.nets.in_blob_order();
     let mut cal = Calibration {
         layers: nets.map(|n| vec![0.0; n.len()]),
+        proposal: vec![0.0; model.nets.proposal.len()],
         ..Default::default()
     };
+    if !model.nets.proposal.is_empty() {
+        // The clamp makes the bound the largest latent the decoder can see.
+        cal.z = f64::from(c.latent_bound);
+    }
     for (wi, w) in windows.iter().enumerate() {
         let past = w.obs();
         let fr = model.frame(&past);
@@ -63,12 +71,24 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
         }
         let mut normals = Normals::new(wi as u64);
         let last = fr.predictor_position(past[PAST - 1]);
-        for _ in 0..k {
+        let proposed = (!model.nets.proposal.is_empty())
+            .then(|| run_f64(&model.nets.proposal, &f, &mut cal.proposal));
+        // A proposal's latents are all calibrated (they are what the decoder will see).
+        let n = proposed.as_ref().map_or(k, |p| p.len() / c.zdim.max(1));
+        for i in 0..n {
             let mut input = f.clone();
-            for _ in 0..c.zdim {
-                let z = c.sigma * normals.next_normal();
-                cal.z = cal.z.max(z.abs() as f64);
-                input.push(z as f64);
+            if let Some(p) = &proposed {
+                let Some(z) = p.get(i * c.zdim..(i + 1) * c.zdim) else {
+                    break;
+                };
+                let b = f64::from(c.latent_bound);
+                input.extend(z.iter().map(|v| v.clamp(-b, b)));
+            } else {
+                for _ in 0..c.zdim {
+                    let z = c.sigma * normals.next_normal();
+                    cal.z = cal.z.max(z.abs() as f64);
+                    input.push(z as f64);
+                }
             }
             let d = run_f64(&model.nets.decoder, &input, &mut cal.layers[1]);
             if !model.nets.predictor.is_empty() {

@@ -111,10 +111,26 @@ impl QModel {
         let mut normals = Normals::new(seed);
         let last = fr.predictor_position(past[past.len() - 1]);
         let (mut ends, mut trajs) = (Vec::with_capacity(k), Vec::new());
-        for _ in 0..k {
+        // A proposal model's latents: the whole network once (each row's integer sum is
+        // the same whichever rows are computed together), dequantised, clamped, requantised.
+        let proposed = (!self.nets.proposal.is_empty()).then(|| {
+            let e_p = self.nets.proposal.last().map_or(0, |l| l.scale.out_exp);
+            run_q(&self.nets.proposal, &f)
+                .into_iter()
+                .map(|v| crate::reference::clamp_latent(deq(v, e_p), c.latent_bound))
+                .collect::<Vec<f32>>()
+        });
+        for i in 0..k {
             let mut input = f.clone();
-            for _ in 0..c.zdim {
-                input.push(quantize_value(c.sigma * normals.next_normal(), e_f));
+            if let Some(p) = &proposed {
+                let Some(z) = p.get(i * c.zdim..(i + 1) * c.zdim) else {
+                    break;
+                };
+                input.extend(z.iter().map(|&v| quantize_value(v, e_f)));
+            } else {
+                for _ in 0..c.zdim {
+                    input.push(quantize_value(c.sigma * normals.next_normal(), e_f));
+                }
             }
             let d = run_q(&self.nets.decoder, &input);
             let e = fr.output([deq(d[0], e_d), deq(d[1], e_d)], c.data_scale);

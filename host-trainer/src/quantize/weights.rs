@@ -131,6 +131,18 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
                 e_in,
                 exp_for(last_max(4)),
             ),
+            // Its output must hold ±bound (then saturation only ever meets values the
+            // clamp would cut to the bound anyway; the core checks it).
+            proposal: quantize_net(
+                &model.nets.proposal,
+                &cal.proposal,
+                e_f,
+                exp_for(cal.proposal.last().copied().unwrap_or(0.0)).min(
+                    ((32767.0 / f64::from(model.config.latent_bound.max(1e-30))).log2().floor()
+                        as i32)
+                        .clamp(MIN_EXP, MAX_EXP),
+                ),
+            ),
         },
     })
 }
