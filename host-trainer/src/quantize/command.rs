@@ -329,6 +329,7 @@ fn exponents(q: &QModel) -> Vec<String> {
     crate::network::NETWORK_NAMES
         .iter()
         .zip(q.nets.in_blob_order())
+        .chain(std::iter::once((&"proposal", q.nets.proposal.as_slice())))
         .filter(|(_, n)| !n.is_empty())
         .map(|(name, n)| {
             format!(
