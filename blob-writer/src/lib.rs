@@ -258,8 +258,7 @@ pub fn blob_bytes_with_proposal(
 ) -> Result<Vec<u8>, WriteError> {
     if proposal.is_some() && head.meta.is_none() {
         return Err(WriteError::Shape(
-            "a blob with a latent proposal (format version 5) must state its unit and clock"
-                .into(),
+            "a blob with a latent proposal (format version 5) must state its unit and clock".into(),
         ));
     }
     let mut out = Vec::new();

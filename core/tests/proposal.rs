@@ -5,12 +5,12 @@
 use crate::common;
 
 use common::*;
+use gpecnet_blob_writer::{BlobHead, ProposalWire, WireLayer};
+use gpecnet_core::batch::BatchPredictor;
 use gpecnet_core::blob::{
     Activation, Extensions, Meta, NetworkId, NumericKind, PositionUnit, MAX_PROPOSAL_LATENTS,
 };
-use gpecnet_core::batch::BatchPredictor;
 use gpecnet_core::{BlobError, LibmSine, Model, PredictError, Predictor};
-use gpecnet_blob_writer::{BlobHead, ProposalWire, WireLayer};
 
 const META: Meta<'static> = Meta {
     unit: PositionUnit::Metre,
@@ -96,7 +96,10 @@ fn a_proposal_blob_is_version_5_and_predicts_its_k_latents() {
     p.predict_endpoint_set::<8>(&PAST, 1, &mut two).unwrap();
     assert_eq!(two, a[..2]);
     // Trajectories end in the same endpoints.
-    let mut t = [gpecnet_core::Trajectory::new(), gpecnet_core::Trajectory::new()];
+    let mut t = [
+        gpecnet_core::Trajectory::new(),
+        gpecnet_core::Trajectory::new(),
+    ];
     p.predict_trajectories(&PAST, 5, &mut t).unwrap();
     assert_eq!([t[0][11], t[1][11]], two);
     // The batched path gives the same bits (it runs a proposal model track by track).
@@ -140,13 +143,19 @@ fn the_reader_checks_every_proposal_rule() {
     );
     let shape = refused(BlobError::ShapeMismatch(NetworkId::Proposal));
     // Outputs not whole latents, a non-linear last layer, a wrong input width, too many.
-    let partial = vec![layer(4, 5, Activation::Relu, 11, 0.9), layer(5, 10, Activation::Linear, 12, 0.9)];
+    let partial = vec![
+        layer(4, 5, Activation::Relu, 11, 0.9),
+        layer(5, 10, Activation::Linear, 12, 0.9),
+    ];
     assert_eq!(write_f32(&partial, 2.0, None), shape);
     let sine_last = vec![layer(4, 12, Activation::Sine, 12, 0.9)];
     assert_eq!(write_f32(&sine_last, 2.0, None), shape);
     let wrong_in = vec![layer(5, 12, Activation::Linear, 12, 0.9)];
     assert_eq!(write_f32(&wrong_in, 2.0, None), shape);
-    assert_eq!(write_f32(&proposal(MAX_PROPOSAL_LATENTS + 1), 2.0, None), shape);
+    assert_eq!(
+        write_f32(&proposal(MAX_PROPOSAL_LATENTS + 1), 2.0, None),
+        shape
+    );
     assert!(write_f32(&proposal(MAX_PROPOSAL_LATENTS), 2.0, None).is_ok());
     let nan = {
         let mut l = proposal(4);
@@ -173,8 +182,14 @@ fn damage_to_a_version_5_blob_is_refused() {
 fn write_q15(proposal: &[WireLayer], bound: f32) -> Result<Vec<u8>, Refused> {
     use Activation::*;
     let nets = [
-        vec![qlayer(16, 6, Sine, (6, 15), 1), qlayer(6, 4, Linear, (15, 10), 2)],
-        vec![qlayer(7, 5, Sine, (10, 15), 3), qlayer(5, 2, Linear, (15, 5), 4)],
+        vec![
+            qlayer(16, 6, Sine, (6, 15), 1),
+            qlayer(6, 4, Linear, (15, 10), 2),
+        ],
+        vec![
+            qlayer(7, 5, Sine, (10, 15), 3),
+            qlayer(5, 2, Linear, (15, 5), 4),
+        ],
     ];
     let head = BlobHead {
         numeric: NumericKind::Int16Q15,
@@ -200,7 +215,10 @@ fn write_q15(proposal: &[WireLayer], bound: f32) -> Result<Vec<u8>, Refused> {
 #[test]
 fn fixed_point_ranges_hold_the_bound() {
     use Activation::*;
-    let good = vec![qlayer(4, 5, Relu, (10, 12), 9), qlayer(5, 6, Linear, (12, 10), 10)];
+    let good = vec![
+        qlayer(4, 5, Relu, (10, 12), 9),
+        qlayer(5, 6, Linear, (12, 10), 10),
+    ];
     let blob = write_q15(&good, 4.0).unwrap();
     let m = Model::from_blob(&blob).unwrap();
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
@@ -210,10 +228,16 @@ fn fixed_point_ranges_hold_the_bound() {
     // The decoder's input exponent 10 holds ±31.99: a bound of 40 would saturate.
     assert_eq!(write_q15(&good, 40.0), scale);
     // The proposal's output exponent 12 holds ±7.99.
-    let narrow = vec![qlayer(4, 5, Relu, (10, 12), 9), qlayer(5, 6, Linear, (12, 12), 10)];
+    let narrow = vec![
+        qlayer(4, 5, Relu, (10, 12), 9),
+        qlayer(5, 6, Linear, (12, 12), 10),
+    ];
     assert!(write_q15(&narrow, 7.9).is_ok());
     assert_eq!(write_q15(&narrow, 8.5), scale);
     // Its input must be the features' exponent.
-    let wrong_in = vec![qlayer(4, 5, Relu, (11, 12), 9), qlayer(5, 6, Linear, (12, 10), 10)];
+    let wrong_in = vec![
+        qlayer(4, 5, Relu, (11, 12), 9),
+        qlayer(5, 6, Linear, (12, 10), 10),
+    ];
     assert_eq!(write_q15(&wrong_in, 4.0), scale);
 }

@@ -855,8 +855,7 @@ pub unsafe extern "C" fn gpecnet_model_info(
         let pred = unsafe { state(p) }?;
         let m = pred.model();
         let ext = m.extensions();
-        let max_endpoints =
-            gpecnet_core::sampling::max_endpoints_of(m, GPECNET_MAX_SAMPLES) as u32;
+        let max_endpoints = gpecnet_core::sampling::max_endpoints_of(m, GPECNET_MAX_SAMPLES) as u32;
         let info = GpecnetModelInfo {
             numeric: match m.numeric() {
                 gpecnet_core::NumericKind::F32 => GPECNET_NUMERIC_F32,

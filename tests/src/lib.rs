@@ -239,6 +239,7 @@ pub fn random_siren(
             tts_samples: 0,
             tts_iters: 0,
             tts_init: 0,
+            latent_bound: 0.0,
             meta: None,
         },
         nets: Networks {
@@ -247,6 +248,7 @@ pub fn random_siren(
             encoder_dest: net(with(2, &dest[..dest.len() - 1], ddim)),
             predictor: net(with(fdim + ddim + 2, pred, 22)),
             point_head: Vec::new(),
+            proposal: Vec::new(),
         },
     }
 }

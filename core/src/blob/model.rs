@@ -287,7 +287,12 @@ impl<'a> Model<'a> {
             .proposal
             .layers()
             .map(|l| l.in_dim)
-            .chain(self.proposal.layers().take(self.proposal.len().saturating_sub(1)).map(|l| l.out_dim))
+            .chain(
+                self.proposal
+                    .layers()
+                    .take(self.proposal.len().saturating_sub(1))
+                    .map(|l| l.out_dim),
+            )
             .max()
             .unwrap_or(0);
         self.networks()
@@ -338,7 +343,10 @@ impl<'a> Model<'a> {
                 self.proposal.macs() - last.macs() + rows * last.in_dim
             }
         };
-        self.encoder_past.macs() + first * fdim + k * (self.decoder.macs() - first * fdim) + proposal
+        self.encoder_past.macs()
+            + first * fdim
+            + k * (self.decoder.macs() - first * fdim)
+            + proposal
     }
 }
 

@@ -30,7 +30,11 @@ impl Encoded {
             let past = &w.pos[..PAST];
             let (fr, f) = model.features(past, SineKind::Libm);
             if f.len() != c.fdim {
-                bail!("the encoder gives {} features, the config says {}", f.len(), c.fdim);
+                bail!(
+                    "the encoder gives {} features, the config says {}",
+                    f.len(),
+                    c.fdim
+                );
             }
             feats.extend_from_slice(&f);
             targets.extend_from_slice(&fr.input(w.pos[PAST + FUTURE - 1], c.data_scale));
@@ -136,7 +140,13 @@ pub fn loss(
     let m = dist.min_keepdim(1)?.detach();
     let temp = f64::from(spec.temperature);
     let soft = (m.squeeze(1)?
-        - (dist.broadcast_sub(&m)?.affine(-1.0 / temp, 0.0)?.exp()?.sum(1)?.log()? * temp)?)?;
+        - (dist
+            .broadcast_sub(&m)?
+            .affine(-1.0 / temp, 0.0)?
+            .exp()?
+            .sum(1)?
+            .log()?
+            * temp)?)?;
     let prior = (z.sqr()?.sum(1)?.mean_all()? * (0.5 * f64::from(spec.prior_weight)))?;
     Ok((soft.mean_all()? + prior)?)
 }

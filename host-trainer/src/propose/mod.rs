@@ -179,7 +179,8 @@ fn build(s: &ProposeSettings, fdim: usize, zdim: usize) -> Result<Mlp> {
     last.weight
         .set(&(last.weight.as_tensor() * scale)?)
         .map_err(anyhow::Error::from)?;
-    let b = candle_core::Tensor::from_vec(rng.normal_vec(out, 1.0), out, &candle_core::Device::Cpu)?;
+    let b =
+        candle_core::Tensor::from_vec(rng.normal_vec(out, 1.0), out, &candle_core::Device::Cpu)?;
     last.bias.set(&b)?;
     Ok(mlp)
 }
@@ -202,7 +203,11 @@ fn weights_of(mlp: &Mlp) -> Result<Vec<Vec<f32>>> {
 fn set_weights(mlp: &Mlp, w: &[Vec<f32>]) -> Result<()> {
     let vars = mlp.vars();
     if vars.len() != w.len() {
-        bail!("checkpoint holds {} tensors, the proposal has {}", w.len(), vars.len());
+        bail!(
+            "checkpoint holds {} tensors, the proposal has {}",
+            w.len(),
+            vars.len()
+        );
     }
     for (v, w) in vars.iter().zip(w) {
         let t = candle_core::Tensor::from_slice(w, v.shape(), &candle_core::Device::Cpu)?;
@@ -242,7 +247,10 @@ impl ProposeRun<'_> {
             bail!("--bound must be finite and > 0, got {}", s.bound);
         }
         if !(s.temperature.is_finite() && s.temperature > 0.0) {
-            bail!("--temperature must be finite and > 0, got {}", s.temperature);
+            bail!(
+                "--temperature must be finite and > 0, got {}",
+                s.temperature
+            );
         }
         std::fs::create_dir_all(&self.out)
             .with_context(|| format!("creating {}", self.out.display()))?;
@@ -342,14 +350,24 @@ impl ProposeRun<'_> {
             bar.set_message(format!(
                 "val minFDE {:.4} (best {:.4} @ {})",
                 row.val_min_fde,
-                if best { row.val_min_fde } else { ck.rows.iter().find(|r| r.epoch == ck.best_epoch).map_or(f64::NAN, |r| r.val_min_fde) },
+                if best {
+                    row.val_min_fde
+                } else {
+                    ck.rows
+                        .iter()
+                        .find(|r| r.epoch == ck.best_epoch)
+                        .map_or(f64::NAN, |r| r.val_min_fde)
+                },
                 ck.best_epoch
             ));
             ck.rows.push(row);
             ck.adam = adam.state().clone();
             ck.rng = rng.state();
             write_atomic(&ckpt_path, serde_json::to_string(&ck)?.as_bytes())?;
-            write_atomic(&self.out.join("metrics.csv"), metrics_csv(&ck.rows).as_bytes())?;
+            write_atomic(
+                &self.out.join("metrics.csv"),
+                metrics_csv(&ck.rows).as_bytes(),
+            )?;
             bar.inc(1);
         }
         bar.finish();

@@ -138,8 +138,9 @@ pub fn quantize(model: &RefModel, cal: &Calibration, name: &str) -> Result<QMode
                 &cal.proposal,
                 e_f,
                 exp_for(cal.proposal.last().copied().unwrap_or(0.0)).min(
-                    ((32767.0 / f64::from(model.config.latent_bound.max(1e-30))).log2().floor()
-                        as i32)
+                    ((32767.0 / f64::from(model.config.latent_bound.max(1e-30)))
+                        .log2()
+                        .floor() as i32)
                         .clamp(MIN_EXP, MAX_EXP),
                 ),
             ),
