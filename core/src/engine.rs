@@ -24,7 +24,12 @@
 //!    per call: `a_j = b_j + Σ_{i<fdim} W_ji f_i` ([`Backend::partial`]).
 //! 4. For each sample: `z` = the next `zdim` normals of
 //!    [`crate::prng::Gaussian`] seeded with `seed`, each times `sigma` (f32),
-//!    converted with the decoder's input exponent; the first layer continues
+//!    converted with the decoder's input exponent — or, for a model with a
+//!    learned proposal (format version 5), latent `i` of the proposal: its
+//!    hidden layers run once per call on `f` (in [`Engine::start`]), sample
+//!    `i` computes rows `i·zdim ..` of its last layer, clamps each value to
+//!    `±latent_bound` in f32 and converts it likewise (`weights/FORMAT.md`,
+//!    "Format version 5"); the first layer continues
 //!    the same sum over the latent columns ([`Backend::latent`]: equal to one
 //!    sequential pass over `[f, z]`), then the remaining decoder layers give
 //!    `d` (the normalised endpoint).
@@ -44,9 +49,10 @@
 //!
 //! # Memory
 //!
-//! `Engine<B, W>` holds four activation rows and one partial-sum row of `W`
-//! (f32: `20·W` bytes; Q15: `16·W` bytes), the model view (about 1.5 KiB on a
-//! 32-bit target: five networks of up to eight layer descriptors) and the sampler state. Weights are read in place. A call
+//! `Engine<B, W>` holds five activation rows and one partial-sum row of `W`
+//! (f32: `24·W` bytes; Q15: `18·W` bytes; the fifth row keeps a proposal's
+//! hidden vector), the model view (about 1.8 KiB on a 32-bit target: six
+//! networks of up to eight layer descriptors) and the sampler state. Weights are read in place. A call
 //! uses under 1 KiB of stack besides what the caller passes; the endpoint set
 //! of a test-time-sampling model adds its `N`-sample buffer (`8·N` bytes).
 //! `cargo xtask profile` measures both on the Cortex-M4F.

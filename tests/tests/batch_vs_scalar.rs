@@ -35,6 +35,13 @@ fn check<S: Sine, const L: usize>(name: &str, model: &Model<'_>, pasts: &[Past])
         let seed = 1000 + i as u64;
         for k in [1usize, 13, 20, 200] {
             let (mut a, mut b) = (vec![[0.0f32; 2]; k], vec![[0.0f32; 2]; k]);
+            if model.has_proposal() && k > model.proposal_latents() {
+                // A proposal's stream ends after its K latents, on both paths.
+                let refused = Err(gpecnet_core::PredictError::BadSampleCount);
+                assert_eq!(scalar.predict_samples(past, seed, &mut a), refused);
+                assert_eq!(batch.predict_samples(past, seed, &mut b), refused);
+                continue;
+            }
             scalar.predict_samples(past, seed, &mut a).unwrap();
             batch.predict_samples(past, seed, &mut b).unwrap();
             assert_eq!(bits(&a), bits(&b), "{}", at("samples", k));
