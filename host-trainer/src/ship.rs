@@ -89,6 +89,9 @@ pub struct ModelCard {
     /// written before data sets had names, whose numbers are on `sdd`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dataset: Option<String>,
+    /// The learned latent proposal's provenance (format version 5 models only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proposal: Option<crate::propose::ProposalCard>,
 }
 
 impl ModelCard {
@@ -448,6 +451,13 @@ pub fn ship_with(
         val_point: val_point.filter(|_| test_point.is_some()),
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
+        proposal: match &settings.proposal {
+            Some(p) => Some(crate::propose::ProposalCard::of(
+                &crate::propose::ProposalFile::read(p)?,
+                p,
+            )),
+            None => None,
+        },
     };
     let blob = match sign {
         Some(s) => s.sign(&blob)?,
@@ -621,7 +631,11 @@ pub fn model_card_md(
         } else {
             String::new()
         };
-        format!(" --sigma {}{tts}", i.sigma)
+        let proposal = c
+            .proposal
+            .as_ref()
+            .map_or(String::new(), |p| format!(" --tts 0 --proposal {}", p.file));
+        format!(" --sigma {}{tts}{proposal}", i.sigma)
     });
     let digits = if u == "m" { 3 } else { 2 };
     let f = |v: f64| format!("{v:.digits$}");
@@ -650,6 +664,12 @@ pub fn model_card_md(
     .text(&data.facts)
     .fact("model selection", format!("epoch {} by validation minFDE ({val}); the test set was never used in training or selection", c.epoch))
     .fact("produced by", format!("`gpecnet export --run {} --name {name}{flags}`", run.display()))
+    .text(&c.proposal.as_ref().map_or(String::new(), |p| {
+        format!(
+            "| latent proposal | {}; {} m validation minFDE (K = {}) at its epoch {} (the prior's 80 → 20 k-means: see `docs/latents.md`); trained by `{}` |\n",
+            p.shape, p.val_min_fde, p.k, p.epoch, p.command
+        )
+    }))
     .section(
         &format!("{}, through `gpecnet-core`", data.test_set),
         &format!(

@@ -8,6 +8,7 @@ mod config_validation;
 mod data_loading;
 mod data_range_eval;
 mod eval_metrics;
+mod propose;
 mod run_folder;
 mod signing;
 mod social;

@@ -106,6 +106,9 @@ pub struct ProposalFile {
     pub settings: ProposeSettings,
     /// [`frozen_fingerprint`] of the model it was trained for.
     pub frozen: u32,
+    /// The frozen blob's path as given to `gpecnet propose`.
+    #[serde(default)]
+    pub source: String,
     /// The best validation epoch.
     pub epoch: usize,
     /// Its validation numbers.
@@ -157,6 +160,8 @@ pub struct ProposeRun<'a> {
     pub out: PathBuf,
     /// Continue the run in `out`.
     pub resume: bool,
+    /// The frozen blob's path (for the record).
+    pub source: PathBuf,
 }
 
 fn windows(
@@ -382,6 +387,7 @@ impl ProposeRun<'_> {
         let file = ProposalFile {
             settings: s.clone(),
             frozen: frozen_fingerprint(self.model),
+            source: self.source.display().to_string(),
             epoch: ck.best_epoch,
             val: val_row,
             layers: exported
@@ -400,6 +406,83 @@ impl ProposeRun<'_> {
             serde_json::to_string_pretty(&file)?.as_bytes(),
         )?;
         Ok(file)
+    }
+}
+
+/// A proposal's provenance in a model card.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProposalCard {
+    /// The `proposal.json` the export read.
+    pub file: String,
+    /// The network in words (`16 → 10 (relu) → 320 (linear), clamp ±8`).
+    pub shape: String,
+    /// Latents.
+    pub k: usize,
+    /// Its best validation epoch.
+    pub epoch: usize,
+    /// Validation minFDE at that epoch (the blob's unit, 4 decimals).
+    pub val_min_fde: String,
+    /// The `gpecnet propose` command that trains it.
+    pub command: String,
+}
+
+impl ProposalCard {
+    /// The card of `p`, read from `path`.
+    pub fn of(p: &ProposalFile, path: &Path) -> Self {
+        let s = &p.settings;
+        let mut shape: Vec<String> = p
+            .layers
+            .first()
+            .map(|l| l.in_dim.to_string())
+            .into_iter()
+            .collect();
+        for l in &p.layers {
+            shape.push(format!("{} ({})", l.out_dim, act_name(l.act)));
+        }
+        let hidden = if s.codebook {
+            " --codebook".to_string()
+        } else {
+            format!(
+                " --hidden {} --act {}",
+                s.hidden
+                    .iter()
+                    .map(usize::to_string)
+                    .collect::<Vec<_>>()
+                    .join(","),
+                act_name(s.act)
+            )
+        };
+        Self {
+            file: path.display().to_string(),
+            shape: format!("{}, clamp ±{}", shape.join(" → "), s.bound),
+            k: s.k,
+            epoch: p.epoch,
+            val_min_fde: format!("{:.4}", p.val.val_min_fde),
+            command: format!(
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{} --out {}",
+                p.source,
+                s.dataset,
+                s.seed,
+                s.k,
+                s.epochs,
+                s.batch,
+                s.lr,
+                s.prior_weight,
+                s.temperature,
+                s.bound,
+                if s.time_reversal { "" } else { " --no-time-reversal" },
+                if s.mirror { "" } else { " --no-mirror" },
+                path.parent().map_or(".".into(), |d| d.display().to_string()),
+            ),
+        }
+    }
+}
+
+fn act_name(a: Act) -> &'static str {
+    match a {
+        Act::Linear => "linear",
+        Act::Relu => "relu",
+        Act::Sine => "sine",
     }
 }
 
@@ -550,6 +633,7 @@ impl ProposeArgs {
             data_root: self.data.clone(),
             out: self.out.clone(),
             resume: self.resume,
+            source: self.blob.clone(),
         }
         .run()
     }
