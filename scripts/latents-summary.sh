@@ -12,7 +12,7 @@ for dir in "$out"/*-s0; do
     f="$out/$name-s$s/metrics.csv"
     [ -f "$f" ] || continue
     # The lowest val_min_fde (column 3) of the run: its selected epoch.
-    best+=("$(tail -n +2 "$f" | sort -t, -k3 -g | head -n 1)")
+    best+=("$(awk -F, 'NR > 1 && (min == "" || $3 < min) { min = $3; row = $0 } END { print row }' "$f")")
   done
   printf '%s\n' "${best[@]}" | awk -F, -v name="$name" '
     { v[NR] = $3; s += $3; e = e (NR > 1 ? " " : "") $1 }
