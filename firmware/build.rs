@@ -180,11 +180,11 @@ fn main() {
         src += &format!("    ({n:?}, &BLOB_{i}.0),\n");
     }
     // The demo tracker's model: GPECNET_DEMO_MODEL=<name>; unset = the metric MCU model
-    // (sdd-m-tiny-qe) when embedded, else the first metric one (the demo picks it).
+    // (sdd-m-lp-qe) when embedded, else the first metric one (the demo picks it).
     println!("cargo:rerun-if-env-changed=GPECNET_DEMO_MODEL");
     let mut forged_static = String::new();
     let mut demo = env::var("GPECNET_DEMO_MODEL").unwrap_or_else(|_| {
-        let default = "sdd-m-tiny-qe";
+        let default = "sdd-m-lp-qe";
         if names.iter().any(|n| n == default) {
             default.to_string()
         } else {

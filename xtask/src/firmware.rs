@@ -82,7 +82,7 @@ pub(crate) fn fw_build(o: &Opts, extra: &[&str]) -> i32 {
 }
 
 /// The model the firmware demo runs (signed, metric).
-pub(crate) const DEMO_MODEL: &str = "sdd-m-tiny-qe";
+pub(crate) const DEMO_MODEL: &str = "sdd-m-lp-qe";
 
 pub(crate) fn fw_run(o: &Opts) -> i32 {
     require(true);

@@ -45,9 +45,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// The main job from scratch: setup, then the shipped embedded model (weights/sdd-tiny-v2-qe)
-    /// on the SDD test set through gpecnet-core (ADE/FDE + out/predictions.svg), then the two
-    /// MCU models (pixel and metric) on the STM32F405 in QEMU, bit-exact with the host.
+    /// The main job from scratch: setup, then the shipped embedded model (weights/sdd-m-lp-qe,
+    /// metres) on the SDD test set through gpecnet-core (ADE/FDE in metres and pixels +
+    /// out/predictions.svg), then the two MCU models (metric and pixel) on the STM32F405 in
+    /// QEMU, bit-exact with the host.
     Demo(FwArgs),
     /// Install missing prerequisites (apt: Debian rust toolchain, lld-22, qemu-system-arm).
     Setup,
@@ -187,7 +188,9 @@ fn demo(o: &Opts) -> i32 {
     ]);
     c.args([
         "--blob",
-        "weights/sdd-tiny-v2-qe.gpec",
+        "weights/sdd-m-lp-qe.gpec",
+        "--dataset",
+        "sdd-m",
         "--draw",
         "out/predictions.svg",
     ]);
@@ -201,7 +204,7 @@ fn demo(o: &Opts) -> i32 {
 }
 
 /// The models `cargo xtask demo` replays on the emulated STM32F405.
-const DEMO_MODELS: [&str; 2] = ["sdd-tiny-v2-qe", "sdd-m-tiny-qe"];
+const DEMO_MODELS: [&str; 2] = ["sdd-tiny-v2-qe", "sdd-m-lp-qe"];
 
 fn main() {
     let code = match Cli::parse().cmd {
