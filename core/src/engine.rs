@@ -25,11 +25,10 @@
 //! 4. For each sample: `z` = the next `zdim` normals of
 //!    [`crate::prng::Gaussian`] seeded with `seed`, each times `sigma` (f32),
 //!    converted with the decoder's input exponent — or, for a model with a
-//!    learned proposal (format version 5), latent `i` of the proposal: its
-//!    hidden layers run once per call on `f` (in [`Engine::start`]), sample
-//!    `i` computes rows `i·zdim ..` of its last layer, clamps each value to
-//!    `±latent_bound` in f32 and converts it likewise (`weights/FORMAT.md`,
-//!    "Format version 5"); the first layer continues
+//!    learned proposal (format version 5), latent `i` of the proposal:
+//!    sample `i` runs its hidden layers on `f` and rows `i·zdim ..` of its
+//!    last layer, clamps each value to `±latent_bound` in f32 and converts it
+//!    likewise (`weights/FORMAT.md`, "Format version 5"); the first layer continues
 //!    the same sum over the latent columns ([`Backend::latent`]: equal to one
 //!    sequential pass over `[f, z]`), then the remaining decoder layers give
 //!    `d` (the normalised endpoint).
@@ -49,10 +48,10 @@
 //!
 //! # Memory
 //!
-//! `Engine<B, W>` holds five activation rows and one partial-sum row of `W`
-//! (f32: `24·W` bytes; Q15: `18·W` bytes; the fifth row keeps a proposal's
-//! hidden vector), the model view (about 1.8 KiB on a 32-bit target: six
-//! networks of up to eight layer descriptors) and the sampler state. Weights are read in place. A call
+//! `Engine<B, W>` holds four activation rows and one partial-sum row of `W`
+//! (f32: `20·W` bytes; Q15: `16·W` bytes), the model view (about 1.8 KiB on
+//! a 32-bit target: six networks of up to eight layer descriptors) and the
+//! sampler state. Weights are read in place. A call
 //! uses under 1 KiB of stack besides what the caller passes; the endpoint set
 //! of a test-time-sampling model adds its `N`-sample buffer (`8·N` bytes).
 //! `cargo xtask profile` measures both on the Cortex-M4F.
@@ -197,9 +196,6 @@ pub struct Engine<'a, B: Backend, const W: usize> {
     b: Row<B::Act, W>,
     feat: Row<B::Act, W>,
     z: Row<B::Act, W>,
-    /// A proposal model's hidden vector (the input of its last layer).
-    prop: Row<B::Act, W>,
-    prop_width: usize,
     /// Samples drawn since [`Engine::start`].
     drawn: usize,
     part: [B::Acc; W],
@@ -232,8 +228,6 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             b: Row([B::Act::default(); W]),
             feat: Row([B::Act::default(); W]),
             z: Row([B::Act::default(); W]),
-            prop: Row([B::Act::default(); W]),
-            prop_width: 0,
             drawn: 0,
             part: [B::Acc::default(); W],
             frame: Frame::raw(),
@@ -315,16 +309,6 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         if let Some(l0) = self.model.decoder().layer(0) {
             B::partial(l0, &self.feat.0[..fdim], &mut self.part);
         }
-        let prop = self.model.proposal();
-        let hidden = prop.len().saturating_sub(1);
-        let h = run_network_layers::<B>(
-            prop.layers().take(hidden),
-            &self.feat.0[..fdim],
-            &mut self.a.0,
-            &mut self.b.0,
-        );
-        self.prop_width = h.len();
-        self.prop.0[..h.len()].copy_from_slice(h);
         self.drawn = 0;
         self.frame = frame;
         self.last = past.last().copied().unwrap_or([0.0; 2]);
@@ -392,11 +376,13 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
     }
 
     /// Step 4 of a proposal model: latent `i` (the `i`-th sample since
-    /// [`Engine::start`]) into `z`: rows `i·zdim ..` of the proposal's last
-    /// layer on its hidden vector, each value as f32 (its output exponent),
-    /// clamped to `±latent_bound` (NaN stays NaN), converted with the
-    /// decoder's input exponent `ez`. [`PredictError::BadSampleCount`] past
-    /// the model's [`Model::proposal_latents`].
+    /// [`Engine::start`]) into `z`: the proposal's hidden layers on the
+    /// features (recomputed per sample: a few hundred MACs, against a
+    /// scratch row the Cortex-M0 has no RAM for), rows `i·zdim ..` of its
+    /// last layer on them, each value as f32 (its output exponent), clamped
+    /// to `±latent_bound` (NaN stays NaN), converted with the decoder's input
+    /// exponent `ez`. [`PredictError::BadSampleCount`] past the model's
+    /// [`Model::proposal_latents`].
     fn proposed_latent(&mut self, zdim: usize, ez: i8) -> Result<(), PredictError> {
         let prop = self.model.proposal();
         let rows = prop
@@ -404,8 +390,15 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             .last()
             .and_then(|l| l.rows(self.drawn.checked_mul(zdim)?, zdim))
             .ok_or(PredictError::BadSampleCount)?;
-        let hw = self.prop_width.min(W);
-        B::dense(&rows, &self.prop.0[..hw], &mut self.z.0[..zdim]);
+        let fdim = (self.model.config().fdim as usize).min(W);
+        let hidden = prop.len().saturating_sub(1);
+        let h = run_network_layers::<B>(
+            prop.layers().take(hidden),
+            &self.feat.0[..fdim],
+            &mut self.a.0,
+            &mut self.b.0,
+        );
+        B::dense(&rows, h, &mut self.z.0[..zdim]);
         let (eo, bound) = (rows.out_exp(), self.model.latent_bound());
         for zi in self.z.0[..zdim].iter_mut() {
             let v = B::to_f32(*zi, eo);

@@ -56,9 +56,8 @@
 //!
 //! # Memory
 //!
-//! [`crate::engine::Engine`]`<Q15, W>` holds five `i16` rows and one `i64`
-//! row of `W` (`18·W` bytes; cards of models quantised before the latent
-//! proposal's row existed say `16·W`). The sine table is 514 bytes of flash.
+//! [`crate::engine::Engine`]`<Q15, W>` holds four `i16` rows and one `i64`
+//! row of `W` (`16·W` bytes). The sine table is 514 bytes of flash.
 //!
 //! # Speed (Cortex-M4/M7)
 //!

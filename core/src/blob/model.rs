@@ -331,16 +331,16 @@ impl<'a> Model<'a> {
     }
     /// Multiply-accumulates to predict `k` endpoints (encoder once, the
     /// decoder's feature columns once, its latent columns and the rest `k` times;
-    /// with a proposal, its hidden layers once and `zdim` rows of its last
-    /// layer per latent).
+    /// with a proposal, per latent its hidden layers and `zdim` rows of its
+    /// last layer).
     pub fn endpoint_macs(&self, k: usize) -> usize {
         let fdim = self.config.fdim as usize;
         let first = self.decoder.layer(0).map_or(0, |l| l.out_dim);
         let proposal = match self.proposal.layers().last() {
             None => 0,
             Some(last) => {
-                let rows = k * self.config.zdim as usize;
-                self.proposal.macs() - last.macs() + rows * last.in_dim
+                let hidden = self.proposal.macs() - last.macs();
+                k * (hidden + self.config.zdim as usize * last.in_dim)
             }
         };
         self.encoder_past.macs()
@@ -373,7 +373,25 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         0.0
     };
-    let mut nets = [Network::EMPTY; 6];
+    // The networks are parsed straight into the model (no second set of six
+    // network tables on the stack: the Cortex-M0's 16 KiB of RAM counts them).
+    let mut model = Model {
+        name: info.name,
+        numeric: info.numeric,
+        config: info.config,
+        encoder_past: Network::EMPTY,
+        decoder: Network::EMPTY,
+        encoder_dest: Network::EMPTY,
+        predictor: Network::EMPTY,
+        point_head: Network::EMPTY,
+        proposal: Network::EMPTY,
+        latent_bound,
+        ext,
+        crc: 0,
+        unit: meta.unit,
+        metres_per_pixel: meta.metres_per_pixel,
+        period_s: meta.period_s,
+    };
     let n_nets = if pre.version >= PROPOSAL_FORMAT_VERSION {
         6
     } else if v2 {
@@ -381,7 +399,15 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         4
     };
-    for net in nets.iter_mut().take(n_nets) {
+    let nets = [
+        &mut model.encoder_past,
+        &mut model.decoder,
+        &mut model.encoder_dest,
+        &mut model.predictor,
+        &mut model.point_head,
+        &mut model.proposal,
+    ];
+    for net in nets.into_iter().take(n_nets) {
         let n: u8 = take(&mut cur)?;
         if n as usize > MAX_LAYERS {
             return Err(BlobError::ExceedsCapacity);
@@ -394,24 +420,6 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     if !cur.is_empty() {
         return Err(BlobError::TrailingBytes);
     }
-    let [encoder_past, decoder, encoder_dest, predictor, point_head, proposal] = nets;
-    let model = Model {
-        name: info.name,
-        numeric: info.numeric,
-        config: info.config,
-        encoder_past,
-        decoder,
-        encoder_dest,
-        predictor,
-        point_head,
-        proposal,
-        latent_bound,
-        ext,
-        crc: 0,
-        unit: meta.unit,
-        metres_per_pixel: meta.metres_per_pixel,
-        period_s: meta.period_s,
-    };
     validate(&model)?;
     Ok(model)
 }

@@ -41,7 +41,7 @@ pub struct QuantCard {
     pub test_f32: Metrics,
     /// Fixed point through `gpecnet_core::Predictor` (its fixed-point engine) on SDD test (pixels).
     pub test_fixed: Metrics,
-    /// Fixed-point engine scratch bytes (`18·W`) at the smallest width the model allows.
+    /// Fixed-point engine scratch bytes (`16·W`) at the smallest width the model allows.
     pub scratch_bytes: usize,
     /// Distribution quality of the f32 source's K samples on SDD test (KDE NLL in nats/px,
     /// hit rates at 20 / 40 px).
@@ -214,7 +214,7 @@ pub fn quantize_blob_with(
         calibration_windows: cal_windows,
         test_f32,
         test_fixed,
-        scratch_bytes: 18 * width,
+        scratch_bytes: 16 * width,
         test_f32_dist,
         test_fixed_dist,
         inference,
@@ -397,7 +397,7 @@ power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit 
     )
     .fact("exponents (in→out per layer)", exps.join("; "))
     .fact(
-        "fixed-point engine scratch at minimum width (`Engine<Q15, W>` rows, `18·W`)",
+        "fixed-point engine scratch at minimum width (`Engine<Q15, W>` rows, `16·W`)",
         format!("{} bytes", c.scratch_bytes),
     )
     .fact("networks", nets)
