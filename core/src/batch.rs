@@ -173,7 +173,8 @@ pub struct Batch<'a, B: Backend, const W: usize, const L: usize> {
     lasts: [[f32; 2]; L],
     gauss: [Gaussian; L],
     /// The scalar engine, for one track's calls of at most `L / 4` samples
-    /// (where lanes would mostly compute on padding).
+    /// (where lanes would mostly compute on padding) and for every call of a
+    /// proposal model (its latents are computed per track).
     scalar: Engine<'a, B, W>,
 }
 

@@ -23,7 +23,7 @@
 
 #if defined(GPECNET_PTR32)
 // Bytes of caller storage [`gpecnet_init`] needs on a 32-bit target
-// (Cortex-M: 4,136 B used before the latent proposal, checked at compile time; the header picks the value by `UINTPTR_MAX`).
+// (Cortex-M: checked at compile time, with room for the format-5 model view; the header picks the value by `UINTPTR_MAX`).
 #define GPECNET_PREDICTOR_SIZE 5120
 #endif
 
@@ -259,7 +259,8 @@ typedef struct GpecnetModelInfo {
   uint32_t tts_samples;
   // Most endpoints [`gpecnet_predict_endpoints`] gives (every `k` in
   // `1..=max_endpoints` is accepted): `min(tts_samples, 64)` with test-time
-  // sampling (k-means gives at most 64 centres), [`GPECNET_MAX_SAMPLES`]
+  // sampling (k-means gives at most 64 centres), `min(K, GPECNET_MAX_SAMPLES)`
+  // for a model with a learned proposal of K latents, [`GPECNET_MAX_SAMPLES`]
   // for plain sampling.
   uint32_t max_endpoints;
   // 1 when [`gpecnet_predict_point`] is available, else 0.

@@ -89,7 +89,7 @@ pub use tracks::*;
 // ---------------------------------------------------------------- constants
 
 /// Bytes of caller storage [`gpecnet_init`] needs on a 32-bit target
-/// (Cortex-M: 4,136 B used before the latent proposal, checked at compile time; the header picks the value by `UINTPTR_MAX`).
+/// (Cortex-M: checked at compile time, with room for the format-5 model view; the header picks the value by `UINTPTR_MAX`).
 #[cfg(target_pointer_width = "32")]
 pub const GPECNET_PREDICTOR_SIZE: usize = 5120;
 /// Bytes of caller storage [`gpecnet_init`] needs on a 64-bit target
@@ -817,7 +817,8 @@ pub struct GpecnetModelInfo {
     pub tts_samples: u32,
     /// Most endpoints [`gpecnet_predict_endpoints`] gives (every `k` in
     /// `1..=max_endpoints` is accepted): `min(tts_samples, 64)` with test-time
-    /// sampling (k-means gives at most 64 centres), [`GPECNET_MAX_SAMPLES`]
+    /// sampling (k-means gives at most 64 centres), `min(K, GPECNET_MAX_SAMPLES)`
+    /// for a model with a learned proposal of K latents, [`GPECNET_MAX_SAMPLES`]
     /// for plain sampling.
     pub max_endpoints: u32,
     /// 1 when [`gpecnet_predict_point`] is available, else 0.

@@ -635,6 +635,12 @@ pub fn blob_to_onnx(blob: &[u8], endpoint_only: bool) -> Result<(Vec<u8>, OnnxSu
             m.name()
         );
     }
+    if m.has_proposal() {
+        bail!(
+            "{} computes its latents with a learned proposal (format version 5), which this ONNX graph (latents as the input z) does not carry; export the blob without it (e.g. weights/sdd-m-tiny.gpec for sdd-m-lp)",
+            m.name()
+        );
+    }
     let crc = m.crc();
     let model = crate::export::read_blob(blob)?;
     let (proto, summary) = model_proto(&model, crc, endpoint_only)?;

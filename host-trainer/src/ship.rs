@@ -666,7 +666,7 @@ pub fn model_card_md(
     .fact("produced by", format!("`gpecnet export --run {} --name {name}{flags}`", run.display()))
     .text(&c.proposal.as_ref().map_or(String::new(), |p| {
         format!(
-            "| latent proposal | {}; {} m validation minFDE (K = {}) at its epoch {} (the prior's 80 → 20 k-means: see `docs/latents.md`); trained by `{}` |\n",
+            "| latent proposal | {}; validation minFDE {} {u} (K = {}) at its epoch {} (`docs/latents.md`); trained by `{}` |\n",
             p.shape, p.val_min_fde, p.k, p.epoch, p.command
         )
     }))

@@ -15,7 +15,12 @@ use crate::root;
 use crate::toolchain::{require, status, thumb_build, TARGET};
 
 /// Fixed-point models (an f32 model through `libm::sinf` in f64 emulation takes minutes in QEMU).
-const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-m-tiny-qe", "sdd-m-lp-qe", "sdd-tiny-qe"];
+const MODELS: &[&str] = &[
+    "sdd-tiny-v2-qe",
+    "sdd-m-tiny-qe",
+    "sdd-m-lp-qe",
+    "sdd-tiny-qe",
+];
 const APT: &[&str] = &[
     "gcc-arm-none-eabi",
     "libnewlib-arm-none-eabi",

@@ -8,7 +8,7 @@ use super::BlobError;
 
 /// The four bytes every blob starts with.
 pub const MAGIC: [u8; 4] = *b"GPEC";
-/// The newest format version this reader understands (it also reads versions 1 to 3).
+/// The newest format version this reader understands (it also reads versions 1 to 4).
 ///
 /// Version 2 adds [`Extensions`] after [`ModelInfo`] and a fifth network, the
 /// point-forecast head, after the predictor. Version 3 keeps version 2's
@@ -19,8 +19,8 @@ pub const MAGIC: [u8; 4] = *b"GPEC";
 /// the extensions: the unit of positions, the sample period, the training
 /// data and its licence. The writer emits version 4 when it is given a
 /// [`Meta`] and version 3 otherwise. Version 5 adds a learned latent
-/// proposal (a sixth network and its latent bound) after the five networks'
-/// place; the writer emits it only for a model that has one.
+/// proposal: its latent bound after [`Meta`] and a sixth network after the
+/// point-forecast head; the writer emits it only for a model that has one.
 pub const FORMAT_VERSION: u16 = 5;
 /// The first format version that may carry a latent proposal network.
 pub const PROPOSAL_FORMAT_VERSION: u16 = 5;

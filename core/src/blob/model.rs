@@ -1,4 +1,4 @@
-//! A validated model ([`Model`]) of up to five networks ([`Network`]), and
+//! A validated model ([`Model`]) of up to six networks ([`Network`]), and
 //! the parser of a blob's body.
 
 use super::header::take;
@@ -280,8 +280,9 @@ impl<'a> Model<'a> {
         &self.ext
     }
     /// The widest layer of any network: the scratch width a predictor needs.
-    /// A proposal's last layer counts as `zdim` wide: the engine computes one
-    /// latent (`zdim` of its rows) at a time.
+    /// A proposal's last layer counts by its input width only: the engine
+    /// computes one latent (`zdim` of its rows, within
+    /// [`Model::scratch_width`]) at a time.
     pub fn max_width(&self) -> usize {
         let proposal = self
             .proposal
@@ -339,14 +340,15 @@ impl<'a> Model<'a> {
         let proposal = match self.proposal.layers().last() {
             None => 0,
             Some(last) => {
-                let hidden = self.proposal.macs() - last.macs();
-                k * (hidden + self.config.zdim as usize * last.in_dim)
+                let hidden = self.proposal.macs().saturating_sub(last.macs());
+                let rows = (self.config.zdim as usize).saturating_mul(last.in_dim);
+                k.saturating_mul(hidden.saturating_add(rows))
             }
         };
-        self.encoder_past.macs()
-            + first * fdim
-            + k * (self.decoder.macs() - first * fdim)
-            + proposal
+        let per_sample = self.decoder.macs().saturating_sub(first * fdim);
+        (self.encoder_past.macs() + first * fdim)
+            .saturating_add(k.saturating_mul(per_sample))
+            .saturating_add(proposal)
     }
 }
 

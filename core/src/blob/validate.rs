@@ -61,14 +61,16 @@ pub(super) fn validate(m: &Model<'_>) -> Result<(), BlobError> {
 }
 
 /// The latent proposal (format version 5): present exactly when the bound
-/// is (a finite value > 0; else [`BlobError::BadConfig`]), `fdim → K·zdim`
+/// is (a finite value > 0, and +0.0 without a proposal; else
+/// [`BlobError::BadConfig`]), `fdim → K·zdim`
 /// with `1 ≤ K ≤` [`MAX_PROPOSAL_LATENTS`] and a linear last layer
 /// ([`BlobError::ShapeMismatch`]), and never together with test-time
 /// sampling (one endpoint protocol per model: [`BlobError::BadConfig`]).
 fn check_proposal(m: &Model<'_>) -> Result<(), BlobError> {
     let b = m.latent_bound;
     if m.proposal.is_empty() {
-        return if b == 0.0 {
+        // +0.0 only: one encoding per blob (a -0.0 would not re-write to itself).
+        return if b.to_bits() == 0 {
             Ok(())
         } else {
             Err(BlobError::BadConfig)

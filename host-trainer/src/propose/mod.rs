@@ -334,6 +334,14 @@ impl ProposeRun<'_> {
                 n += 1;
             }
             let v = fit::validate(&proposal, &decoder, &val, &loss_spec)?;
+            if !v.min_fde.is_finite() || val.n == 0 {
+                bail!(
+                    "epoch {}: validation minFDE is {} on {} windows; nothing to select on",
+                    ck.epoch + 1,
+                    v.min_fde,
+                    val.n
+                );
+            }
             ck.epoch += 1;
             let row = EpochRow {
                 epoch: ck.epoch,
