@@ -220,10 +220,7 @@ pub fn eval_blob(
     } else {
         None
     };
-    let hit_radii: [f64; 2] = match unit {
-        Unit::Pixels => [20.0, 40.0],
-        Unit::Metres => [0.5, 1.0],
-    };
+    let hit_radii = crate::eval::hit_radii(unit);
     let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
     let svg = match svg {
         Some(path) => {

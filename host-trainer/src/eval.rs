@@ -563,6 +563,15 @@ pub fn dist_metrics(ds: &Dataset, preds: &[Prediction]) -> Option<DistMetrics> {
     dist_accumulator(ds, preds)?.finish()
 }
 
+/// The radii of the two hit rates reported beside every endpoint set: 0.5 / 1 m, or
+/// 20 / 40 px.
+pub fn hit_radii(unit: crate::data::Unit) -> [f64; 2] {
+    match unit {
+        crate::data::Unit::Pixels => [20.0, 40.0],
+        crate::data::Unit::Metres => [0.5, 1.0],
+    }
+}
+
 /// The [`DistAccumulator`] of predictions for every window of `ds` (in order), for callers
 /// that want [`DistAccumulator::within`] at other radii too; `None` when the lengths differ.
 pub fn dist_accumulator(ds: &Dataset, preds: &[Prediction]) -> Option<DistAccumulator> {

@@ -27,6 +27,10 @@ pub struct SelectRow {
     pub tts: usize,
     /// Validation metrics of the K endpoints.
     pub val: Metrics,
+    /// Their distribution quality: KDE NLL of the true endpoint (nats, the data's unit).
+    pub kde_nll: f64,
+    /// Share of windows with an endpoint within 0.5 / 1 m (20 / 40 px).
+    pub hits: [f64; 2],
 }
 
 /// The validation windows of a run's config (raw coordinates).
@@ -75,11 +79,16 @@ pub fn select(
             m.config.tts_iters = if n > 0 { 3 } else { 0 };
             m.config.tts_init = 0;
             let blob = blob_bytes(&m)?;
-            let (val_m, _) = evaluate_core(&blob, sine, &val, k, 0)?;
+            let (val_m, preds) = evaluate_core(&blob, sine, &val, k, 0)?;
+            let acc = crate::eval::dist_accumulator(&val, &preds)
+                .ok_or_else(|| anyhow::anyhow!("one prediction per validation window"))?;
+            let radii = crate::eval::hit_radii(val.unit);
             rows.push(SelectRow {
                 sigma,
                 tts: n,
                 val: val_m,
+                kde_nll: acc.finish().map_or(f64::NAN, |d| d.kde_nll),
+                hits: radii.map(|r| acc.within(r)),
             });
         }
     }
@@ -99,11 +108,19 @@ pub fn best(rows: &[SelectRow]) -> Option<&SelectRow> {
 /// and the point forecast's line; every line ends in a newline.
 pub fn table(k: usize, rows: &[SelectRow], point: Option<&Metrics>) -> String {
     let mut s = format!("validation, through gpecnet-core, K = {k}:\n");
-    s.push_str("| sigma | N | minADE | minFDE |\n|---|---|---|---|\n");
+    s.push_str(
+        "| sigma | N | minADE | minFDE | KDE NLL | hits (two radii) |\n|---|---|---|---|---|---|\n",
+    );
     for r in rows {
         s.push_str(&format!(
-            "| {} | {} | {:.3} | {:.3} |\n",
-            r.sigma, r.tts, r.val.min_ade, r.val.min_fde
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.1} % / {:.1} % |\n",
+            r.sigma,
+            r.tts,
+            r.val.min_ade,
+            r.val.min_fde,
+            r.kde_nll,
+            100.0 * r.hits[0],
+            100.0 * r.hits[1]
         ));
     }
     if let Some(p) = point {

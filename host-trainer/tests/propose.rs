@@ -54,6 +54,16 @@ fn a_proposal_run_trains_on_train_selects_on_validation_and_resumes() {
     // select --run runs/gen/sdd-m-mirror-s2 --sigmas 1.3 --tts 0`), its 80 → 20 k-means
     // 0.477 m; two epochs of the proposal already beat both.
     assert!(p.val.val_min_fde < 0.47, "{:?}", p.val);
+    // The same proposal joined to the model, through gpecnet-core: the training loop's
+    // validation minFDE (candle) again, and the set's distribution quality beside it.
+    let core = p.val_core.expect("validation through gpecnet-core");
+    assert!(
+        (core.min_fde - p.val.val_min_fde).abs() < 1e-3,
+        "{core:?} {:?}",
+        p.val
+    );
+    assert_eq!(core.radii, [0.5, 1.0]);
+    assert!(core.kde_nll.is_finite() && core.hits[0] > 0.5 && core.hits[1] >= core.hits[0]);
     assert_eq!(p.layers.last().map(|l| l.out_dim), Some(20 * 16));
     // A second run into the folder is refused; a resume with other settings too.
     let (ok, text) = propose(&out, "2", &[]);

@@ -115,6 +115,30 @@ pub struct ProposalFile {
     pub val: EpochRow,
     /// The layers (last one linear, `K·zdim` outputs).
     pub layers: Vec<LayerFile>,
+    /// The selected proposal with its model, through `gpecnet-core` on the validation windows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_core: Option<ValCore>,
+}
+
+/// Validation numbers of the selected proposal computed through `gpecnet-core` (the f32
+/// blob the export would write), in the data set's unit: the set's distribution quality
+/// beside its minFDE, so a set that wins minFDE by spreading its points shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ValCore {
+    /// Windows.
+    pub n: usize,
+    /// minADE, best of K.
+    pub min_ade: f64,
+    /// minFDE, best of K.
+    pub min_fde: f64,
+    /// Mean FDE over the K endpoints.
+    pub mean_fde: f64,
+    /// KDE NLL of the true endpoint under the K endpoints (nats; `crate::eval::kde_nll`).
+    pub kde_nll: f64,
+    /// The two hit radii (0.5 / 1 m, or 20 / 40 px).
+    pub radii: [f64; 2],
+    /// Share of windows with an endpoint within each radius.
+    pub hits: [f64; 2],
 }
 
 /// One exported layer.
@@ -408,6 +432,11 @@ impl ProposeRun<'_> {
                     b: l.b.clone(),
                 })
                 .collect(),
+            val_core: None,
+        };
+        let file = ProposalFile {
+            val_core: Some(self.val_core(&file, &spec)?),
+            ..file
         };
         write_atomic(
             &self.out.join("proposal.json"),
@@ -507,6 +536,38 @@ pub fn frozen_fingerprint(m: &RefModel) -> u32 {
     d.update(&m.config.data_scale.to_le_bytes());
     d.update(&(m.config.heading_steps as u64).to_le_bytes());
     d.finalize()
+}
+
+impl ProposeRun<'_> {
+    /// [`ValCore`] of `file` joined to the frozen model.
+    fn val_core(&self, file: &ProposalFile, spec: &DatasetSpec) -> Result<ValCore> {
+        let mut m = self.model.clone();
+        m.config.tts_samples = 0;
+        m.nets.proposal = file.layers();
+        m.config.latent_bound = file.settings.bound;
+        let blob = crate::export::blob_bytes(&m)?;
+        let val = data::load(
+            &self.data_root,
+            spec,
+            data::Split::Val,
+            &file.settings.val_scenes,
+        )?;
+        let k = file.settings.k;
+        let sine = crate::reference::SineKind::Libm;
+        let (metrics, preds) = crate::core_eval::evaluate_core(&blob, sine, &val, k, 0)?;
+        let acc = crate::eval::dist_accumulator(&val, &preds).context("no validation windows")?;
+        let dist = acc.finish().context("no validation windows")?;
+        let radii = crate::eval::hit_radii(val.unit);
+        Ok(ValCore {
+            n: metrics.n,
+            min_ade: metrics.min_ade,
+            min_fde: metrics.min_fde,
+            mean_fde: metrics.mean_fde,
+            kde_nll: dist.kde_nll,
+            radii,
+            hits: radii.map(|r| acc.within(r)),
+        })
+    }
 }
 
 fn metrics_csv(rows: &[EpochRow]) -> String {
