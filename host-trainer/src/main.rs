@@ -109,6 +109,16 @@ enum Command {
     Verify(VerifyArgs),
     /// Train a learned latent proposal (K latents from the past, DLow-like, or a fixed code
     /// book) for a frozen f32 blob, selected on validation; writes <out>/proposal.json.
+    ///
+    /// The blob's networks stay frozen; the proposal is trained against the soft minimum of
+    /// the K endpoint errors and selected on the validation scenes (the test set is never
+    /// read). The run folder holds checkpoint.json (after every epoch, atomically),
+    /// metrics.csv and, at the end, proposal.json with the selected proposal's validation
+    /// numbers through gpecnet-core (minFDE, KDE NLL, hit rates). --resume continues a run
+    /// (the settings must be the same); a folder holding a run is refused without it. Attach
+    /// the result with `gpecnet export --proposal <out>/proposal.json --tts 0`. The shipped
+    /// metric MCU model's proposal (about 2 minutes on one core):
+    /// gpecnet propose --blob weights/sdd-m-tiny.gpec --hidden 8 --seed 1 --out runs/latents/h8-s1
     Propose(gpecnet_trainer::propose::ProposeArgs),
 }
 

@@ -1,0 +1,229 @@
+//! The files of a proposal run: its settings and epoch rows, the exported proposal
+//! (`proposal.json`) with its validation numbers through `gpecnet-core`, the model card's
+//! record of it, and the fingerprint that ties a proposal to the frozen model it was
+//! trained for.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::network::{Act, Layer};
+use crate::reference::RefModel;
+
+/// What a proposal run is (a resumed run must match it exactly).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProposeSettings {
+    /// CRC-32 of the frozen f32 blob.
+    pub blob_crc: u32,
+    /// Data set name (`sdd-m`, `sdd`, ...).
+    pub dataset: String,
+    /// SDD validation scenes.
+    pub val_scenes: Vec<String>,
+    /// Seed of the initialisation and the batch order.
+    pub seed: u64,
+    /// Latents per window.
+    pub k: usize,
+    /// Hidden widths of the proposal network (empty with `codebook`).
+    pub hidden: Vec<usize>,
+    /// Hidden activation.
+    pub act: Act,
+    /// K fixed latents (the bias of one layer whose weights stay 0).
+    pub codebook: bool,
+    /// Epochs.
+    pub epochs: usize,
+    /// Windows per batch.
+    pub batch: usize,
+    /// Adam learning rate.
+    pub lr: f64,
+    /// Weight of `½‖z‖²`.
+    pub prior_weight: f32,
+    /// Soft-min temperature in the caller's unit.
+    pub temperature: f32,
+    /// Latent clamp `±bound`.
+    pub bound: f32,
+    /// Time-reversed copies of the training windows.
+    pub time_reversal: bool,
+    /// Mirrored (y → −y) copies of the training windows.
+    pub mirror: bool,
+}
+
+/// One epoch's numbers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpochRow {
+    /// Epoch (1-based).
+    pub epoch: usize,
+    /// Mean training loss (normalised units).
+    pub loss: f64,
+    /// Validation minFDE (caller's unit).
+    pub val_min_fde: f64,
+    /// Validation share of clamped latent components.
+    pub val_clamped: f64,
+    /// Validation mean latent norm.
+    pub val_z_norm: f64,
+}
+
+/// The exported proposal (`proposal.json`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ProposalFile {
+    /// The run's settings.
+    pub settings: ProposeSettings,
+    /// [`frozen_fingerprint`] of the model it was trained for.
+    pub frozen: u32,
+    /// The frozen blob's path as given to `gpecnet propose`.
+    #[serde(default)]
+    pub source: String,
+    /// The best validation epoch.
+    pub epoch: usize,
+    /// Its validation numbers.
+    pub val: EpochRow,
+    /// The layers (last one linear, `K·zdim` outputs).
+    pub layers: Vec<LayerFile>,
+    /// The selected proposal with its model, through `gpecnet-core` on the validation windows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_core: Option<ValCore>,
+}
+
+/// Validation numbers of the selected proposal computed through `gpecnet-core` (the f32
+/// blob the export would write), in the data set's unit: the set's distribution quality
+/// beside its minFDE, so a set that wins minFDE by spreading its points shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ValCore {
+    /// Windows.
+    pub n: usize,
+    /// minADE, best of K.
+    pub min_ade: f64,
+    /// minFDE, best of K.
+    pub min_fde: f64,
+    /// Mean FDE over the K endpoints.
+    pub mean_fde: f64,
+    /// KDE NLL of the true endpoint under the K endpoints (nats; `crate::eval::kde_nll`).
+    pub kde_nll: f64,
+    /// The two hit radii (0.5 / 1 m, or 20 / 40 px).
+    pub radii: [f64; 2],
+    /// Share of windows with an endpoint within each radius.
+    pub hits: [f64; 2],
+}
+
+/// One exported layer.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LayerFile {
+    /// Input width.
+    pub in_dim: usize,
+    /// Output width.
+    pub out_dim: usize,
+    /// Activation.
+    pub act: Act,
+    /// Row-major weights.
+    pub w: Vec<f32>,
+    /// Biases.
+    pub b: Vec<f32>,
+}
+
+impl ProposalFile {
+    /// The layers as the trainer's exported layers.
+    pub fn layers(&self) -> Vec<Layer> {
+        self.layers
+            .iter()
+            .map(|l| Layer::new(l.in_dim, l.out_dim, l.act, l.w.clone(), l.b.clone()))
+            .collect()
+    }
+
+    /// Reads `proposal.json`.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = crate::inpath::read_text_limited(path, crate::inpath::FileKind::Text)?;
+        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))
+    }
+}
+
+/// A proposal's provenance in a model card.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProposalCard {
+    /// The `proposal.json` the export read.
+    pub file: String,
+    /// The network in words (`16 → 10 (relu) → 320 (linear), clamp ±8`).
+    pub shape: String,
+    /// Latents.
+    pub k: usize,
+    /// Its best validation epoch.
+    pub epoch: usize,
+    /// Validation minFDE at that epoch (the blob's unit, 4 decimals).
+    pub val_min_fde: String,
+    /// The `gpecnet propose` command that trains it.
+    pub command: String,
+}
+
+impl ProposalCard {
+    /// The card of `p`, read from `path`.
+    pub fn of(p: &ProposalFile, path: &Path) -> Self {
+        let s = &p.settings;
+        let mut shape: Vec<String> = p
+            .layers
+            .first()
+            .map(|l| l.in_dim.to_string())
+            .into_iter()
+            .collect();
+        for l in &p.layers {
+            shape.push(format!("{} ({})", l.out_dim, act_name(l.act)));
+        }
+        let hidden = if s.codebook {
+            " --codebook".to_string()
+        } else {
+            format!(
+                " --hidden {} --act {}",
+                s.hidden
+                    .iter()
+                    .map(usize::to_string)
+                    .collect::<Vec<_>>()
+                    .join(","),
+                act_name(s.act)
+            )
+        };
+        Self {
+            file: path.display().to_string(),
+            shape: format!("{}, clamp ±{}", shape.join(" → "), s.bound),
+            k: s.k,
+            epoch: p.epoch,
+            val_min_fde: format!("{:.4}", p.val.val_min_fde),
+            command: format!(
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{} --out {}",
+                p.source,
+                s.dataset,
+                s.seed,
+                s.k,
+                s.epochs,
+                s.batch,
+                s.lr,
+                s.prior_weight,
+                s.temperature,
+                s.bound,
+                if s.time_reversal { "" } else { " --no-time-reversal" },
+                if s.mirror { "" } else { " --no-mirror" },
+                path.parent().map_or(".".into(), |d| d.display().to_string()),
+            ),
+        }
+    }
+}
+
+fn act_name(a: Act) -> &'static str {
+    match a {
+        Act::Linear => "linear",
+        Act::Relu => "relu",
+        Act::Sine => "sine",
+    }
+}
+
+/// CRC-32 of the f32 bytes of the frozen networks (`encoder_past`, then `decoder`: each
+/// layer's weights, then biases) and of `data_scale` and the heading frame: a proposal
+/// fits exactly the model it was trained on.
+pub fn frozen_fingerprint(m: &RefModel) -> u32 {
+    let mut d = gpecnet_core::blob::CRC32.digest();
+    for l in m.nets.encoder_past.iter().chain(&m.nets.decoder) {
+        for v in l.w.iter().chain(&l.b) {
+            d.update(&v.to_le_bytes());
+        }
+    }
+    d.update(&m.config.data_scale.to_le_bytes());
+    d.update(&(m.config.heading_steps as u64).to_le_bytes());
+    d.finalize()
+}
