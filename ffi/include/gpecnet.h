@@ -23,14 +23,14 @@
 
 #if defined(GPECNET_PTR32)
 // Bytes of caller storage [`gpecnet_init`] needs on a 32-bit target
-// (Cortex-M: checked at compile time, with room for the format-5 model view; the header picks the value by `UINTPTR_MAX`).
-#define GPECNET_PREDICTOR_SIZE 5120
+// (Cortex-M: 4,456 B used today; the header picks the value by `UINTPTR_MAX`).
+#define GPECNET_PREDICTOR_SIZE 4480
 #endif
 
 #if defined(GPECNET_PTR64)
 // Bytes of caller storage [`gpecnet_init`] needs on a 64-bit target
-// (x86-64: 6,736 B used today; the header picks the value by `UINTPTR_MAX`).
-#define GPECNET_PREDICTOR_SIZE 6784
+// (x86-64: 6,216 B used today; the header picks the value by `UINTPTR_MAX`).
+#define GPECNET_PREDICTOR_SIZE 6272
 #endif
 
 // Alignment of that storage, in bytes.

@@ -89,13 +89,13 @@ pub use tracks::*;
 // ---------------------------------------------------------------- constants
 
 /// Bytes of caller storage [`gpecnet_init`] needs on a 32-bit target
-/// (Cortex-M: checked at compile time, with room for the format-5 model view; the header picks the value by `UINTPTR_MAX`).
+/// (Cortex-M: 4,456 B used today; the header picks the value by `UINTPTR_MAX`).
 #[cfg(target_pointer_width = "32")]
-pub const GPECNET_PREDICTOR_SIZE: usize = 5120;
+pub const GPECNET_PREDICTOR_SIZE: usize = 4480;
 /// Bytes of caller storage [`gpecnet_init`] needs on a 64-bit target
-/// (x86-64: 6,736 B used today; the header picks the value by `UINTPTR_MAX`).
+/// (x86-64: 6,216 B used today; the header picks the value by `UINTPTR_MAX`).
 #[cfg(target_pointer_width = "64")]
-pub const GPECNET_PREDICTOR_SIZE: usize = 6784;
+pub const GPECNET_PREDICTOR_SIZE: usize = 6272;
 /// Alignment of that storage, in bytes.
 pub const GPECNET_PREDICTOR_ALIGN: usize = 8;
 /// Scratch width of the predictor: models wider than this are refused.
