@@ -247,9 +247,10 @@ fn main() {
         "pub static TRUSTED_KEYS: &[gpecnet_core::blob::signed::TrustedKey] = &[gpecnet_core::blob::signed::TrustedKey::new([{}])];\n",
         key.join(", ")
     );
-    // `force-rollback`: the stored minimum version starts above the shipped model's (1).
+    // `force-rollback`: the stored minimum version starts above any shipped model's
+    // (the signed ones are at 1 and 2), so the demo model is refused as rolled back.
     let floor = if env::var_os("CARGO_FEATURE_FORCE_ROLLBACK").is_some() {
-        2
+        u32::MAX
     } else {
         0
     };
