@@ -133,11 +133,7 @@ fn run_network<'s, B: Backend>(
     a: &'s mut [B::Act],
     b: &'s mut [B::Act],
 ) -> &'s [B::Act] {
-    let n = input.len().min(a.len());
-    if let (Some(dst), Some(src)) = (a.get_mut(..n), input.get(..n)) {
-        dst.copy_from_slice(src);
-    }
-    layers::<B>(net.layers(), a, b, n)
+    run_network_layers::<B>(net.layers(), input, a, b)
 }
 
 /// [`run_network`] over some of a network's layers.

@@ -9,36 +9,13 @@ use common::*;
 use gpecnet_core::fixed::Q15;
 use gpecnet_core::{BlobError, Engine, Error, LibmSine, Model, PredictError, Predictor};
 
-/// Exponents: input 6, features 10, decoder output 5.
-fn nets() -> [Vec<WireLayer>; 4] {
-    use Activation::*;
-    [
-        vec![
-            qlayer(16, 6, Sine, (6, 15), 1),
-            qlayer(6, 4, Linear, (15, 10), 2),
-        ],
-        vec![
-            qlayer(7, 5, Sine, (10, 15), 3),
-            qlayer(5, 2, Linear, (15, 5), 4),
-        ],
-        vec![
-            qlayer(2, 3, Sine, (5, 15), 5),
-            qlayer(3, 3, Relu, (15, 10), 8),
-        ],
-        vec![
-            qlayer(9, 6, Sine, (10, 15), 6),
-            qlayer(6, 22, Linear, (15, 5), 7),
-        ],
-    ]
-}
-
 /// A fixed-point format-1 blob of `nets` (`Err`: the reader's refusal).
 fn encode(nets: &[Vec<WireLayer>; 4]) -> Result<Vec<u8>, Refused> {
     write(NumericKind::Int16Q15, "test-q", config(), nets, None, &[])
 }
 
 fn blob() -> Vec<u8> {
-    encode(&nets()).unwrap()
+    encode(&q_nets()).unwrap()
 }
 
 const PAST: [[f32; 2]; 8] = [
@@ -61,8 +38,8 @@ fn valid_fixed_blob_parses_and_predicts() {
     assert_eq!(m.max_width(), 22);
     let l = m.decoder().layer(0).unwrap();
     assert_eq!((l.in_exp(), l.out_exp()), (10, 15));
-    assert_eq!(l.weight_q(0, 0), i16s(&nets()[1][0].weights)[0]);
-    assert_eq!(l.bias_q(4), i32s(&nets()[1][0].bias)[4]);
+    assert_eq!(l.weight_q(0, 0), i16s(&q_nets()[1][0].weights)[0]);
+    assert_eq!(l.bias_q(4), i32s(&q_nets()[1][0].bias)[4]);
     let mut p = Predictor::<LibmSine, 32>::new(m).unwrap();
     let e1 = samples(&mut p, &PAST, 3, 8).unwrap();
     let e2 = samples(&mut p, &PAST, 3, 8).unwrap();
@@ -140,7 +117,7 @@ fn random_bytes_never_panic() {
 }
 
 fn with(edit: impl Fn(&mut [Vec<WireLayer>; 4])) -> Result<(), Refused> {
-    let mut n = nets();
+    let mut n = q_nets();
     edit(&mut n);
     encode(&n).map(|_| ())
 }
@@ -278,7 +255,7 @@ fn accumulators_exact_at_extremes() {
     use gpecnet_core::fixed::activate_q;
     const N: usize = 131;
     const M: usize = 23;
-    let mut ns = nets();
+    let mut ns = q_nets();
     // Rows: all −32768, all 32767, alternating signs, then mixed extremes.
     let (mut w, mut b, mut s) = (vec![0i16; N * M], vec![0i32; M], vec![0i8; M]);
     for j in 0..M {
@@ -377,11 +354,11 @@ fn short_shifts_flag_per_layer() {
             .map(|i| m.decoder().layer(i).unwrap().short_shifts())
             .collect()
     };
-    let mut n = nets();
+    let mut n = q_nets();
     let base = short(&n);
     assert_eq!(base, [true, true], "the test nets' shifts are all short");
     for (s, want) in [(32, true), (33, false), (62, false), (-31, true), (0, true)] {
-        n = nets();
+        n = q_nets();
         scale(&mut n[1][0]).shifts[1] = s;
         assert_eq!(short(&n), [want, true], "decoder layer 0, shift {s}");
     }

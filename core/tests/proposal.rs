@@ -5,7 +5,7 @@
 use crate::common;
 
 use common::*;
-use gpecnet_blob_writer::{BlobHead, ProposalWire, WireLayer};
+use gpecnet_blob_writer::{BlobHead, WireLayer};
 use gpecnet_core::batch::BatchPredictor;
 use gpecnet_core::blob::{
     Activation, Extensions, Meta, NetworkId, NumericKind, PositionUnit, MAX_PROPOSAL_LATENTS,
@@ -45,18 +45,7 @@ fn write_f32(
         meta: Some(META),
     };
     let [a, b, c, d] = &small_nets(Activation::Sine);
-    gpecnet_blob_writer::blob_bytes_with_proposal(
-        &head,
-        [a, b, c, d, &[]],
-        Some(ProposalWire {
-            layers: proposal,
-            bound,
-        }),
-    )
-    .map_err(|e| match e {
-        gpecnet_blob_writer::WriteError::Rejected { reason, .. } => reason,
-        other => panic!("the writer failed before the reader: {other}"),
-    })
+    write_with_proposal(&head, [a, b, c, d, &[]], proposal, bound)
 }
 
 /// A proposal of `k` latents: 4 → 5 (ReLU) → 3k (linear).
@@ -180,17 +169,7 @@ fn damage_to_a_version_5_blob_is_refused() {
 
 /// Fixed point: exponents 6 (input), 10 (features, decoder input), 5 (decoder output).
 fn write_q15(proposal: &[WireLayer], bound: f32) -> Result<Vec<u8>, Refused> {
-    use Activation::*;
-    let nets = [
-        vec![
-            qlayer(16, 6, Sine, (6, 15), 1),
-            qlayer(6, 4, Linear, (15, 10), 2),
-        ],
-        vec![
-            qlayer(7, 5, Sine, (10, 15), 3),
-            qlayer(5, 2, Linear, (15, 5), 4),
-        ],
-    ];
+    let nets = q_nets();
     let head = BlobHead {
         numeric: NumericKind::Int16Q15,
         name: "v5-q",
@@ -198,18 +177,7 @@ fn write_q15(proposal: &[WireLayer], bound: f32) -> Result<Vec<u8>, Refused> {
         extensions: None,
         meta: Some(META),
     };
-    gpecnet_blob_writer::blob_bytes_with_proposal(
-        &head,
-        [&nets[0], &nets[1], &[], &[], &[]],
-        Some(ProposalWire {
-            layers: proposal,
-            bound,
-        }),
-    )
-    .map_err(|e| match e {
-        gpecnet_blob_writer::WriteError::Rejected { reason, .. } => reason,
-        other => panic!("the writer failed before the reader: {other}"),
-    })
+    write_with_proposal(&head, [&nets[0], &nets[1], &[], &[], &[]], proposal, bound)
 }
 
 #[test]

@@ -147,10 +147,53 @@ pub fn write(
         meta: None,
     };
     let [a, b, c, d] = nets;
-    blob_bytes(&head, [a, b, c, d, point_head]).map_err(|e| match e {
+    blob_bytes(&head, [a, b, c, d, point_head]).map_err(refusal)
+}
+
+/// The reader's refusal a writer error carries (any other writer error fails the test:
+/// the writer must not fail before the reader).
+pub fn refusal(e: WriteError) -> Refused {
+    match e {
         WriteError::Rejected { reason, .. } => reason,
         other => panic!("the writer failed before the reader: {other}"),
-    })
+    }
+}
+
+/// A format-5 blob of `head` and `nets` with `proposal` and its latent bound.
+pub fn write_with_proposal(
+    head: &BlobHead<'_>,
+    nets: [&[WireLayer]; 5],
+    proposal: &[WireLayer],
+    bound: f32,
+) -> Result<Vec<u8>, Refused> {
+    let proposal = gpecnet_blob_writer::ProposalWire {
+        layers: proposal,
+        bound,
+    };
+    gpecnet_blob_writer::blob_bytes_with_proposal(head, nets, Some(proposal)).map_err(refusal)
+}
+
+/// The small fixed-point model: exponents input 6, features 10, decoder output 5.
+pub fn q_nets() -> [Vec<WireLayer>; 4] {
+    use Activation::*;
+    [
+        vec![
+            qlayer(16, 6, Sine, (6, 15), 1),
+            qlayer(6, 4, Linear, (15, 10), 2),
+        ],
+        vec![
+            qlayer(7, 5, Sine, (10, 15), 3),
+            qlayer(5, 2, Linear, (15, 5), 4),
+        ],
+        vec![
+            qlayer(2, 3, Sine, (5, 15), 5),
+            qlayer(3, 3, Relu, (15, 10), 8),
+        ],
+        vec![
+            qlayer(9, 6, Sine, (10, 15), 6),
+            qlayer(6, 22, Linear, (15, 5), 7),
+        ],
+    ]
 }
 
 /// A format-1 f32 blob (`Err`: the reader's refusal).
