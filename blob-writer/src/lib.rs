@@ -16,7 +16,7 @@ pub use gpecnet_core::blob::{
 };
 use gpecnet_core::blob::{
     ModelInfo, Preamble, ALIGNED_FORMAT_VERSION, CRC32, MAGIC, META_FORMAT_VERSION,
-    PROPOSAL_FORMAT_VERSION, TENSOR_ALIGN,
+    PROPOSAL_FORMAT_VERSION, SCORE_FORMAT_VERSION, TENSOR_ALIGN,
 };
 pub use gpecnet_core::golden::GoldenInfo;
 use gpecnet_core::golden::{
@@ -246,11 +246,17 @@ pub struct ProposalWire<'a> {
     pub layers: &'a [WireLayer],
     /// The latent bound (finite, > 0).
     pub bound: f32,
+    /// The radius multipliers `[r50, r90]` of a model with endpoint probabilities (its
+    /// last layer then also has `K` logit rows after the `K·zdim` latent rows): format
+    /// version 6 ([`SCORE_FORMAT_VERSION`]). `[0.0; 2]` for none (version 5).
+    pub radius_scales: [f32; 2],
 }
 
 /// [`blob_bytes`], and with `Some` proposal format version 5
 /// ([`PROPOSAL_FORMAT_VERSION`]): the meta record (required), then the
-/// latent bound (f32), the five networks and the proposal as a sixth.
+/// latent bound (f32), the five networks and the proposal as a sixth; version 6
+/// ([`SCORE_FORMAT_VERSION`]) when the proposal has radius multipliers, written after
+/// the bound.
 pub fn blob_bytes_with_proposal(
     head: &BlobHead<'_>,
     networks: [&[WireLayer]; 5],
@@ -266,7 +272,9 @@ pub fn blob_bytes_with_proposal(
         &mut out,
         &Preamble {
             magic: MAGIC,
-            version: if proposal.is_some() {
+            version: if proposal.is_some_and(|p| p.radius_scales != [0.0; 2]) {
+                SCORE_FORMAT_VERSION
+            } else if proposal.is_some() {
                 PROPOSAL_FORMAT_VERSION
             } else if head.meta.is_some() {
                 META_FORMAT_VERSION
@@ -289,6 +297,9 @@ pub fn blob_bytes_with_proposal(
     }
     if let Some(p) = &proposal {
         push(&mut out, &p.bound)?;
+        if p.radius_scales != [0.0; 2] {
+            push(&mut out, &p.radius_scales)?;
+        }
     }
     let sixth = proposal.map(|p| p.layers);
     for net in networks.into_iter().chain(sixth) {
@@ -442,6 +453,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
     let proposal = model.has_proposal().then(|| ProposalWire {
         layers: &nets[5],
         bound: model.latent_bound(),
+        radius_scales: model.radius_scales(),
     });
     let out = blob_bytes_with_proposal(
         &head,
@@ -474,6 +486,7 @@ pub fn rewrite_blob(blob: &[u8]) -> Result<Vec<u8>, WriteError> {
         || model.config() != again.config()
         || model.extensions() != again.extensions()
         || model.latent_bound().to_bits() != again.latent_bound().to_bits()
+        || model.radius_scales().map(f32::to_bits) != again.radius_scales().map(f32::to_bits)
         || Meta::of_blob(&out).ok() != Some(meta)
     {
         return Err(WriteError::Shape(

@@ -58,7 +58,7 @@
 
 use crate::blob::{Layer, Model, Network, NumericKind, MAX_PAST};
 use crate::frame::Frame;
-use crate::predictor::{PredictError, Trajectory};
+use crate::output::{PredictError, Trajectory};
 use crate::prng::Gaussian;
 use crate::{BlobError, Error};
 
@@ -408,6 +408,52 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             *zi = B::from_f32(v, ez);
         }
         Ok(())
+    }
+
+    /// The probabilities of the first `out.len()` endpoints of the stream
+    /// begun by [`Engine::start`] (any time after it): for a model with
+    /// probabilities ([`Model::has_probabilities`]) the proposal's hidden
+    /// layers on the features, its `k` logit rows after the `K·zdim` latent
+    /// rows, each as f32 (its output exponent), then
+    /// [`crate::planner::softmax`]; `Ok(true)`. For any other model `1/k`
+    /// each and `Ok(false)`. [`PredictError::NotStarted`] before a start,
+    /// [`PredictError::BadSampleCount`] for `k` = 0 or above K.
+    pub fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
+        if self.stream == Stream::Idle {
+            return Err(PredictError::NotStarted);
+        }
+        if out.is_empty() {
+            return Err(PredictError::BadSampleCount);
+        }
+        if !self.model.has_probabilities() {
+            crate::planner::uniform(out);
+            return Ok(false);
+        }
+        let k = out.len();
+        let latents = self.model.proposal_latents();
+        let first = latents.saturating_mul(self.model.config().zdim as usize);
+        let prop = self.model.proposal();
+        let rows = prop
+            .layers()
+            .last()
+            .filter(|_| k <= latents && k <= W)
+            .and_then(|l| l.rows(first, k))
+            .ok_or(PredictError::BadSampleCount)?;
+        let fdim = (self.model.config().fdim as usize).min(W);
+        let hidden = prop.len().saturating_sub(1);
+        let h = run_network_layers::<B>(
+            prop.layers().take(hidden),
+            &self.feat.0[..fdim],
+            &mut self.a.0,
+            &mut self.b.0,
+        );
+        B::dense(&rows, h, &mut self.z.0[..k]);
+        let eo = rows.out_exp();
+        for (o, &l) in out.iter_mut().zip(&self.z.0[..k]) {
+            *o = B::to_f32(l, eo);
+        }
+        crate::planner::softmax(out)?;
+        Ok(true)
     }
 
     /// Step 6 for the sample [`Engine::next_endpoint`] drew last: its full

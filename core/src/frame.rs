@@ -27,7 +27,7 @@
 //! the same rule, bit for bit, on every target.
 
 use crate::blob::MAX_PAST;
-use crate::predictor::{PredictError, Trajectory};
+use crate::output::{PredictError, Trajectory};
 
 /// The largest accepted magnitude of an input coordinate (caller's units).
 ///

@@ -130,6 +130,8 @@ mod kernels;
 mod lanes;
 #[doc(hidden)]
 pub mod math;
+mod output;
+pub mod planner;
 pub mod predictor;
 #[doc(hidden)]
 pub mod prng;

@@ -26,97 +26,15 @@
 //! 32-bit target (the f32 engine's five rows of `W` f32, the model view, the
 //! sampler state): 4,128 B for `W = 128` on a Cortex-M4F. Outputs go to caller-owned buffers; [`Trajectory`] is 260 bytes.
 
-use crate::blob::{Model, NumericKind, MAX_FUTURE, MAX_PAST};
+use crate::blob::{Model, NumericKind, MAX_PAST};
 use crate::engine::Engine;
 use crate::fixed::Q15;
 use crate::float::Float;
+pub use crate::output::{PredictError, Trajectory};
+use crate::planner::{radii, Forecast};
 use crate::sine::Sine;
 use crate::units::{CallerUnit, Conversion};
 use crate::Error;
-
-/// A predicted trajectory: `future_len` points, the last is the endpoint.
-pub type Trajectory = heapless::Vec<[f32; 2], MAX_FUTURE>;
-
-/// Why a prediction was refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum PredictError {
-    /// The model's scratch width ([`Model::scratch_width`]) exceeds the predictor's `W`.
-    ScratchTooSmall {
-        /// Width the model needs.
-        needed: usize,
-        /// The predictor's `W`.
-        capacity: usize,
-    },
-    /// `past.len()` differs from the model's `past_len`.
-    WrongPastLength {
-        /// Length the model expects.
-        expected: usize,
-        /// Length given.
-        got: usize,
-    },
-    /// The number of endpoints asked for is 0, or more than the model's
-    /// test-time samples.
-    BadSampleCount,
-    /// A buffer is too small: the sample buffer `N` of
-    /// [`Predictor::predict_endpoint_set`] (see [`crate::sampling::samples_needed`]),
-    /// or a model output longer than [`MAX_FUTURE`] points.
-    CapacityExceeded,
-    /// An input coordinate is NaN or infinite.
-    NonFiniteInput,
-    /// An input is outside the valid range: a coordinate beyond
-    /// ±[`crate::frame::MAX_COORDINATE`], or a displacement from the first
-    /// observed point beyond ±[`Model::input_limit`] in normalised units.
-    InputOutOfRange,
-    /// The model produced NaN or infinity.
-    NonFiniteOutput,
-    /// The model produced a finite point beyond ±[`crate::frame::MAX_OUTPUT`]
-    /// (twice the input range): not a forecast, so not returned.
-    OutputOutOfRange,
-    /// Trajectories were asked of a model without a predictor network.
-    NoPredictor,
-    /// A point forecast was asked of a model without a point-forecast head.
-    NoPointHead,
-    /// A sample was asked for before a stream was started
-    /// ([`Predictor::start`]), or a trajectory before a sample was drawn.
-    NotStarted,
-}
-
-impl core::fmt::Display for PredictError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            PredictError::ScratchTooSmall { needed, capacity } => {
-                write!(
-                    f,
-                    "model needs scratch width {needed}, predictor has {capacity}"
-                )
-            }
-            PredictError::WrongPastLength { expected, got } => {
-                write!(f, "expected {expected} observed steps, got {got}")
-            }
-            PredictError::BadSampleCount => {
-                f.write_str("endpoint count is 0 or exceeds the model's samples")
-            }
-            PredictError::CapacityExceeded => {
-                f.write_str("an output or sample buffer is too small")
-            }
-            PredictError::NonFiniteInput => f.write_str("non-finite input coordinate"),
-            PredictError::InputOutOfRange => {
-                f.write_str("input coordinate outside the valid range")
-            }
-            PredictError::NonFiniteOutput => f.write_str("model output is not finite"),
-            PredictError::OutputOutOfRange => {
-                f.write_str("model output outside the plausible range (not a forecast)")
-            }
-            PredictError::NoPredictor => f.write_str("model has no trajectory predictor"),
-            PredictError::NoPointHead => f.write_str("model has no point-forecast head"),
-            PredictError::NotStarted => f.write_str("no sample stream started"),
-        }
-    }
-}
-
-impl core::error::Error for PredictError {}
 
 /// One engine per numeric kind, holding the one a blob's kind calls for:
 /// the run-time dispatch of [`Predictor`] (scalar engines) and of
@@ -302,6 +220,49 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         caller_points(self.units, &mut p);
         let [p] = p;
         Ok(p)
+    }
+
+    /// The probabilities of the first `out.len()` endpoints of the stream
+    /// begun by [`Predictor::start`] (or by a `predict_*` call), any time
+    /// after it: `Ok(true)` with the model's learned ones, `Ok(false)` with
+    /// `1/k` each for a model without them ([`crate::planner`]).
+    pub fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
+        on_kind!(&mut self.engine, e => e.probabilities(out))
+    }
+
+    /// What a planner needs in one call ([`crate::planner`]): the model's
+    /// endpoints, as many as it gives up to `K`
+    /// ([`crate::sampling::max_endpoints_of`]; [`Predictor::predict_endpoint_set`] with `N = K`, so a
+    /// test-time-sampling model fails with
+    /// [`PredictError::CapacityExceeded`]), their probabilities, the point
+    /// forecast's endpoint (with a point head) and its radii (with
+    /// probabilities), all in the caller's unit.
+    pub fn predict_forecast<const K: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+    ) -> Result<Forecast<K>, PredictError> {
+        let mut f = Forecast {
+            endpoints: heapless::Vec::new(),
+            probabilities: heapless::Vec::new(),
+            learned: false,
+            point: None,
+            radii: None,
+        };
+        // At most K elements each (the capacity), so neither resize can fail.
+        let n = crate::sampling::max_endpoints_of(self.model(), K);
+        let _ = f.endpoints.resize(n, [0.0; 2]);
+        let _ = f.probabilities.resize(n, 0.0);
+        self.predict_endpoint_set::<K>(past, seed, &mut f.endpoints)?;
+        f.learned = self.probabilities(&mut f.probabilities)?;
+        if self.model().has_point_head() {
+            f.point = self.predict_point(past)?.last().copied();
+        }
+        if let (true, Some(pt)) = (f.learned, f.point) {
+            let scales = self.model().radius_scales();
+            f.radii = Some(radii(pt, &f.endpoints, &f.probabilities, scales)?);
+        }
+        Ok(f)
     }
 
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.

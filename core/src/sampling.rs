@@ -22,7 +22,7 @@
 
 use crate::blob::Extensions;
 use crate::cluster::{kmeans_reduce, Init};
-use crate::predictor::PredictError;
+use crate::output::PredictError;
 
 /// Fills `out` (length `k`) by the protocol of `ext`, drawing samples with
 /// `draw(n, buffer)`; `N` is the most samples the buffer holds.

@@ -118,6 +118,7 @@ fn run_scene(a: &Args, scene: &str) -> Result<Row> {
         sigma: Some(sigma),
         tts: Some(tts),
         proposal: None,
+        score: None,
     };
     settings.apply(&mut model, K)?;
     let blob = blob_bytes(&model)?;

@@ -318,3 +318,84 @@ pub fn evaluate_point_core(
         .collect();
     Ok(Some((accumulate(ds, &preds)?, preds)))
 }
+
+/// One window's planner outputs through `gpecnet_core::Predictor::predict_forecast`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannerOut {
+    /// The endpoints.
+    pub endpoints: Vec<[f32; 2]>,
+    /// Their probabilities.
+    pub probs: Vec<f32>,
+    /// The point forecast's endpoint.
+    pub point: Option<[f32; 2]>,
+    /// `[r50, r90]`.
+    pub radii: Option<[f32; 2]>,
+}
+
+/// The planner outputs of every window of `ds` through `gpecnet-core` (window `i` with
+/// seed `base_seed + i`, [`HOST_MAX_K`] endpoints at most), `None` for a model without
+/// endpoint probabilities.
+pub fn planner_core(
+    blob: &[u8],
+    sine: SineKind,
+    ds: &Dataset,
+    base_seed: u64,
+) -> Result<Option<Vec<PlannerOut>>> {
+    let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
+    if !model.has_probabilities() {
+        return Ok(None);
+    }
+    fn block<S: Sine>(
+        model: Model<'_>,
+        ws: &[Window],
+        seed: impl Fn(usize) -> u64,
+    ) -> Result<Vec<PlannerOut>> {
+        let mut p =
+            gpecnet_core::Predictor::<S, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?;
+        ws.iter()
+            .enumerate()
+            .map(|(i, w)| {
+                let f = p
+                    .predict_forecast::<HOST_MAX_K>(&w.obs(), seed(i))
+                    .map_err(|e| anyhow!("{e}"))?;
+                Ok(PlannerOut {
+                    endpoints: f.endpoints.to_vec(),
+                    probs: f.probabilities.to_vec(),
+                    point: f.point,
+                    radii: f.radii.map(|r| [r.r50, r.r90]),
+                })
+            })
+            .collect()
+    }
+    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
+        let lo = b * BLOCK;
+        let hi = (lo + BLOCK).min(ds.windows.len());
+        let seed = |i: usize| base_seed.wrapping_add((lo + i) as u64);
+        match sine {
+            SineKind::Libm => block::<LibmSine>(model, &ds.windows[lo..hi], seed),
+            SineKind::Fast => block::<FastSine>(model, &ds.windows[lo..hi], seed),
+        }
+    })?;
+    Ok(Some(blocks.into_iter().flatten().collect()))
+}
+
+/// [`crate::planner_metrics::PlannerMetrics`] of `outs` on `ds`, window `w`'s distances
+/// times `unit(w)`.
+pub fn planner_metrics(
+    ds: &Dataset,
+    outs: &[PlannerOut],
+    unit: impl Fn(&Window) -> Result<f64>,
+) -> Result<crate::planner_metrics::PlannerMetrics> {
+    let mut acc = crate::planner_metrics::PlannerAccumulator::new();
+    for (w, o) in ds.windows.iter().zip(outs) {
+        acc.add(&crate::planner_metrics::PlannerWindow {
+            endpoints: &o.endpoints,
+            probs: &o.probs,
+            truth: w.pos[PAST + FUTURE - 1],
+            point: o.point,
+            radii: o.radii,
+            unit: unit(w)?,
+        });
+    }
+    Ok(acc.finish())
+}

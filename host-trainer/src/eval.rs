@@ -404,7 +404,18 @@ pub const KDE_RIDGE_ABS: f64 = 1e-9;
 ///
 /// Non-finite inputs and an empty `endpoints` give the floor value (20).
 pub fn kde_nll(endpoints: &[[f32; 2]], gt: [f32; 2]) -> f64 {
+    kde_nll_weighted(endpoints, None, gt)
+}
+
+/// [`kde_nll`] of the mixture that weights kernel `k` by `weights[k]` (the endpoint
+/// probabilities; the same bandwidth, Scott's rule on the unweighted endpoints): `p(gt) =
+/// Σ_k w_k N(gt; e_k, H)`. `None` is [`kde_nll`]'s `1/K` each, bit for bit. Weights of
+/// another length than the endpoints, or not finite, give the floor value.
+pub fn kde_nll_weighted(endpoints: &[[f32; 2]], weights: Option<&[f32]>, gt: [f32; 2]) -> f64 {
     let ceiling = -KDE_LOG_PDF_FLOOR;
+    if weights.is_some_and(|w| w.len() != endpoints.len() || w.iter().any(|v| !v.is_finite())) {
+        return ceiling;
+    }
     let k = endpoints.len();
     if k == 0
         || !gt.iter().all(|v| v.is_finite())
@@ -447,9 +458,21 @@ pub fn kde_nll(endpoints: &[[f32; 2]], gt: [f32; 2]) -> f64 {
         expo.push(-0.5 * m2);
     }
     let top = expo.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let sum: f64 = expo.iter().map(|x| (x - top).exp()).sum();
     let log_norm = -(2.0 * std::f64::consts::PI).ln() - 0.5 * det.ln();
-    let log_pdf = top + sum.ln() - kf.ln() + log_norm;
+    let log_pdf = match weights {
+        None => {
+            let sum: f64 = expo.iter().map(|x| (x - top).exp()).sum();
+            top + sum.ln() - kf.ln() + log_norm
+        }
+        Some(w) => {
+            let sum: f64 = expo
+                .iter()
+                .zip(w)
+                .map(|(x, &wk)| f64::from(wk) * (x - top).exp())
+                .sum();
+            top + sum.ln() + log_norm
+        }
+    };
     if log_pdf.is_nan() {
         return ceiling;
     }

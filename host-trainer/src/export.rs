@@ -69,6 +69,7 @@ pub fn blob_bytes<K: Numeric>(model: &InferenceModel<K>) -> Result<Vec<u8>> {
         (!proposal.is_empty()).then_some(gpecnet_blob_writer::ProposalWire {
             layers: &proposal,
             bound: c.latent_bound,
+            radius_scales: c.radius_scales,
         }),
     )?)
 }
@@ -113,6 +114,7 @@ pub fn read_blob(bytes: &[u8]) -> Result<RefModel> {
             tts_iters: m.extensions().tts_iters,
             tts_init: m.extensions().tts_init,
             latent_bound: m.latent_bound(),
+            radius_scales: m.radius_scales(),
             meta: ModelMeta::of_blob(bytes),
         },
         nets: Networks {

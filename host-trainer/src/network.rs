@@ -268,10 +268,17 @@ impl<K: Numeric> InferenceModel<K> {
         }
         if !n.proposal.is_empty() {
             let out = chain("proposal", &n.proposal, c.fdim, None)?;
-            if out % c.zdim != 0 || !(c.latent_bound.is_finite() && c.latent_bound > 0.0) {
+            let [r50, r90] = c.radius_scales;
+            let scored = r90 > 0.0;
+            if (scored || r50 != 0.0)
+                && !(r90.is_finite() && r50 > 0.0 && r50 <= r90 && !n.point_head.is_empty())
+            {
+                bail!("radius multipliers {r50} / {r90}: need 0 < r50 <= r90 and a point head");
+            }
+            let per = c.zdim + usize::from(scored);
+            if out % per != 0 || !(c.latent_bound.is_finite() && c.latent_bound > 0.0) {
                 bail!(
-                    "proposal: {out} outputs are not whole latents of {} or the bound {} is not > 0",
-                    c.zdim,
+                    "proposal: {out} outputs are not whole latents of {per} or the bound {} is not > 0",
                     c.latent_bound
                 );
             }
@@ -287,6 +294,22 @@ impl<K: Numeric> InferenceModel<K> {
             );
         }
         Ok(())
+    }
+
+    /// Latents of the learned proposal (0 without one): its last layer gives `K·zdim`
+    /// latent components, and `K` logits after them when the model has endpoint
+    /// probabilities ([`InferenceModel::is_scored`]).
+    pub fn proposal_latents(&self) -> usize {
+        let per = self.config.zdim + usize::from(self.is_scored());
+        self.nets
+            .proposal
+            .last()
+            .map_or(0, |l| l.out_dim / per.max(1))
+    }
+
+    /// Whether the model gives endpoint probabilities and radii (format version 6).
+    pub fn is_scored(&self) -> bool {
+        self.config.radius_scales[1] > 0.0
     }
 
     /// Whether the blob needs format version 2 (a version-2 setting or a point head).

@@ -48,6 +48,10 @@ pub struct RefConfig {
     /// Latent clamp of a proposal model (format version 5; 0 without a proposal).
     #[serde(default)]
     pub latent_bound: f32,
+    /// Radius multipliers `[r50, r90]` of a model with endpoint probabilities (format
+    /// version 6: the proposal's last layer then also gives K logits); both 0 without.
+    #[serde(default)]
+    pub radius_scales: [f32; 2],
     /// What the numbers mean (unit, period, training data, licence): written as the blob's
     /// version-4 record; `None` for blobs before format version 4, which do not say.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -329,6 +333,35 @@ pub(crate) fn clamp_latent(v: f32, bound: f32) -> f32 {
     }
 }
 
+/// The specified softmax (`weights/FORMAT.md`, "Format version 6"): `m` the largest logit,
+/// `e_k = expf(l_k − m)` (libm), `s = e_0 + e_1 + …` left to right, `p_k = e_k / s`, all in
+/// f32. `None` when a logit is not finite.
+pub fn softmax(logits: &[f32]) -> Option<Vec<f32>> {
+    if logits.is_empty() || logits.iter().any(|l| !l.is_finite()) {
+        return None;
+    }
+    let m = logits.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let e: Vec<f32> = logits.iter().map(|&l| libm::expf(l - m)).collect();
+    let mut s = 0.0f32;
+    for v in &e {
+        s += *v;
+    }
+    Some(e.iter().map(|v| v / s).collect())
+}
+
+/// The specified radii of a forecast: `s² = Σ_k p_k·(dx_k² + dy_k²)` summed left to right in
+/// f32 from 0 (`dx_k = e_k[0] − point[0]`, each term `p_k · ((dx·dx) + (dy·dy))`), `s =
+/// sqrtf(s²)` (libm), and `[scales[0]·s, scales[1]·s]`.
+pub fn radii(point: [f32; 2], endpoints: &[[f32; 2]], probs: &[f32], scales: [f32; 2]) -> [f32; 2] {
+    let mut s2 = 0.0f32;
+    for (e, &p) in endpoints.iter().zip(probs) {
+        let (dx, dy) = (e[0] - point[0], e[1] - point[1]);
+        s2 += p * (dx * dx + dy * dy);
+    }
+    let s = libm::sqrtf(s2);
+    [scales[0] * s, scales[1] * s]
+}
+
 /// Reduces the `tts_samples` samples of a model with test-time sampling to `k` centres.
 pub(crate) fn tts_reduce(c: &RefConfig, samples: &[[f32; 2]], k: usize) -> Result<Vec<[f32; 2]>> {
     if k > samples.len() {
@@ -435,6 +468,26 @@ impl RefModel {
         (fr, f)
     }
 
+    /// The proposal's hidden activations `h` for the features `f` (every layer but the last).
+    pub(crate) fn proposal_hidden(&self, f: &[f32], kind: SineKind) -> Vec<f32> {
+        let n = self.nets.proposal.len().saturating_sub(1);
+        run(&self.nets.proposal[..n], f, kind)
+    }
+
+    /// The probabilities of the first `k` endpoints of a model with endpoint probabilities:
+    /// the proposal's logit rows (after the `K·zdim` latent rows) on the features, softmax
+    /// over the first `k` ([`softmax`]); `None` for a model without them or `k` above K.
+    pub fn probabilities(&self, past: &[[f32; 2]], k: usize, kind: SineKind) -> Option<Vec<f32>> {
+        let latents = self.proposal_latents();
+        if !self.is_scored() || k == 0 || k > latents {
+            return None;
+        }
+        let (_, f) = self.features(past, kind);
+        let out = run(&self.nets.proposal, &f, kind);
+        let first = latents * self.config.zdim;
+        softmax(out.get(first..first + k)?)
+    }
+
     /// The deterministic point forecast of the point head (`future_len` points, caller's
     /// units), or `None` without a head.
     pub fn predict_point(&self, past: &[[f32; 2]], kind: SineKind) -> Option<Vec<[f32; 2]>> {
@@ -475,10 +528,11 @@ impl RefModel {
         };
         let mut input = f.clone();
         let proposed = (!self.nets.proposal.is_empty()).then(|| run(&self.nets.proposal, &f, kind));
+        let latents = self.proposal_latents();
         for i in 0..k {
             input.truncate(c.fdim);
             if let Some(p) = &proposed {
-                let Some(z) = p.get(i * c.zdim..(i + 1) * c.zdim) else {
+                let Some(z) = p.get(i * c.zdim..(i + 1) * c.zdim).filter(|_| i < latents) else {
                     break;
                 };
                 input.extend(z.iter().map(|&v| clamp_latent(v, c.latent_bound)));

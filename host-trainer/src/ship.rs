@@ -22,6 +22,7 @@ use crate::eval::{
     evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
 };
 use crate::export::{blob_bytes, golden_bytes, golden_cases};
+use crate::planner_metrics::PlannerMetrics;
 use crate::reference::{RefConfig, RefModel, SineKind};
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case (on test sets of up to
@@ -92,6 +93,15 @@ pub struct ModelCard {
     /// The learned latent proposal's provenance (format version 5 models only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub proposal: Option<crate::propose::ProposalCard>,
+    /// The endpoint probabilities' provenance (format version 6 models only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub score: Option<crate::score::ScoreCard>,
+    /// What a planner gets, on the test set through gpecnet-core (the data set's unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_planner: Option<PlannerMetrics>,
+    /// The same with distances in pixels (SDD in metres only, scene by scene).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_planner_px: Option<PlannerMetrics>,
 }
 
 impl ModelCard {
@@ -175,11 +185,7 @@ impl Inference {
             tts_iters: m.config.tts_iters,
             tts_init: m.config.tts_init,
             point_head: !m.nets.point_head.is_empty(),
-            proposal_latents: m
-                .nets
-                .proposal
-                .last()
-                .map_or(0, |l| l.out_dim / m.config.zdim.max(1)),
+            proposal_latents: m.proposal_latents(),
             latent_bound: m.config.latent_bound,
         })
     }
@@ -288,6 +294,7 @@ pub fn model_from_run(run: &Path, name: &str) -> Result<(TrainConfig, RefModel, 
             heading_steps: cfg.heading_steps,
             tts_samples: 0,
             latent_bound: 0.0,
+            radius_scales: [0.0; 2],
             tts_iters: 0,
             tts_init: 0,
             meta: Some(blob_meta(&cfg)?),
@@ -428,6 +435,7 @@ pub fn ship_with(
         None => None,
     };
     let test_cv = Some(cv_baseline(data_root, &spec, &test)?).filter(|_| model.needs_v2());
+    let planner = test_planner(data_root, &spec, &blob, sine, &test, base_seed, &model)?;
     let card = ModelCard {
         name: name.to_string(),
         blob_crc: core_model.crc(),
@@ -458,6 +466,15 @@ pub fn ship_with(
             )),
             None => None,
         },
+        score: match &settings.score {
+            Some(p) => Some(crate::score::ScoreCard::of(
+                &crate::score::ScoreFile::read(p)?,
+                p,
+            )),
+            None => None,
+        },
+        test_planner: planner.map(|p| p.0),
+        test_planner_px: planner.and_then(|p| p.1),
     };
     let blob = match sign {
         Some(s) => s.sign(&blob)?,
@@ -470,6 +487,134 @@ pub fn ship_with(
         model_card_md(&card, test.windows.len(), run, model.config.meta.as_ref()).as_bytes(),
     )?;
     Ok(card)
+}
+
+/// The planner metrics of a blob with endpoint probabilities on `test` through
+/// gpecnet-core, and in pixels for SDD in metres; `None` for other blobs. With `reference`,
+/// the probabilities and radii must equal the reference path's bit for bit.
+pub fn test_planner(
+    data_root: &Path,
+    spec: &DatasetSpec,
+    blob: &[u8],
+    sine: SineKind,
+    test: &Dataset,
+    base_seed: u64,
+    reference: &RefModel,
+) -> Result<Option<(PlannerMetrics, Option<PlannerMetrics>)>> {
+    let Some(outs) = crate::core_eval::planner_core(blob, sine, test, base_seed)? else {
+        return Ok(None);
+    };
+    if reference.is_scored() {
+        let k = reference.proposal_latents();
+        for (w, o) in test.windows.iter().zip(&outs) {
+            let probs = reference.probabilities(&w.obs(), k, sine);
+            let same = probs.as_ref().is_some_and(|p| {
+                p.iter()
+                    .map(|v| v.to_bits())
+                    .eq(o.probs.iter().map(|v| v.to_bits()))
+            });
+            if !same {
+                bail!("gpecnet-core and the reference path disagree on the probabilities");
+            }
+        }
+    }
+    planner_pair(data_root, spec, test, &outs).map(Some)
+}
+
+/// [`crate::core_eval::planner_metrics`] of `outs` in the data set's unit, and in pixels
+/// for SDD in metres.
+pub fn planner_pair(
+    data_root: &Path,
+    spec: &DatasetSpec,
+    test: &Dataset,
+    outs: &[crate::core_eval::PlannerOut],
+) -> Result<(PlannerMetrics, Option<PlannerMetrics>)> {
+    let own = crate::core_eval::planner_metrics(test, outs, |_| Ok(1.0))?;
+    let px = if *spec == DatasetSpec::SddMetres {
+        let scales = data::sdd_metres_per_pixel(data_root)?;
+        Some(crate::core_eval::planner_metrics(test, outs, |w| {
+            let s = scales
+                .get(&w.scene)
+                .with_context(|| format!("no metres-per-pixel factor for scene {}", w.scene))?;
+            Ok(1.0 / *s as f32 as f64)
+        })?)
+    } else {
+        None
+    };
+    Ok((own, px))
+}
+
+/// The model card's fact row of a model's endpoint probabilities (ends in a newline).
+pub fn score_fact_row(p: &crate::score::ScoreCard) -> String {
+    format!(
+        "| endpoint probabilities and radii | K logit rows on the proposal's hidden layer (L2 {}, inverse temperature {:.3}) and radius multipliers {:.3} / {:.3}, all chosen on validation (P(top = closest) {:.3}, ECE {:.4}, r50 / r90 coverage {:.1} % / {:.1} %; `docs/planner.md`); fitted by `{}` |\n",
+        p.l2,
+        p.inverse_temperature,
+        p.radius_scales[0],
+        p.radius_scales[1],
+        p.val.top_is_closest,
+        p.val.ece,
+        100.0 * p.val.r50_coverage,
+        100.0 * p.val.r90_coverage,
+        p.command
+    )
+}
+
+/// The model card's table rows of the planner metrics (each ends in a newline; three
+/// columns, the third `–`), with the pixel values beside for SDD in metres.
+pub fn planner_rows(
+    p: &PlannerMetrics,
+    px: Option<&PlannerMetrics>,
+    u: &str,
+    digits: usize,
+) -> String {
+    let both = |own: f64, pxv: Option<f64>, d: usize| match pxv {
+        Some(v) => format!("{own:.d$} {u} ({v:.2} px)"),
+        None => format!("{own:.d$} {u}"),
+    };
+    let rows = [
+        (
+            "brier-minFDE (minFDE + (1 − p of the closest endpoint)², Argoverse 2)".to_string(),
+            both(p.brier_min_fde, px.map(|x| x.brier_min_fde), digits),
+        ),
+        (
+            "P(most probable endpoint = closest endpoint)".to_string(),
+            format!("{:.3} (equal weights: 1/K)", p.top_is_closest),
+        ),
+        (
+            "FDE of the most probable endpoint / of the probability-weighted mean / of the point forecast".to_string(),
+            format!(
+                "{} / {} / {}",
+                both(p.top_fde, px.map(|x| x.top_fde), digits),
+                both(p.weighted_fde, px.map(|x| x.weighted_fde), digits),
+                both(p.point_fde, px.map(|x| x.point_fde), digits)
+            ),
+        ),
+        (
+            format!("calibration error of the probabilities ({} equal bins), all / top-label", crate::planner_metrics::ECE_BINS),
+            format!("{:.4} / {:.4}", p.ece, p.top_ece),
+        ),
+        (
+            format!("NLL of the probability-weighted mixture (nats, {u}; Scott's bandwidth) vs equal weights"),
+            format!("{:.3} vs {:.3}", p.mixture_nll, p.uniform_nll),
+        ),
+        (
+            "truth within r50 / r90 of the point forecast (goal 50 % / 90 %)".to_string(),
+            format!("{:.1} % / {:.1} %", 100.0 * p.r50_coverage, 100.0 * p.r90_coverage),
+        ),
+        (
+            "r90, 10th / 50th / 90th percentile over windows".to_string(),
+            format!(
+                "{} / {} / {}",
+                both(p.r90_percentiles[0], px.map(|x| x.r90_percentiles[0]), digits),
+                both(p.r90_percentiles[1], px.map(|x| x.r90_percentiles[1]), digits),
+                both(p.r90_percentiles[2], px.map(|x| x.r90_percentiles[2]), digits)
+            ),
+        ),
+    ];
+    rows.iter()
+        .map(|(k, v)| format!("| {k} | {v} | – |\n"))
+        .collect()
 }
 
 /// The files `gpecnet export --run RUN` reads (the run folder's checkpoints and config, or
@@ -635,7 +780,11 @@ pub fn model_card_md(
             .proposal
             .as_ref()
             .map_or(String::new(), |p| format!(" --tts 0 --proposal {}", p.file));
-        format!(" --sigma {}{tts}{proposal}", i.sigma)
+        let score = c
+            .score
+            .as_ref()
+            .map_or(String::new(), |p| format!(" --score {}", p.file));
+        format!(" --sigma {}{tts}{proposal}{score}", i.sigma)
     });
     let digits = if u == "m" { 3 } else { 2 };
     let f = |v: f64| format!("{v:.digits$}");
@@ -670,6 +819,7 @@ pub fn model_card_md(
             p.shape, p.val_min_fde, p.k, p.epoch, p.command
         )
     }))
+    .text(&c.score.as_ref().map_or(String::new(), score_fact_row))
     .section(
         &format!("{}, through `gpecnet-core`", data.test_set),
         &format!(
@@ -691,6 +841,9 @@ pub fn model_card_md(
     .row(&["mean FDE over the K samples", &f(m.mean_fde), "–"])
     .text(&dist)
     .text(&card_v2_rows(c.inference.as_ref(), c.test_point.as_ref(), c.test_cv.as_ref(), digits))
+    .text(&c.test_planner.as_ref().map_or(String::new(), |p| {
+        planner_rows(p, c.test_planner_px.as_ref(), u, digits)
+    }))
     .section("Configuration", &format!("```toml\n{}```\n", c.config_toml))
     .section("Data licence", &data.licence)
     .finish()
@@ -714,6 +867,9 @@ pub struct ExportSettings {
     /// A learned latent proposal (`gpecnet propose`'s `proposal.json`) trained for this very
     /// encoder and decoder; it replaces the prior's draws (format version 5).
     pub proposal: Option<PathBuf>,
+    /// Endpoint probabilities and radii (`gpecnet score`'s `score.json`) fitted for this very
+    /// model and proposal (format version 6).
+    pub score: Option<PathBuf>,
 }
 
 impl ExportSettings {
@@ -756,6 +912,12 @@ impl ExportSettings {
             }
             m.nets.proposal = p.layers();
             m.config.latent_bound = p.settings.bound;
+        }
+        if let Some(path) = &self.score {
+            if self.proposal.is_none() {
+                bail!("--score needs the --proposal it was fitted with");
+            }
+            crate::score::attach(m, path)?;
         }
         Ok(())
     }

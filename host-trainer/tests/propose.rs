@@ -95,6 +95,7 @@ fn a_proposal_joins_only_its_own_model_and_runs_bit_exact() {
         sigma: None,
         tts: None,
         proposal: Some(proposal),
+        score: None,
     };
     // Other weights: refused.
     let mut other = m.clone();

@@ -240,6 +240,7 @@ pub fn random_siren(
             tts_iters: 0,
             tts_init: 0,
             latent_bound: 0.0,
+            radius_scales: [0.0; 2],
             meta: None,
         },
         nets: Networks {

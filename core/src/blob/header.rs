@@ -21,7 +21,13 @@ pub const MAGIC: [u8; 4] = *b"GPEC";
 /// [`Meta`] and version 3 otherwise. Version 5 adds a learned latent
 /// proposal: its latent bound after [`Meta`] and a sixth network after the
 /// point-forecast head; the writer emits it only for a model that has one.
-pub const FORMAT_VERSION: u16 = 5;
+/// Version 6 adds endpoint probabilities and radii: two f32 radius
+/// multipliers after the latent bound, and `K` logit rows after the `K·zdim`
+/// latent rows of the proposal's last layer; the writer emits it only for a
+/// model that has them.
+pub const FORMAT_VERSION: u16 = 6;
+/// The first format version that may carry endpoint probabilities and radii.
+pub const SCORE_FORMAT_VERSION: u16 = 6;
 /// The first format version that may carry a latent proposal network.
 pub const PROPOSAL_FORMAT_VERSION: u16 = 5;
 /// Most latents a proposal may give per prediction (the endpoints it returns).

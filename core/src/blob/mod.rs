@@ -9,6 +9,7 @@
 //! ModelInfo { numeric: NumericKind, name: &str, config: ModelConfig }
 //! Extensions (version 2 on), Meta { unit, metres_per_pixel, period_s, data, licence } (version 4 on)
 //! latent_bound: f32 (version 5 on)
+//! radius_scales: [f32; 2] (version 6 on: r50 and r90 multipliers, both 0 without probabilities)
 //! Network × 4  (encoder_past, decoder, encoder_dest, predictor; point_head from
 //!     version 2, proposal from version 5), each:
 //!     n_layers: u8, then n_layers × LayerWire { in_dim: u16, out_dim: u16,
@@ -48,6 +49,7 @@ pub use header::{
     Activation, Extensions, Meta, ModelConfig, NumericKind, PositionUnit, ALIGNED_FORMAT_VERSION,
     FORMAT_VERSION, MAGIC, MAX_FUTURE, MAX_LAYERS, MAX_META_TEXT, MAX_PAST, MAX_PROPOSAL_LATENTS,
     MAX_TTS_SAMPLES, META_FORMAT_VERSION, MIN_FORMAT_VERSION, PROPOSAL_FORMAT_VERSION,
+    SCORE_FORMAT_VERSION,
 };
 #[doc(hidden)]
 pub use header::{ModelInfo, Preamble, CRC32};

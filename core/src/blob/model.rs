@@ -8,7 +8,8 @@ use super::validate::validate;
 use super::{
     Activation, BlobError, Extensions, Layer, Meta, ModelConfig, ModelInfo, NumericKind,
     PositionUnit, Preamble, ALIGNED_FORMAT_VERSION, CRC32, FORMAT_VERSION, MAGIC, MAX_LAYERS,
-    META_FORMAT_VERSION, MIN_FORMAT_VERSION, PROPOSAL_FORMAT_VERSION, TENSOR_ALIGN,
+    META_FORMAT_VERSION, MIN_FORMAT_VERSION, PROPOSAL_FORMAT_VERSION, SCORE_FORMAT_VERSION,
+    TENSOR_ALIGN,
 };
 
 /// A validated network: up to [`MAX_LAYERS`] layers whose widths chain.
@@ -85,6 +86,7 @@ pub struct Model<'a> {
     pub(super) point_head: Network<'a>,
     pub(super) proposal: Network<'a>,
     pub(super) latent_bound: f32,
+    pub(super) radius_scales: [f32; 2],
     pub(super) ext: Extensions,
     pub(super) crc: u32,
     pub(super) unit: PositionUnit,
@@ -265,10 +267,21 @@ impl<'a> Model<'a> {
         !self.proposal.is_empty()
     }
     /// The latents one prediction of a proposal model gives (its most
-    /// endpoints), 0 without a proposal.
+    /// endpoints), 0 without a proposal: its last layer has `K·zdim` rows, or
+    /// `K·(zdim + 1)` with endpoint probabilities ([`Model::has_probabilities`]).
     pub fn proposal_latents(&self) -> usize {
-        let zdim = (self.config.zdim as usize).max(1);
-        self.proposal.out_dim() / zdim
+        let per = (self.config.zdim as usize) + usize::from(self.has_probabilities());
+        self.proposal.out_dim() / per.max(1)
+    }
+    /// Whether the model gives a learned probability for each endpoint and
+    /// the radii of its point forecast (format version 6, [`crate::planner`]).
+    pub fn has_probabilities(&self) -> bool {
+        self.radius_scales[1] > 0.0
+    }
+    /// The radius multipliers `[r50, r90]` of the point forecast, calibrated
+    /// on validation (both 0 without probabilities, [`crate::planner`]).
+    pub fn radius_scales(&self) -> [f32; 2] {
+        self.radius_scales
     }
     /// Every proposed latent component is clamped to `±latent_bound`
     /// before the decoder (0 without a proposal).
@@ -303,8 +316,18 @@ impl<'a> Model<'a> {
             .max()
             .unwrap_or(0)
             .max(proposal)
+            .max(self.logit_count())
     }
-    /// The scratch width a predictor for this model needs: its widest layer,
+    /// The logits the probabilities need at once (K with probabilities, else 0).
+    fn logit_count(&self) -> usize {
+        if self.has_probabilities() {
+            self.proposal_latents()
+        } else {
+            0
+        }
+    }
+    /// The scratch width a predictor for this model needs: its widest layer
+    /// (and K with endpoint probabilities: the logits are computed at once),
     /// and at least `fdim + zdim` (the decoder's input). Choose `W` of
     /// [`crate::Predictor`] at least this large.
     pub fn scratch_width(&self) -> usize {
@@ -375,6 +398,11 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
     } else {
         0.0
     };
+    let radius_scales: [f32; 2] = if pre.version >= SCORE_FORMAT_VERSION {
+        take(&mut cur)?
+    } else {
+        [0.0; 2]
+    };
     // The networks are parsed straight into the model (no second set of six
     // network tables on the stack: the Cortex-M0's 16 KiB of RAM counts them).
     let mut model = Model {
@@ -388,6 +416,7 @@ fn parse_body(body: &[u8]) -> Result<Model<'_>, BlobError> {
         point_head: Network::EMPTY,
         proposal: Network::EMPTY,
         latent_bound,
+        radius_scales,
         ext,
         crc: 0,
         unit: meta.unit,

@@ -66,11 +66,19 @@ pub(super) fn validate(m: &Model<'_>) -> Result<(), BlobError> {
 /// with `1 ≤ K ≤` [`MAX_PROPOSAL_LATENTS`] and a linear last layer
 /// ([`BlobError::ShapeMismatch`]), and never together with test-time
 /// sampling (one endpoint protocol per model: [`BlobError::BadConfig`]).
+///
+/// Endpoint probabilities (format version 6): the radius multipliers
+/// `[r50, r90]` are both +0.0 (none), or finite with `0 < r50 ≤ r90` on a
+/// proposal model with a point-forecast head (the radii are around its
+/// forecast; else [`BlobError::BadConfig`]); the last layer then has
+/// `K·(zdim + 1)` rows, the `K` logits after the latents.
 fn check_proposal(m: &Model<'_>) -> Result<(), BlobError> {
     let b = m.latent_bound;
+    let [r50, r90] = m.radius_scales;
+    let unscored = r50.to_bits() == 0 && r90.to_bits() == 0;
     if m.proposal.is_empty() {
         // +0.0 only: one encoding per blob (a -0.0 would not re-write to itself).
-        return if b.to_bits() == 0 {
+        return if b.to_bits() == 0 && unscored {
             Ok(())
         } else {
             Err(BlobError::BadConfig)
@@ -79,7 +87,12 @@ fn check_proposal(m: &Model<'_>) -> Result<(), BlobError> {
     if !(b.is_finite() && b > 0.0) || m.ext.tts_samples != 0 {
         return Err(BlobError::BadConfig);
     }
+    let scored_ok = r90.is_finite() && r50 > 0.0 && r50 <= r90 && !m.point_head.is_empty();
+    if !unscored && !scored_ok {
+        return Err(BlobError::BadConfig);
+    }
     let (fdim, zdim) = (m.config.fdim as usize, m.config.zdim as usize);
+    let zdim = zdim + usize::from(!unscored);
     let out = m.proposal.out_dim();
     let k = out / zdim;
     let last_linear = m

@@ -166,9 +166,22 @@ pub fn write_with_proposal(
     proposal: &[WireLayer],
     bound: f32,
 ) -> Result<Vec<u8>, Refused> {
+    write_with_scores(head, nets, proposal, bound, [0.0; 2])
+}
+
+/// A blob of `head` and `nets` with `proposal`, its latent bound and radius multipliers
+/// (format 6 when they are not both 0: the proposal's last layer then ends in K logit rows).
+pub fn write_with_scores(
+    head: &BlobHead<'_>,
+    nets: [&[WireLayer]; 5],
+    proposal: &[WireLayer],
+    bound: f32,
+    radius_scales: [f32; 2],
+) -> Result<Vec<u8>, Refused> {
     let proposal = gpecnet_blob_writer::ProposalWire {
         layers: proposal,
         bound,
+        radius_scales,
     };
     gpecnet_blob_writer::blob_bytes_with_proposal(head, nets, Some(proposal)).map_err(refusal)
 }

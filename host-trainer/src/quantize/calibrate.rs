@@ -74,7 +74,7 @@ pub fn calibrate(model: &RefModel, windows: &[Window], k: usize) -> Calibration 
         let proposed = (!model.nets.proposal.is_empty())
             .then(|| run_f64(&model.nets.proposal, &f, &mut cal.proposal));
         // A proposal's latents are all calibrated (they are what the decoder will see).
-        let n = proposed.as_ref().map_or(k, |p| p.len() / c.zdim.max(1));
+        let n = proposed.as_ref().map_or(k, |_| model.proposal_latents());
         for i in 0..n {
             let mut input = f.clone();
             if let Some(p) = &proposed {

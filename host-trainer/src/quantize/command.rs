@@ -1,5 +1,6 @@
 //! `gpecnet quantize`: the fixed-point blob, its golden file and its model card.
 
+use crate::planner_metrics::PlannerMetrics;
 use anyhow::{anyhow, bail, Context, Result};
 use gpecnet_core::blob::NumericKind;
 use serde::{Deserialize, Serialize};
@@ -63,6 +64,13 @@ pub struct QuantCard {
     /// The data set of the calibration and the numbers (absent: `sdd`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dataset: Option<String>,
+    /// What a planner gets from the fixed-point model on test (the data set's unit; a model
+    /// with endpoint probabilities only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_fixed_planner: Option<PlannerMetrics>,
+    /// The same in pixels (SDD in metres only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_fixed_planner_px: Option<PlannerMetrics>,
 }
 
 /// Every `GOLDEN_STRIDE`-th test window becomes a golden case (as in `ship`; longer on large
@@ -189,6 +197,23 @@ pub fn quantize_blob_with(
             bail!("gpecnet-core's fixed point forecast and the integer reference disagree");
         }
     }
+    let planner = match crate::core_eval::planner_core(&blob, sine, &test, base_seed)? {
+        Some(outs) => {
+            let k = q.proposal_latents();
+            let same = outs.iter().zip(&test.windows).all(|(o, w)| {
+                q.probabilities(&w.obs(), k).is_some_and(|p| {
+                    p.iter()
+                        .map(|v| v.to_bits())
+                        .eq(o.probs.iter().map(|v| v.to_bits()))
+                })
+            });
+            if !same {
+                bail!("gpecnet-core's fixed probabilities and the integer reference disagree");
+            }
+            Some(crate::ship::planner_pair(data_root, &spec, &test, &outs)?)
+        }
+        None => None,
+    };
     let inference = crate::ship::Inference::of(&model);
     let test_cv = match inference {
         Some(_) => Some(crate::ship::cv_baseline(data_root, &spec, &test)?),
@@ -222,6 +247,8 @@ pub fn quantize_blob_with(
         test_fixed_point: test_fixed_point.map(|p| p.0),
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
+        test_fixed_planner: planner.map(|p| p.0),
+        test_fixed_planner_px: planner.and_then(|p| p.1),
     };
     check_fixed_tolerance(test_f32.min_fde, test_fixed.min_fde, spec.unit(), force)
         .with_context(|| format!("quantizing {} to {name}", src.display()))?;
@@ -425,6 +452,12 @@ power-of-two scale per output channel, int32 biases, 16-bit activations, 64-bit 
         )
     })
     .text(&quant_card_v2_rows(c))
+    .text(&c.test_fixed_planner.as_ref().map_or(String::new(), |p| {
+        format!(
+            "\n## What a planner gets (fixed point, through `gpecnet-core`)\n\nEach endpoint's probability and the point forecast's radii r50 / r90 (`gpecnet_core::planner`; `docs/planner.md` defines every number).\n\n| metric | this model | |\n|---|---|---|\n{}",
+            crate::ship::planner_rows(p, c.test_fixed_planner_px.as_ref(), data.unit, if data.unit == "m" { 3 } else { 2 })
+        )
+    }))
     .section(
         "Data licence",
         if c.dataset.as_deref().is_none_or(|d| d.starts_with("sdd")) {

@@ -172,6 +172,28 @@ impl QModel {
         crate::reference::tts_reduce(c, &samples, k)
     }
 
+    /// The probabilities of the first `k` endpoints of a model with them, by the integer
+    /// specification: the proposal's integer rows, its logit rows (after the `K·zdim`
+    /// latent rows) dequantised with its output exponent, then the specified softmax
+    /// ([`crate::reference::softmax`]); `None` for a model without them or `k` above K.
+    pub fn probabilities(&self, past: &[[f32; 2]], k: usize) -> Option<Vec<f32>> {
+        let c = &self.config;
+        let last = self.nets.proposal.last()?;
+        let latents = self.proposal_latents();
+        if !self.is_scored() || k == 0 || k > latents {
+            return None;
+        }
+        let f = run_q(&self.nets.encoder_past, &self.input(past));
+        let out = run_q(&self.nets.proposal, &f);
+        let first = latents * c.zdim;
+        let logits: Vec<f32> = out
+            .get(first..first + k)?
+            .iter()
+            .map(|&v| deq(v, last.scale.out_exp))
+            .collect();
+        crate::reference::softmax(&logits)
+    }
+
     /// The point head's forecast by the integer specification, or `None` without a head.
     pub fn predict_point(&self, past: &[[f32; 2]]) -> Option<Vec<[f32; 2]>> {
         let last = self.nets.point_head.last()?;
