@@ -130,7 +130,7 @@ mod kernels;
 mod lanes;
 #[doc(hidden)]
 pub mod math;
-mod output;
+pub mod output;
 pub mod planner;
 pub mod predictor;
 #[doc(hidden)]

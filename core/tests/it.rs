@@ -7,6 +7,7 @@ mod common;
 mod fixed_blob;
 mod fixed_sine;
 mod guards;
+mod planner;
 mod predictor;
 mod proposal;
 mod public_api;

@@ -103,3 +103,36 @@ fn fixed_cards_are_reproduced() {
         );
     }
 }
+
+#[test]
+fn scored_fixed_blobs_match_the_integer_reference() {
+    for path in fixed_blobs() {
+        let card: QuantCard =
+            serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
+        let Some(want) = card.test_fixed_planner else {
+            continue;
+        };
+        // Quantize the f32 source again, as the card says: `quantize_blob_with` compares every
+        // test window's probabilities through gpecnet-core with the integer reference's, bit
+        // for bit, and refuses to write otherwise.
+        let dir = std::env::temp_dir().join(format!("gpecnet-scored-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let again = gpecnet_trainer::quantize::quantize_blob_with(
+            &path.with_file_name(&card.source),
+            &dir.join(path.file_name().unwrap()),
+            &gpecnet_tests::data_root(),
+            card.k,
+            card.base_seed,
+            4,
+            8,
+            true,
+            None,
+            true,
+            None,
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+        let again = again.unwrap();
+        assert_eq!(again.blob_crc, card.blob_crc, "{}", path.display());
+        assert_eq!(again.test_fixed_planner, Some(want), "{}", path.display());
+    }
+}

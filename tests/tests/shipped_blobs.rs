@@ -3,12 +3,15 @@
 //! whole SDD test set through `gpecnet-core` reproduces its model card exactly.
 
 use gpecnet_core::NumericKind;
-use gpecnet_tests::{assert_sidecars, card_dataset, card_test_set, shipped_blobs_of, Shipped};
+use gpecnet_tests::{
+    assert_sidecars, card_dataset, card_test_set, data_root, shipped_blobs_of, Shipped,
+};
 use gpecnet_trainer::core_eval::evaluate_core;
 use gpecnet_trainer::eval::dist_metrics;
 use gpecnet_trainer::export::read_blob;
+use gpecnet_trainer::planner_metrics::PlannerMetrics;
 use gpecnet_trainer::reference::SineKind;
-use gpecnet_trainer::ship::ModelCard;
+use gpecnet_trainer::ship::{test_planner, ModelCard};
 
 fn f32_blobs() -> Vec<std::path::PathBuf> {
     shipped_blobs_of(NumericKind::F32)
@@ -107,5 +110,65 @@ fn sdd_test_set_reproduces_model_cards() {
             "{}: worse than constant velocity",
             path.display()
         );
+    }
+}
+
+/// `a` and `b` equal to within JSON's f64 round trip.
+fn planner_close(a: &PlannerMetrics, b: &PlannerMetrics) -> bool {
+    let v = |m: &PlannerMetrics| serde_json::to_value(m).unwrap();
+    let (va, vb) = (v(a), v(b));
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * x.abs().max(1.0);
+    va.as_object()
+        .unwrap()
+        .iter()
+        .all(|(k, x)| match (x, &vb[k]) {
+            (serde_json::Value::Array(p), serde_json::Value::Array(q)) => p
+                .iter()
+                .zip(q)
+                .all(|(p, q)| close(p.as_f64().unwrap(), q.as_f64().unwrap())),
+            (x, y) => close(x.as_f64().unwrap(), y.as_f64().unwrap()),
+        })
+}
+
+#[test]
+fn planner_metrics_reproduce_and_match_the_reference() {
+    for path in f32_blobs() {
+        let card: ModelCard =
+            serde_json::from_slice(&std::fs::read(path.with_extension("json")).unwrap()).unwrap();
+        let blob = std::fs::read(&path).unwrap();
+        let reference = read_blob(&blob).unwrap();
+        assert_eq!(card.test_planner.is_some(), reference.is_scored());
+        let Some(want) = card.test_planner else {
+            continue;
+        };
+        let test = card_test_set(&path);
+        // test_planner compares every window's probabilities with the reference path's, bit
+        // for bit, before it computes the metrics.
+        let (own, px) = test_planner(
+            &data_root(),
+            &card_dataset(&path),
+            &blob,
+            card.sine,
+            &test,
+            card.base_seed,
+            &reference,
+        )
+        .unwrap()
+        .expect("a scored blob has planner metrics");
+        assert!(
+            planner_close(&own, &want),
+            "{}: {own:?} vs {want:?}",
+            path.display()
+        );
+        assert_eq!(px.is_some(), card.test_planner_px.is_some());
+        if let (Some(a), Some(b)) = (px, card.test_planner_px) {
+            assert!(planner_close(&a, &b), "{}: pixels", path.display());
+        }
+        // What the radii promise: coverage near 50 % and 90 % on test (calibrated on
+        // validation only), and probabilities better than equal weights.
+        assert!((0.40..=0.60).contains(&own.r50_coverage), "{own:?}");
+        assert!((0.85..=0.95).contains(&own.r90_coverage), "{own:?}");
+        assert!(own.mixture_nll < own.uniform_nll, "{own:?}");
+        assert!(own.top_is_closest > 1.5 / card.k as f64, "{own:?}");
     }
 }
