@@ -150,6 +150,19 @@ fn run_network_layers<'s, 'l, 'a: 'l, B: Backend>(
     layers::<B>(net, a, b, n)
 }
 
+/// The proposal's hidden layers (all but the last) on the features `feat`: the input of
+/// both its latent rows and its logit rows.
+fn proposal_hidden<'s, B: Backend>(
+    model: &Model<'_>,
+    feat: &[B::Act],
+    a: &'s mut [B::Act],
+    b: &'s mut [B::Act],
+) -> &'s [B::Act] {
+    let prop = model.proposal();
+    let hidden = prop.len().saturating_sub(1);
+    run_network_layers::<B>(prop.layers().take(hidden), feat, a, b)
+}
+
 /// Runs `layers` on the first `width` values of `a`; returns the output.
 fn layers<'s, 'l, 'a: 'l, B: Backend>(
     layers: impl Iterator<Item = &'l Layer<'a>>,
@@ -380,22 +393,12 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
     /// exponent `ez`. [`PredictError::BadSampleCount`] past the model's
     /// [`Model::proposal_latents`].
     fn proposed_latent(&mut self, zdim: usize, ez: i8) -> Result<(), PredictError> {
-        let prop = self.model.proposal();
-        let rows = prop
-            .layers()
-            .last()
-            .and_then(|l| l.rows(self.drawn.checked_mul(zdim)?, zdim))
+        let first = self
+            .drawn
+            .checked_mul(zdim)
             .ok_or(PredictError::BadSampleCount)?;
-        let fdim = (self.model.config().fdim as usize).min(W);
-        let hidden = prop.len().saturating_sub(1);
-        let h = run_network_layers::<B>(
-            prop.layers().take(hidden),
-            &self.feat.0[..fdim],
-            &mut self.a.0,
-            &mut self.b.0,
-        );
-        B::dense(&rows, h, &mut self.z.0[..zdim]);
-        let (eo, bound) = (rows.out_exp(), self.model.latent_bound());
+        let eo = self.proposal_rows(first, zdim)?;
+        let bound = self.model.latent_bound();
         for zi in self.z.0[..zdim].iter_mut() {
             let v = B::to_f32(*zi, eo);
             let v = if v > bound {
@@ -410,6 +413,33 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         Ok(())
     }
 
+    /// Rows `first .. first + n` of the proposal's last layer on its hidden
+    /// activations (the features through its other layers) into `z[..n]`;
+    /// returns the layer's output exponent. The one path of both the latent
+    /// rows and the logit rows (out of line: one copy in flash).
+    /// [`PredictError::BadSampleCount`] when the rows do not exist or `n`
+    /// exceeds `W`.
+    #[inline(never)]
+    fn proposal_rows(&mut self, first: usize, n: usize) -> Result<i8, PredictError> {
+        let rows = self
+            .model
+            .proposal()
+            .layers()
+            .last()
+            .filter(|_| n <= W)
+            .and_then(|l| l.rows(first, n))
+            .ok_or(PredictError::BadSampleCount)?;
+        let fdim = (self.model.config().fdim as usize).min(W);
+        let h = proposal_hidden::<B>(
+            &self.model,
+            &self.feat.0[..fdim],
+            &mut self.a.0,
+            &mut self.b.0,
+        );
+        B::dense(&rows, h, &mut self.z.0[..n]);
+        Ok(rows.out_exp())
+    }
+
     /// The probabilities of the first `out.len()` endpoints of the stream
     /// begun by [`Engine::start`] (any time after it): for a model with
     /// probabilities ([`Model::has_probabilities`]) the proposal's hidden
@@ -418,6 +448,7 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
     /// [`crate::planner::softmax`]; `Ok(true)`. For any other model `1/k`
     /// each and `Ok(false)`. [`PredictError::NotStarted`] before a start,
     /// [`PredictError::BadSampleCount`] for `k` = 0 or above K.
+    #[inline(never)]
     pub fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
         if self.stream == Stream::Idle {
             return Err(PredictError::NotStarted);
@@ -431,24 +462,11 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         }
         let k = out.len();
         let latents = self.model.proposal_latents();
+        if k > latents {
+            return Err(PredictError::BadSampleCount);
+        }
         let first = latents.saturating_mul(self.model.config().zdim as usize);
-        let prop = self.model.proposal();
-        let rows = prop
-            .layers()
-            .last()
-            .filter(|_| k <= latents && k <= W)
-            .and_then(|l| l.rows(first, k))
-            .ok_or(PredictError::BadSampleCount)?;
-        let fdim = (self.model.config().fdim as usize).min(W);
-        let hidden = prop.len().saturating_sub(1);
-        let h = run_network_layers::<B>(
-            prop.layers().take(hidden),
-            &self.feat.0[..fdim],
-            &mut self.a.0,
-            &mut self.b.0,
-        );
-        B::dense(&rows, h, &mut self.z.0[..k]);
-        let eo = rows.out_exp();
+        let eo = self.proposal_rows(first, k)?;
         for (o, &l) in out.iter_mut().zip(&self.z.0[..k]) {
             *o = B::to_f32(l, eo);
         }

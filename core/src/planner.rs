@@ -93,29 +93,39 @@ impl<const K: usize> Forecast<K> {
 /// Step 2: the softmax of `logits` into `out` in place (the logits are read
 /// from `out`). [`PredictError::NonFiniteOutput`] when a logit is not finite
 /// or the sum is not positive; [`PredictError::BadSampleCount`] when empty.
+#[inline(never)]
 pub fn softmax(out: &mut [f32]) -> Result<(), PredictError> {
     if out.is_empty() {
         return Err(PredictError::BadSampleCount);
     }
+    // Indexed loops whose counter passes through `black_box`: the compiler cannot
+    // count the iterations, so it does not unroll them (at opt-level 3 it would
+    // copy each body several times: a kilobyte of flash for 20 numbers).
     let mut m = f32::NEG_INFINITY;
-    for &l in out.iter() {
+    let mut i = 0;
+    while let Some(&l) = out.get(i) {
         if !l.is_finite() {
             return Err(PredictError::NonFiniteOutput);
         }
         if l > m {
             m = l;
         }
+        i = core::hint::black_box(i) + 1;
     }
     let mut s = 0.0f32;
-    for v in out.iter_mut() {
-        *v = libm::expf(*v - m);
+    let mut i = 0;
+    while let Some(v) = out.get_mut(i) {
+        *v = exp(*v - m);
         s += *v;
+        i = core::hint::black_box(i) + 1;
     }
     if !(s.is_finite() && s > 0.0) {
         return Err(PredictError::NonFiniteOutput);
     }
-    for v in out.iter_mut() {
+    let mut i = 0;
+    while let Some(v) = out.get_mut(i) {
         *v /= s;
+        i = core::hint::black_box(i) + 1;
     }
     Ok(())
 }
@@ -124,6 +134,7 @@ pub fn softmax(out: &mut [f32]) -> Result<(), PredictError> {
 /// to the shorter length), with the model's multipliers `scales` (`[c50,
 /// c90]`, [`crate::Model::radius_scales`]).
 /// [`PredictError::NonFiniteOutput`] when a radius is not finite.
+#[inline(never)]
 pub fn radii(
     point: [f32; 2],
     endpoints: &[[f32; 2]],
@@ -147,7 +158,15 @@ pub fn radii(
     }
 }
 
-/// `1/k` in each of `out`'s `k` elements (a model without probabilities).
+/// libm's `expf`, out of line: one copy in flash however the loop above is unrolled.
+#[inline(never)]
+fn exp(x: f32) -> f32 {
+    libm::expf(x)
+}
+
+/// `1/k` in each of `out`'s `k` elements (a model without probabilities; out of
+/// line, so a model with them does not carry it in its executed code).
+#[inline(never)]
 pub(crate) fn uniform(out: &mut [f32]) {
     let k = out.len().max(1) as f32;
     for v in out.iter_mut() {

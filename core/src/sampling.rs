@@ -64,6 +64,17 @@ pub fn reduce(
         out.copy_from_slice(samples);
         return Ok(());
     }
+    reduce_tts(ext, samples, out)
+}
+
+/// The k-means step of test-time sampling, out of line: a model without it
+/// never runs (nor, in the profile's count of executed code, pays for) it.
+#[inline(never)]
+fn reduce_tts(
+    ext: &Extensions,
+    samples: &[[f32; 2]],
+    out: &mut [[f32; 2]],
+) -> Result<(), PredictError> {
     let init = if ext.tts_init == 1 {
         Init::Farthest
     } else {

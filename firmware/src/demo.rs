@@ -26,6 +26,7 @@ use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 
 use gpecnet_core::blob::PositionUnit;
+use gpecnet_core::planner::{radii, Radii};
 use gpecnet_core::units::CallerUnit;
 use gpecnet_core::{LibmSine, Model, NumericKind, PredictError, Predictor};
 use heapless::Vec;
@@ -53,23 +54,57 @@ const DEFAULT_PERIOD: NonZeroU32 = match NonZeroU32::new(400) {
 /// The sine of the demo's f32 path (the reference sine).
 type DemoSine = LibmSine;
 
-/// The model's K endpoints (its protocol: plain or test-time sampling) and its point
-/// forecast's endpoint (`None` for a model without a point head). The predictor picks
-/// its engine (f32 or fixed point) from the blob.
+/// What `predict` hands to `report` for one track.
+pub struct Forecast {
+    /// The model's endpoints (its protocol: plain, test-time sampling or a proposal).
+    pub endpoints: Vec<[f32; 2], K>,
+    /// The point forecast's endpoint (`None` for a model without a point head).
+    pub point: Option<[f32; 2]>,
+    /// The most probable endpoint's index and probability (`1/K` each for a model
+    /// without probabilities: then `learned` is false).
+    pub top: (usize, f32),
+    /// Whether the probabilities are the model's own.
+    pub learned: bool,
+    /// `r50` / `r90` around the point forecast (a model with probabilities).
+    pub radii: Option<Radii>,
+}
+
+/// The model's forecast for one track ([`Forecast`]). The predictor picks its engine (f32
+/// or fixed point) from the blob.
 fn forecast(
     p: &mut Predictor<'static, DemoSine, SCRATCH>,
     past: &[[f32; 2]],
     seed: u64,
-) -> Result<(Vec<[f32; 2], K>, Option<[f32; 2]>), PredictError> {
+) -> Result<Forecast, PredictError> {
     let mut ends: Vec<[f32; 2], K> = Vec::new();
-    let _ = ends.resize(K, [0.0; 2]);
+    let n = gpecnet_core::sampling::max_endpoints_of(p.model(), K);
+    let _ = ends.resize(n, [0.0; 2]);
     p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
+    let mut probs = [0.0f32; K];
+    let probs = &mut probs[..n];
+    let learned = p.probabilities(probs)?;
     let point = if p.model().has_point_head() {
         p.predict_point(past)?.last().copied()
     } else {
         None
     };
-    Ok((ends, point))
+    let radii = match point {
+        Some(pt) if learned => Some(radii(pt, &ends, probs, p.model().radius_scales())?),
+        _ => None,
+    };
+    let mut top = (0, 0.0);
+    for (i, &q) in probs.iter().enumerate() {
+        if q > top.1 {
+            top = (i, q);
+        }
+    }
+    Ok(Forecast {
+        endpoints: ends,
+        point,
+        top,
+        learned,
+        radii,
+    })
 }
 
 static TABLE: Mutex<ThreadModeRawMutex, RefCell<TimedTrackTable<MAX_TRACKS>>> = Mutex::new(
@@ -100,9 +135,7 @@ pub enum Report {
         end_ms: u32,
         id: u32,
         last: [f32; 2],
-        endpoints: Vec<[f32; 2], K>,
-        /// The point forecast's endpoint, when the model has a point head.
-        point: Option<[f32; 2]>,
+        forecast: Forecast,
     },
     Failed {
         t_ms: u32,
@@ -306,13 +339,12 @@ async fn predict(mut p: Predictor<'static, DemoSine, SCRATCH>) {
             // Seed: time and id, so every run (and the host) reproduces it.
             let seed = ((t_ms as u64) << 32) | id as u64;
             let r = match forecast(&mut p, &past, seed) {
-                Ok((endpoints, point)) => Report::Prediction {
+                Ok(forecast) => Report::Prediction {
                     t_ms,
                     end_ms: t_ms.wrapping_add(horizon),
                     id,
                     last: past[HISTORY - 1],
-                    endpoints,
-                    point,
+                    forecast,
                 },
                 Err(_) => Report::Failed { t_ms, id },
             };
@@ -350,18 +382,46 @@ async fn report() {
                 end_ms,
                 id,
                 last,
-                endpoints,
-                point,
+                forecast:
+                    Forecast {
+                        endpoints,
+                        point,
+                        top,
+                        learned,
+                        radii,
+                    },
             } => {
                 n += 1;
-                if let Some(q) = point {
-                    defmt::info!(
+                match (point, radii) {
+                    (Some(q), Some(r)) => defmt::info!(
+                        "  t={=u32}ms track {=u32}: point forecast for t={=u32}ms ({=f32}, {=f32}) m, r50 {=f32} m, r90 {=f32} m",
+                        t_ms,
+                        id,
+                        end_ms,
+                        q[0],
+                        q[1],
+                        r.r50,
+                        r.r90
+                    ),
+                    (Some(q), None) => defmt::info!(
                         "  t={=u32}ms track {=u32}: point forecast for t={=u32}ms ({=f32}, {=f32}) m",
                         t_ms,
                         id,
                         end_ms,
                         q[0],
                         q[1]
+                    ),
+                    _ => {}
+                }
+                if let (true, Some(e)) = (learned, endpoints.get(top.0)) {
+                    defmt::info!(
+                        "  t={=u32}ms track {=u32}: most probable endpoint e{=usize} ({=f32}, {=f32}) m, p {=f32}",
+                        t_ms,
+                        id,
+                        top.0,
+                        e[0],
+                        e[1],
+                        top.1
                     );
                 }
                 // mean endpoint and spread as a compact summary of the K samples

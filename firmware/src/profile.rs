@@ -12,6 +12,7 @@
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
+use gpecnet_core::planner::{radii, Radii};
 use gpecnet_core::{Model, PredictError, Trajectory};
 use heapless::Vec;
 
@@ -56,15 +57,17 @@ pub extern "C" fn bench_end() {
 
 /// The measured function: out of line, so its instruction count does not
 /// depend on what LTO inlines around it. One call of what a planner asks for:
-/// the point forecast (when the model has a point head) and the model's set of
-/// K = 20 endpoints (plain samples, or test-time sampling when the blob says so).
+/// the point forecast (when the model has a point head), the model's set of
+/// K = 20 endpoints (plain samples, or test-time sampling when the blob says so),
+/// their probabilities and, for a model with them, the radii
+/// (`gpecnet_core::planner`).
 #[inline(never)]
 #[no_mangle]
 pub fn gpecnet_predict_k20(
     p: &mut ProfPredictor<'_>,
     past: &[[f32; 2]; 8],
     seed: u64,
-) -> Result<(Vec<[f32; 2], K>, Trajectory), PredictError> {
+) -> Result<(Vec<[f32; 2], K>, Trajectory, [f32; K], Option<Radii>), PredictError> {
     let point = if p.model().has_point_head() {
         p.predict_point(past)?
     } else {
@@ -73,7 +76,13 @@ pub fn gpecnet_predict_k20(
     let mut ends: Vec<[f32; 2], K> = Vec::new();
     let _ = ends.resize(K, [0.0; 2]);
     p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
-    Ok((ends, point))
+    let mut probs = [0.0f32; K];
+    let learned = p.probabilities(&mut probs)?;
+    let r = match point.last() {
+        Some(&pt) if learned => Some(radii(pt, &ends, &probs, p.model().radius_scales())?),
+        _ => None,
+    };
+    Ok((ends, point, probs, r))
 }
 
 /// A pedestrian walking ~2.5 px per step (pixel units, like the SDD models).
@@ -232,11 +241,14 @@ pub fn run() -> bool {
         }
         let used = crate::stack::high_water().saturating_sub(base);
         match r {
-            Ok((ends, point)) => {
+            Ok((ends, point, probs, radii)) => {
+                let r = radii.map(|r| [r.r50, r.r90]);
                 let hash = gpecnet_core::golden::fnv1a(
                     ends.iter()
                         .chain(point.iter())
-                        .flat_map(|e| [e[0].to_bits(), e[1].to_bits()]),
+                        .chain(r.iter())
+                        .flat_map(|e| [e[0].to_bits(), e[1].to_bits()])
+                        .chain(probs.iter().map(|p| p.to_bits())),
                 );
                 let samples = gpecnet_core::sampling::samples_needed(model.extensions(), K);
                 let macs = model.endpoint_macs(samples) + model.point_head().macs();

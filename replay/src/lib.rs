@@ -215,11 +215,14 @@ pub const SINES: &[&str] = &[
     gpecnet_core::sine::MicromathSine::NAME,
 ];
 
-/// Endpoints of one prediction, and the point forecast (empty for models without one).
-type Output = (Vec<[f32; 2], MAX_K>, Trajectory);
+/// Endpoints of one prediction, the point forecast (empty for models without one), and, for a
+/// model with endpoint probabilities, their bits followed by the radii's (empty otherwise).
+type Output = (Vec<[f32; 2], MAX_K>, Trajectory, Vec<u32, { MAX_K + 2 }>);
 
 /// Output fingerprint + bit-equality with the sidecar, for each case, of `predict`. The hash
-/// covers the endpoints, then the point forecast's points.
+/// covers the endpoints, then the point forecast's points, then the probabilities and radii
+/// (which the golden files do not hold: the host's replay of the same core gives the
+/// reference, and the trainer's tests compare the core with the reference path).
 fn check_cases(
     set: &GoldenSet<'_>,
     emit: &mut dyn FnMut(u32, Result<(u32, bool), ()>),
@@ -228,9 +231,14 @@ fn check_cases(
     for (i, case) in set.cases().enumerate() {
         let k = case.k();
         let r = match predict(&case) {
-            Ok((ends, point)) => {
+            Ok((ends, point, planner)) => {
                 let bits = |p: &[f32; 2]| [p[0].to_bits(), p[1].to_bits()];
-                let hash = fnv1a(ends.iter().chain(point.iter()).flat_map(bits));
+                let hash = fnv1a(
+                    ends.iter()
+                        .chain(point.iter())
+                        .flat_map(bits)
+                        .chain(planner.iter().copied()),
+                );
                 let ok = ends.len() == k
                     && ends
                         .iter()
@@ -259,12 +267,27 @@ fn predict_case<S: Sine, const W: usize>(
     let mut ends: Vec<[f32; 2], MAX_K> = Vec::new();
     let _ = ends.resize(c.k().min(MAX_K), [0.0; 2]);
     p.predict_endpoint_set::<MAX_SAMPLES>(&c.past, c.seed, &mut ends)?;
+    let mut planner = Vec::new();
+    if p.model().has_probabilities() {
+        let mut probs = [0.0f32; MAX_K];
+        let probs = &mut probs[..ends.len()];
+        p.probabilities(probs)?;
+        let point = p.predict_point(&c.past)?;
+        let pt = point.last().copied().ok_or(PredictError::NoPointHead)?;
+        let r = gpecnet_core::planner::radii(pt, &ends, probs, p.model().radius_scales())?;
+        for v in probs.iter().chain([&r.r50, &r.r90]) {
+            planner
+                .push(v.to_bits())
+                .map_err(|_| PredictError::CapacityExceeded)?;
+        }
+        return Ok((ends, point, planner));
+    }
     let point = if p.model().has_point_head() {
         p.predict_point(&c.past)?
     } else {
         Trajectory::new()
     };
-    Ok((ends, point))
+    Ok((ends, point, planner))
 }
 
 /// A predictor for `blob`, built out of line: the `Model` view it parses
