@@ -245,6 +245,23 @@ typedef struct GpecnetTrustedKey {
   uint8_t public_key[32];
 } GpecnetTrustedKey;
 
+// What a planner gets besides the endpoints, for [`gpecnet_predict_forecast`].
+typedef struct GpecnetPlanner {
+  // 1 when the probabilities are the model's own (a model with endpoint
+  // probabilities, format version 6); 0 when they are `1/k` each and there
+  // are no radii.
+  uint32_t learned;
+  // 1 when `point_xy` holds the point forecast's endpoint, else 0.
+  uint32_t has_point;
+  // The point forecast's endpoint (x, y), the centre of the radii.
+  float point_xy[2];
+  // The true endpoint lies within `r50` of `point_xy` in about half of the
+  // windows (0 when `learned` is 0).
+  float r50;
+  // ... and within `r90` in about nine of ten (0 when `learned` is 0).
+  float r90;
+} GpecnetPlanner;
+
 // What a blob holds, for [`gpecnet_model_info`].
 typedef struct GpecnetModelInfo {
   // [`GPECNET_NUMERIC_F32`] or [`GPECNET_NUMERIC_Q15`].
@@ -281,6 +298,9 @@ typedef struct GpecnetModelInfo {
   // The factor this predictor converts the caller's positions with
   // (model = caller · factor; 1 when none).
   float unit_factor;
+  // 1 when the model gives learned endpoint probabilities and radii
+  // ([`gpecnet_predict_forecast`]), else 0.
+  uint32_t has_probabilities;
 } GpecnetModelInfo;
 
 // What a golden file (`weights/<model>.golden`) was produced with.
@@ -462,6 +482,28 @@ int32_t gpecnet_predict_endpoints(struct GpecnetPredictor *p,
                                   uint64_t seed,
                                   float *out_xy,
                                   size_t k);
+
+// What a planner needs in one call: the model's endpoint set of `k`
+// endpoints (as [`gpecnet_predict_endpoints`]) into `out_xy`, their
+// probabilities into `out_probs` (`k` floats summing to 1), and the point
+// forecast's endpoint with its radii `r50` / `r90` into `*out_planner`
+// (`gpecnet_core::planner`, `weights/FORMAT.md` "Format version 6"). A model
+// without probabilities gives `1/k` each and `learned = 0`. Identical, bit
+// for bit, to the core's `Predictor` (`predict_endpoint_set`,
+// `probabilities`, `predict_point`, `planner::radii`). Nothing is written on
+// failure.
+//
+// # Safety
+// As [`gpecnet_predict_endpoints`]; `out_probs` is NULL or valid for `k`
+// floats; `out_planner` is NULL or valid for a write.
+int32_t gpecnet_predict_forecast(struct GpecnetPredictor *p,
+                                 const float *past_xy,
+                                 size_t past_len,
+                                 uint64_t seed,
+                                 float *out_xy,
+                                 float *out_probs,
+                                 size_t k,
+                                 struct GpecnetPlanner *out_planner);
 
 // Fills `*out` with what the predictor's blob holds.
 //

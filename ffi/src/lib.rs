@@ -801,6 +801,97 @@ pub unsafe extern "C" fn gpecnet_predict_endpoints(
     })
 }
 
+/// What a planner gets besides the endpoints, for [`gpecnet_predict_forecast`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpecnetPlanner {
+    /// 1 when the probabilities are the model's own (a model with endpoint
+    /// probabilities, format version 6); 0 when they are `1/k` each and there
+    /// are no radii.
+    pub learned: u32,
+    /// 1 when `point_xy` holds the point forecast's endpoint, else 0.
+    pub has_point: u32,
+    /// The point forecast's endpoint (x, y), the centre of the radii.
+    pub point_xy: [f32; 2],
+    /// The true endpoint lies within `r50` of `point_xy` in about half of the
+    /// windows (0 when `learned` is 0).
+    pub r50: f32,
+    /// ... and within `r90` in about nine of ten (0 when `learned` is 0).
+    pub r90: f32,
+}
+
+/// What a planner needs in one call: the model's endpoint set of `k`
+/// endpoints (as [`gpecnet_predict_endpoints`]) into `out_xy`, their
+/// probabilities into `out_probs` (`k` floats summing to 1), and the point
+/// forecast's endpoint with its radii `r50` / `r90` into `*out_planner`
+/// (`gpecnet_core::planner`, `weights/FORMAT.md` "Format version 6"). A model
+/// without probabilities gives `1/k` each and `learned = 0`. Identical, bit
+/// for bit, to the core's `Predictor` (`predict_endpoint_set`,
+/// `probabilities`, `predict_point`, `planner::radii`). Nothing is written on
+/// failure.
+///
+/// # Safety
+/// As [`gpecnet_predict_endpoints`]; `out_probs` is NULL or valid for `k`
+/// floats; `out_planner` is NULL or valid for a write.
+#[no_mangle]
+pub unsafe extern "C" fn gpecnet_predict_forecast(
+    p: *mut GpecnetPredictor,
+    past_xy: *const f32,
+    past_len: usize,
+    seed: u64,
+    out_xy: *mut f32,
+    out_probs: *mut f32,
+    k: usize,
+    out_planner: *mut GpecnetPlanner,
+) -> i32 {
+    guard(|| {
+        non_null(out_xy)?;
+        non_null(out_probs)?;
+        non_null(out_planner)?;
+        // SAFETY: the caller's contract on `p` and `past_xy`.
+        let (pred, past) = unsafe { track(p, past_xy, past_len) }?;
+        let past = past.get(..past_len).unwrap_or(&[]);
+        let mut ends = [[0.0f32; 2]; GPECNET_MAX_SAMPLES];
+        let out = ends.get_mut(..k).ok_or(GPECNET_E_CAPACITY_EXCEEDED)?;
+        pred.predict_endpoint_set::<GPECNET_MAX_SAMPLES>(past, seed, out)
+            .map_err(predict_status)?;
+        let mut probs = [0.0f32; GPECNET_MAX_SAMPLES];
+        let probs = probs.get_mut(..k).ok_or(GPECNET_E_CAPACITY_EXCEEDED)?;
+        let learned = pred.probabilities(probs).map_err(predict_status)?;
+        let point = if pred.model().has_point_head() {
+            pred.predict_point(past)
+                .map_err(predict_status)?
+                .last()
+                .copied()
+        } else {
+            None
+        };
+        let radii = match point {
+            Some(pt) if learned => Some(
+                gpecnet_core::planner::radii(pt, out, probs, pred.model().radius_scales())
+                    .map_err(predict_status)?,
+            ),
+            _ => None,
+        };
+        let planner = GpecnetPlanner {
+            learned: learned.into(),
+            has_point: point.is_some().into(),
+            point_xy: point.unwrap_or([0.0; 2]),
+            r50: radii.map_or(0.0, |r| r.r50),
+            r90: radii.map_or(0.0, |r| r.r90),
+        };
+        // SAFETY: non-null; room for k points, k floats and one struct (caller's contract).
+        unsafe {
+            write_points(out_xy, out);
+            for (i, &v) in probs.iter().enumerate() {
+                out_probs.add(i).write_unaligned(v);
+            }
+            out_planner.write_unaligned(planner);
+        }
+        Ok(())
+    })
+}
+
 /// What a blob holds, for [`gpecnet_model_info`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -839,6 +930,9 @@ pub struct GpecnetModelInfo {
     /// The factor this predictor converts the caller's positions with
     /// (model = caller · factor; 1 when none).
     pub unit_factor: f32,
+    /// 1 when the model gives learned endpoint probabilities and radii
+    /// ([`gpecnet_predict_forecast`]), else 0.
+    pub has_probabilities: u32,
 }
 
 /// Fills `*out` with what the predictor's blob holds.
@@ -879,6 +973,7 @@ pub unsafe extern "C" fn gpecnet_model_info(
             period_s: m.period_s().unwrap_or(0.0),
             metres_per_pixel: m.metres_per_pixel().unwrap_or(0.0),
             unit_factor: pred.units().factor(),
+            has_probabilities: m.has_probabilities().into(),
         };
         // SAFETY: non-null, writable (caller's contract).
         unsafe { out.write_unaligned(info) };

@@ -225,6 +225,61 @@ fn c_metric_tracker_matches_the_core() {
         "{text}"
     );
 
+    // A model with endpoint probabilities: every forecast is followed by its planner line,
+    // the core's `predict_forecast` bit for bit.
+    let (ok, text) = run("sdd-m-lp-qe.gpec");
+    assert!(ok, "{text}");
+    let bytes = std::fs::read(root().join("weights/sdd-m-lp-qe.gpec")).unwrap();
+    let model = Model::from_blob(&bytes).unwrap();
+    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    let mut table: TimedTrackTable<16> = TimedTrackTable::new(period, 1_000);
+    let mut want = Vec::new();
+    for f in 0..150 {
+        let mut seen = Vec::new();
+        let mut t_ms = 0;
+        for id in 0..6 {
+            let (t, pos) = camera(f, id);
+            t_ms = t;
+            if let Some(pos) = pos {
+                seen.push(Observation { id, pos });
+            }
+        }
+        table.update(t_ms, &seen);
+        for tr in table.fresh() {
+            let fc: gpecnet_core::planner::Forecast<20> =
+                p.predict_forecast(&tr.past(), 0).unwrap();
+            let top = fc.most_probable().unwrap();
+            want.push(format!(
+                "t={:>5} ms id={} [{:08x} {:08x}] e{top}",
+                tr.end_ms(),
+                tr.id(),
+                fc.radii.unwrap().r90.to_bits(),
+                fc.probabilities[top].to_bits()
+            ));
+        }
+    }
+    let got: Vec<String> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("  planner "))
+        .map(|l| {
+            let head = l.split(':').next().unwrap();
+            let top = l
+                .split("most probable ")
+                .nth(1)
+                .unwrap()
+                .split(' ')
+                .next()
+                .unwrap();
+            format!("{head} [{} {top}", l.rsplit('[').next().unwrap())
+        })
+        .collect();
+    assert!(want.len() > 20, "{}", want.len());
+    assert_eq!(got, want);
+    assert!(
+        text.starts_with("signature ok: model version 3\nsdd-m-lp-qe"),
+        "{text}"
+    );
+
     // An unsigned blob is refused by gpecnet_init_signed.
     let (ok, text) = run("sdd-tiny-qe.gpec");
     assert!(!ok && text.contains("the blob is not signed"), "{text}");

@@ -3,6 +3,11 @@
  *   cc -std=c11 -I ffi/include ffi/examples/c/metric_tracker.c \
  *      target/debug/libgpecnet_ffi.a -lpthread -ldl -lm -o metric_tracker
  *   ./metric_tracker weights/sdd-m-tiny-qe.gpec [weights/test-signing-key.pub]
+ *   ./metric_tracker weights/sdd-m-lp-qe.gpec weights/test-signing-key.pub
+ *
+ * With a model that has endpoint probabilities (sdd-m-lp-qe) every forecast
+ * is followed by a `planner` line: r50 / r90 around the point forecast and
+ * the most probable of its K endpoints (gpecnet_predict_forecast).
  *
  * With a public key file, the blob must be signed by that key
  * (gpecnet_init_signed: Ed25519, model version at least 1), as a drone that
@@ -157,6 +162,29 @@ int main(int argc, char **argv) {
                    (unsigned)fresh[i].end_ms, (unsigned)fresh[i].id,
                    (unsigned)(fresh[i].end_ms + period_ms * (uint32_t)len), end[0], end[1],
                    (unsigned)bits(end[0]), (unsigned)bits(end[1]));
+            if (!info.has_probabilities) continue;
+            /* A model with endpoint probabilities: its K endpoints, which one is the
+             * most probable, and how far from the point forecast the person may be. */
+            float ends[GPECNET_MAX_SAMPLES][2];
+            float probs[GPECNET_MAX_SAMPLES];
+            GpecnetPlanner plan;
+            size_t k = info.max_endpoints;
+            s = gpecnet_predict_forecast(p, &fresh[i].past_xy[0][0], GPECNET_HISTORY, 0,
+                                         &ends[0][0], probs, k, &plan);
+            if (s != GPECNET_OK) {
+                fprintf(stderr, "gpecnet_predict_forecast: %s (%d)\n", gpecnet_status_str(s),
+                        (int)s);
+                return 1;
+            }
+            size_t top = 0;
+            for (size_t j = 1; j < k; j++) {
+                if (probs[j] > probs[top]) top = j;
+            }
+            printf("  planner t=%5u ms id=%u: r50 %.3f m, r90 %.3f m, most probable e%u "
+                   "(%.3f, %.3f) m p %.3f [%08x %08x]\n",
+                   (unsigned)fresh[i].end_ms, (unsigned)fresh[i].id, plan.r50, plan.r90,
+                   (unsigned)top, ends[top][0], ends[top][1], probs[top],
+                   (unsigned)bits(plan.r90), (unsigned)bits(probs[top]));
         }
     }
     free(blob);
