@@ -3,6 +3,7 @@
 //! the same data set, with the SDD-in-metres results converted back to pixels; and
 //! `--update-card`, which adds the distribution metrics to an existing card.
 
+use crate::planner_metrics::PlannerMetrics;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -60,6 +61,12 @@ pub struct EvalReport {
     pub matches_card: Option<bool>,
     /// Where the picture was written.
     pub svg: Option<PathBuf>,
+    /// What a planner gets (a model with endpoint probabilities; the data set's unit).
+    pub planner: Option<PlannerMetrics>,
+    /// The same in pixels (SDD in metres only).
+    pub planner_px: Option<PlannerMetrics>,
+    /// Where the reliability diagram was written.
+    pub reliability: Option<PathBuf>,
 }
 
 /// Field `key` of a model card's JSON `card`, if present and of type `T`.
@@ -128,14 +135,19 @@ pub fn eval_blob(
     base_seed: u64,
     svg: Option<&Path>,
     n_draw: usize,
+    reliability: Option<&Path>,
 ) -> Result<EvalReport> {
-    if let Some(svg) = svg {
+    for (flag, out) in [("--draw", svg), ("--reliability", reliability)] {
+        let Some(out) = out else { continue };
         let inputs = crate::outpath::blob_and_sidecars(blob_path);
         let mut refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
         refs.push(blob_path);
         let data_dirs = crate::outpath::data_input_dirs(data_root);
         let dirs: Vec<&Path> = data_dirs.iter().map(PathBuf::as_path).collect();
-        crate::outpath::check_output("--draw", svg, &refs, &dirs)?;
+        crate::outpath::check_output(flag, out, &refs, &dirs)?;
+    }
+    if svg.is_some() && svg == reliability {
+        bail!("--draw and --reliability name the same file");
     }
     let blob = crate::inpath::read_limited(blob_path, crate::inpath::FileKind::Blob)?;
     let model = gpecnet_core::Model::from_blob(&blob)
@@ -222,6 +234,46 @@ pub fn eval_blob(
     };
     let hit_radii = crate::eval::hit_radii(unit);
     let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
+    let run_sine = sine
+        .or_else(|| sine_of_blob(blob_path))
+        .unwrap_or(SineKind::Libm);
+    let planner_outs = crate::core_eval::planner_core(&blob, run_sine, &test, base_seed)?;
+    let planner = match &planner_outs {
+        Some(outs) => Some(crate::ship::planner_pair(data_root, spec, &test, outs)?),
+        None => None,
+    };
+    let reliability = match (reliability, &planner_outs) {
+        (Some(path), Some(outs)) => {
+            let mut acc = crate::planner_metrics::PlannerAccumulator::new();
+            for (w, o) in test.windows.iter().zip(outs) {
+                acc.add(&crate::planner_metrics::PlannerWindow {
+                    endpoints: &o.endpoints,
+                    probs: &o.probs,
+                    truth: w.pos[crate::data::PAST + crate::data::FUTURE - 1],
+                    point: o.point,
+                    radii: o.radii,
+                    unit: 1.0,
+                });
+            }
+            let m = acc.finish();
+            let title = format!(
+                "{} on {spec} test: endpoint probabilities, ECE {:.4} ({} bins)",
+                model.name(),
+                m.ece,
+                crate::planner_metrics::ECE_BINS
+            );
+            write_atomic(
+                path,
+                crate::draw::reliability_svg(&title, acc.bins()).as_bytes(),
+            )?;
+            Some(path.to_path_buf())
+        }
+        (Some(_), None) => bail!(
+            "--reliability: {} has no endpoint probabilities (format version 6, `gpecnet score`)",
+            blob_path.display()
+        ),
+        (None, _) => None,
+    };
     let svg = match svg {
         Some(path) => {
             let stride = (test.windows.len() / n_draw.max(1)).max(1);
@@ -229,6 +281,8 @@ pub fn eval_blob(
                 .windows
                 .iter()
                 .zip(&preds)
+                .enumerate()
+                .map(|(i, (w, p))| (w, p, planner_outs.as_ref().and_then(|o| o.get(i))))
                 .step_by(stride)
                 .take(n_draw)
                 .collect();
@@ -264,6 +318,9 @@ pub fn eval_blob(
         matches_card,
         card_on_other_data,
         svg,
+        planner: planner.map(|p| p.0),
+        planner_px: planner.and_then(|p| p.1),
+        reliability,
     })
 }
 

@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 
 use self::svg::{escape, header, Panel};
 
+use crate::core_eval::PlannerOut;
 use crate::data::Window;
 use crate::eval::Prediction;
 
@@ -19,7 +20,7 @@ const PANEL: f32 = 260.0;
 pub fn predictions_svg(
     title: &str,
     unit: &str,
-    items: &[(&Window, &Prediction)],
+    items: &[(&Window, &Prediction, Option<&PlannerOut>)],
     cols: usize,
 ) -> String {
     let cols = cols.max(1);
@@ -27,10 +28,14 @@ pub fn predictions_svg(
     let (w, h) = (cols as f32 * PANEL, rows as f32 * PANEL + 44.0);
     let mut s = String::new();
     header(&mut s, w, h, title);
-    for (n, (win, pred)) in items.iter().enumerate() {
+    for (n, (win, pred, planner)) in items.iter().enumerate() {
         let (ox, oy) = ((n % cols) as f32 * PANEL, (n / cols) as f32 * PANEL + 44.0);
         let mut pts: Vec<[f32; 2]> = win.pos.to_vec();
         pts.extend(pred.trajectories.iter().flatten());
+        // The r90 circle stays inside the panel.
+        if let Some((q, [_, r90])) = planner.and_then(|p| Some((p.point?, p.radii?))) {
+            pts.extend([[q[0] - r90, q[1] - r90], [q[0] + r90, q[1] + r90]]);
+        }
         let panel = Panel::fit((ox, oy), PANEL, &pts, (20.0, 20.0, 40.0), 1e-3);
         panel.border(&mut s);
         let best = pred
@@ -43,7 +48,8 @@ pub fn predictions_svg(
                 (i, (e[0] - g[0]).hypot(e[1] - g[1]))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
-        for t in &pred.trajectories {
+        let k = pred.trajectories.len().max(1) as f32;
+        for (i, t) in pred.trajectories.iter().enumerate() {
             let mut line = vec![win.pos[7]];
             line.extend_from_slice(t);
             panel.polyline(
@@ -52,10 +58,42 @@ pub fn predictions_svg(
                 r##"stroke="#f4a261" stroke-width="0.8" opacity="0.7""##,
             );
             let (a, b) = panel.map(t[t.len() - 1]);
+            // With probabilities: the dot's area grows with p (the size of 1/K is the plain
+            // dot's), and its opacity too.
+            let (r, op) = match planner.filter(|p| p.probs.len() == pred.trajectories.len()) {
+                Some(p) => {
+                    let rel = p.probs[i] * k;
+                    (
+                        2.2 * rel.sqrt().clamp(0.4, 3.0),
+                        (0.25 + 0.75 * rel / 3.0).min(1.0),
+                    )
+                }
+                None => (2.2, 1.0),
+            };
             let _ = writeln!(
                 s,
-                r##"<circle cx="{a:.1}" cy="{b:.1}" r="2.2" fill="#d62828"/>"##
+                r##"<circle cx="{a:.1}" cy="{b:.1}" r="{r:.1}" fill="#d62828" opacity="{op:.2}"/>"##
             );
+        }
+        if let Some(p) = planner {
+            if let Some(q) = p.point {
+                let (a, b) = panel.map(q);
+                if let Some(radii) = p.radii {
+                    for (r, dash) in radii.iter().zip(["2 2", "5 3"]) {
+                        let _ = writeln!(
+                            s,
+                            r##"<circle cx="{a:.1}" cy="{b:.1}" r="{:.1}" fill="none" stroke="#6a4c93" stroke-dasharray="{dash}"/>"##,
+                            r * panel.scale()
+                        );
+                    }
+                }
+                let _ = writeln!(
+                    s,
+                    r##"<path d="M{:.1},{:.1}l6,6m0,-6l-6,6" stroke="#6a4c93" stroke-width="2"/>"##,
+                    a - 3.0,
+                    b - 3.0
+                );
+            }
         }
         if let Some((i, fde)) = best {
             let mut line = vec![win.pos[7]];
@@ -82,7 +120,65 @@ pub fn predictions_svg(
     }
     let _ = writeln!(
         s,
-        r##"<text x="8" y="36" font-size="11" fill="#555">blue: observed 8 steps · dashed green: true future · orange: the K sampled trajectories, red dots their endpoints · thick red: best of K</text>"##
+        r##"<text x="8" y="36" font-size="11" fill="#555">blue: observed 8 steps · dashed green: true future · orange: the K sampled trajectories, red dots their endpoints (sized by probability when the model has them) · thick red: best of K · purple cross: point forecast, dashed circles its r50 and r90</text>"##
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// A reliability diagram of endpoint probabilities: for each of the equal-width bins
+/// (`(count, sum of p, sum of outcomes)`, [`crate::planner_metrics::PlannerAccumulator::bins`])
+/// a bar at the share of endpoints that were the closest, against the diagonal of perfect
+/// calibration; the bar's number is its count.
+pub fn reliability_svg(title: &str, bins: &[(usize, f64, f64)]) -> String {
+    let (w, h, m) = (420.0f32, 460.0f32, 50.0f32);
+    let side = w - 2.0 * m;
+    let mut s = String::new();
+    header(&mut s, w, h, title);
+    let (x0, y0) = (m, h - m);
+    let _ = writeln!(
+        s,
+        r##"<rect x="{m}" y="{}" width="{side}" height="{side}" fill="none" stroke="#999"/><line x1="{x0}" y1="{y0}" x2="{}" y2="{}" stroke="#999" stroke-dasharray="4 3"/>"##,
+        y0 - side,
+        x0 + side,
+        y0 - side
+    );
+    let n = bins.len().max(1) as f32;
+    // The probabilities of 20 endpoints sit near 1/20: the axes show 0 .. top, the largest
+    // bin edge that holds a probability, so the low bins are readable.
+    let used = bins.iter().rposition(|b| b.0 > 0).map_or(1, |i| i + 1) as f32;
+    let top = used / n;
+    for (i, &(c, p, o)) in bins.iter().enumerate() {
+        if c == 0 {
+            continue;
+        }
+        let freq = (o / c as f64) as f32;
+        let conf = (p / c as f64) as f32;
+        let bw = side / used;
+        let x = x0 + i as f32 * bw;
+        let bh = (freq / top).min(1.0) * side;
+        let _ = writeln!(
+            s,
+            r##"<rect x="{:.1}" y="{:.1}" width="{:.1}" height="{bh:.1}" fill="#457b9d" opacity="0.8"/><circle cx="{:.1}" cy="{:.1}" r="2.5" fill="#d62828"/><text x="{:.1}" y="{:.1}" font-size="8" text-anchor="middle">{c}</text>"##,
+            x + 1.0,
+            y0 - bh,
+            bw - 2.0,
+            x0 + conf / top * side,
+            y0 - (conf / top).min(1.0) * side,
+            x + bw / 2.0,
+            y0 - bh - 3.0
+        );
+    }
+    let _ = writeln!(
+        s,
+        r##"<text x="{x0}" y="{}" font-size="10">0</text><text x="{}" y="{}" font-size="10">{top:.2}</text><text x="{}" y="{}" font-size="11" text-anchor="middle">predicted probability (blue bar: share that was the closest endpoint; red dot: the bin's mean probability)</text><text x="14" y="{}" font-size="11" transform="rotate(-90 14 {})" text-anchor="middle">observed frequency (0 .. {top:.2})</text>"##,
+        y0 + 14.0,
+        x0 + side - 16.0,
+        y0 + 14.0,
+        w / 2.0,
+        y0 + 32.0,
+        y0 - side / 2.0,
+        y0 - side / 2.0
     );
     s.push_str("</svg>\n");
     s
@@ -162,6 +258,11 @@ pub(crate) mod svg {
                 span,
                 sc: (size - inset.2) / span,
             }
+        }
+
+        /// Pixels per data unit.
+        pub(crate) fn scale(&self) -> f32 {
+            self.sc
         }
 
         /// The pixel position of data point `q`.

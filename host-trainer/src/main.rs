@@ -403,9 +403,14 @@ struct EvalArgs {
     /// Number of test windows to draw.
     #[arg(long, default_value_t = 16)]
     n_draw: usize,
+    /// Also draw the reliability diagram of the endpoint probabilities (SVG; a model with
+    /// probabilities only: format version 6, `gpecnet score`).
+    #[arg(long, value_name = "FILE")]
+    reliability: Option<PathBuf>,
     /// Print exactly one JSON object on stdout (name, n, k, min_ade, min_fde, ade_k1, fde_k1,
     /// mean_ade, mean_fde, point_ade, point_fde, cv_n, cv_ade, cv_fde, cv_last_ade,
-    /// cv_last_fde, kde_nll, hit20, hit40, matches_card, ...) instead of the table.
+    /// cv_last_fde, kde_nll, hit20, hit40, matches_card, probabilities, planner: the planner
+    /// metrics of a model with endpoint probabilities, ...) instead of the table.
     #[arg(long)]
     json: bool,
     /// Add the distribution metrics (kde_nll, hit20, hit40) to the blob's existing model card
@@ -495,6 +500,7 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         a.sampling.seed,
         Some(&a.draw),
         a.n_draw,
+        a.reliability.as_deref(),
     )?;
     let update = if a.update_card {
         let u = gpecnet_trainer::blob_eval::update_card_dist(
@@ -556,6 +562,10 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
             "cv_fde_px": r.pixels.map(|p| p.cv.fde_k1),
             "matches_card": r.matches_card,
             "svg": r.svg.as_ref().map(|p| p.display().to_string()),
+            "probabilities": if r.planner.is_some() { "learned" } else { "uniform (the model has none: 1/K each)" },
+            "planner": r.planner,
+            "planner_px": r.planner_px,
+            "reliability_svg": r.reliability.as_ref().map(|p| p.display().to_string()),
         });
         println!("{o}");
     } else {
@@ -633,8 +643,48 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
             }
             None => println!("model card: none next to the blob"),
         }
+        match (&r.planner, &r.planner_px) {
+            (Some(p), px) => {
+                println!("what a planner gets (learned endpoint probabilities, radii around the point forecast):");
+                let both = |v: f64, w: Option<f64>| match w {
+                    Some(w) => format!("{v:.3} {u} ({w:.2} px)"),
+                    None => format!("{v:.3} {u}"),
+                };
+                println!(
+                    "  P(most probable = closest) {:.3}; FDE of the most probable {}, of the probability-weighted mean {}, of the point forecast {}",
+                    p.top_is_closest,
+                    both(p.top_fde, px.map(|x| x.top_fde)),
+                    both(p.weighted_fde, px.map(|x| x.weighted_fde)),
+                    both(p.point_fde, px.map(|x| x.point_fde))
+                );
+                println!(
+                    "  brier-minFDE {}; ECE {:.4} (top-label {:.4}); mixture NLL {:.3} vs {:.3} with equal weights",
+                    both(p.brier_min_fde, px.map(|x| x.brier_min_fde)),
+                    p.ece,
+                    p.top_ece,
+                    p.mixture_nll,
+                    p.uniform_nll
+                );
+                println!(
+                    "  truth within r50 {:.1} %, within r90 {:.1} % of the point forecast; r90 10/50/90th percentile {}",
+                    100.0 * p.r50_coverage,
+                    100.0 * p.r90_coverage,
+                    p.r90_percentiles
+                        .iter()
+                        .map(|v| format!("{v:.3}"))
+                        .collect::<Vec<_>>()
+                        .join(" / ")
+                );
+            }
+            (None, _) => {
+                println!("endpoint probabilities: none in this model (1/K each, no radii)")
+            }
+        }
         if let Some(p) = &r.svg {
             println!("drew predictions to {}", p.display());
+        }
+        if let Some(p) = &r.reliability {
+            println!("drew the reliability diagram to {}", p.display());
         }
     }
     if let Some(u) = update {

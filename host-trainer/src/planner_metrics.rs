@@ -200,6 +200,12 @@ impl PlannerAccumulator {
         }
     }
 
+    /// The calibration bins over every probability: `(count, sum of p, count closest)` per
+    /// equal-width bin (the reliability diagram, `crate::draw::reliability_svg`).
+    pub fn bins(&self) -> &[(usize, f64, f64); ECE_BINS] {
+        &self.bins
+    }
+
     /// The metrics so far.
     pub fn finish(&self) -> PlannerMetrics {
         let n = self.n.max(1) as f64;
