@@ -10,6 +10,7 @@ mod data_range_eval;
 mod eval_metrics;
 mod propose;
 mod run_folder;
+mod score;
 mod signing;
 mod social;
 mod synth_abscore;
