@@ -13,7 +13,7 @@ pub type Trajectory = heapless::Vec<[f32; 2], MAX_FUTURE>;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum PredictError {
-    /// The model's scratch width ([`Model::scratch_width`]) exceeds the predictor's `W`.
+    /// The model's scratch width ([`Model::scratch_width`](crate::Model::scratch_width)) exceeds the predictor's `W`.
     ScratchTooSmall {
         /// Width the model needs.
         needed: usize,
@@ -31,14 +31,14 @@ pub enum PredictError {
     /// test-time samples.
     BadSampleCount,
     /// A buffer is too small: the sample buffer `N` of
-    /// [`Predictor::predict_endpoint_set`] (see [`crate::sampling::samples_needed`]),
+    /// [`Predictor::predict_endpoint_set`](crate::Predictor::predict_endpoint_set) (see [`crate::sampling::samples_needed`]),
     /// or a model output longer than [`MAX_FUTURE`] points.
     CapacityExceeded,
     /// An input coordinate is NaN or infinite.
     NonFiniteInput,
     /// An input is outside the valid range: a coordinate beyond
     /// ±[`crate::frame::MAX_COORDINATE`], or a displacement from the first
-    /// observed point beyond ±[`Model::input_limit`] in normalised units.
+    /// observed point beyond ±[`Model::input_limit`](crate::Model::input_limit) in normalised units.
     InputOutOfRange,
     /// The model produced NaN or infinity.
     NonFiniteOutput,
@@ -50,7 +50,7 @@ pub enum PredictError {
     /// A point forecast was asked of a model without a point-forecast head.
     NoPointHead,
     /// A sample was asked for before a stream was started
-    /// ([`Predictor::start`]), or a trajectory before a sample was drawn.
+    /// ([`Predictor::start`](crate::Predictor::start)), or a trajectory before a sample was drawn.
     NotStarted,
 }
 
