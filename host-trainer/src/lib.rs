@@ -7,6 +7,7 @@ pub mod csvfile;
 pub mod data;
 pub mod draw;
 pub mod eval;
+pub mod eval_report;
 pub mod export;
 pub mod frame;
 pub mod inpath;

@@ -516,7 +516,7 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
     } else {
         None
     };
-    let (m, cv, cvn, d) = (&r.metrics, &r.constant_velocity, &r.cv, &r.dist);
+    let m = &r.metrics;
     let numbers = [
         m.min_ade, m.min_fde, m.ade_k1, m.fde_k1, m.mean_ade, m.mean_fde,
     ];
@@ -528,164 +528,9 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
         );
     }
     if a.json {
-        let o = serde_json::json!({
-            "name": r.name,
-            "blob": a.blob.display().to_string(),
-            "dataset": r.dataset,
-            "unit": r.unit.suffix(),
-            "n": m.n,
-            "k": m.k,
-            "min_ade": m.min_ade,
-            "min_fde": m.min_fde,
-            "ade_k1": m.ade_k1,
-            "fde_k1": m.fde_k1,
-            "mean_ade": m.mean_ade,
-            "mean_fde": m.mean_fde,
-            "point_ade": r.point.map(|p| p.0),
-            "point_fde": r.point.map(|p| p.1),
-            "cv_n": r.cv_n,
-            "cv_ade": cvn.ade_k1,
-            "cv_fde": cvn.fde_k1,
-            "cv_last_ade": cv.ade_k1,
-            "cv_last_fde": cv.fde_k1,
-            "cv_val_fde": r.cv_val.iter().map(|v| v.fde_k1).collect::<Vec<_>>(),
-            "n_val": r.n_val,
-            "kde_nll": d.kde_nll,
-            "hit20": d.hit20,
-            "hit40": d.hit40,
-            "hits": r.hits.iter().map(|(radius, fraction)| serde_json::json!({"radius": radius, "fraction": fraction})).collect::<Vec<_>>(),
-            "min_ade_px": r.pixels.map(|p| p.metrics.min_ade),
-            "min_fde_px": r.pixels.map(|p| p.metrics.min_fde),
-            "point_ade_px": r.pixels.and_then(|p| p.point.map(|q| q.0)),
-            "point_fde_px": r.pixels.and_then(|p| p.point.map(|q| q.1)),
-            "cv_ade_px": r.pixels.map(|p| p.cv.ade_k1),
-            "cv_fde_px": r.pixels.map(|p| p.cv.fde_k1),
-            "matches_card": r.matches_card,
-            "svg": r.svg.as_ref().map(|p| p.display().to_string()),
-            "probabilities": if r.planner.is_some() { "learned" } else { "uniform (the model has none: 1/K each)" },
-            "planner": r.planner,
-            "planner_px": r.planner_px,
-            "reliability_svg": r.reliability.as_ref().map(|p| p.display().to_string()),
-        });
-        println!("{o}");
+        println!("{}", gpecnet_trainer::eval_report::json(&r, &a.blob));
     } else {
-        let u = r.unit.suffix();
-        println!(
-            "model {} on the {} test set ({} windows), through gpecnet-core, unit: {} ({u})",
-            r.name,
-            r.dataset,
-            m.n,
-            r.unit.words()
-        );
-        println!("{:<44} {:>9} {:>9}", "", "ADE", "FDE");
-        let row = |label: String, ade: f64, fde: f64| {
-            println!("{label:<44} {ade:>9.3} {fde:>9.3}");
-        };
-        row(format!("best of K = {}", m.k), m.min_ade, m.min_fde);
-        row("K = 1 (first sample)".into(), m.ade_k1, m.fde_k1);
-        row(
-            format!("mean over the {} samples", m.k),
-            m.mean_ade,
-            m.mean_fde,
-        );
-        match r.point {
-            Some((ade, fde)) => row("point forecast".into(), ade, fde),
-            None => println!("{:<44} {:>9} {:>9}", "point forecast", "n/a", "n/a"),
-        }
-        row("constant velocity (K = 1)".into(), cv.ade_k1, cv.fde_k1);
-        row(
-            format!("constant velocity, n = {} (chosen on val)", r.cv_n),
-            cvn.ade_k1,
-            cvn.fde_k1,
-        );
-        println!(
-            "distribution of the K = {} endpoints: KDE NLL {:.3} nats ({u}), true endpoint within {} {u} of a sample {:.2} %, within {} {u} {:.2} %",
-            m.k,
-            d.kde_nll,
-            r.hits[0].0,
-            100.0 * r.hits[0].1,
-            r.hits[1].0,
-            100.0 * r.hits[1].1
-        );
-        if let Some(p) = &r.pixels {
-            println!("the same in pixels, scene by scene (the pixel literature's unit):");
-            row(
-                format!("best of K = {} (px)", p.metrics.k),
-                p.metrics.min_ade,
-                p.metrics.min_fde,
-            );
-            if let Some((ade, fde)) = p.point {
-                row("point forecast (px)".into(), ade, fde);
-            }
-            row(
-                "constant velocity on sdd, chosen on val (px)".into(),
-                p.cv.ade_k1,
-                p.cv.fde_k1,
-            );
-        }
-        println!(
-            "constant-velocity n: lowest FDE on {} {} validation windows; val FDE for n = 1..7: {}",
-            r.n_val,
-            r.dataset,
-            r.cv_val
-                .iter()
-                .map(|v| format!("{:.2}", v.fde_k1))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        match r.matches_card {
-            Some(true) => println!("model card: reproduced exactly"),
-            Some(false) => {
-                println!("model card: NOT reproduced (different K, seed, sine or weights?)")
-            }
-            None if r.card_on_other_data => {
-                println!("model card: about another data set (not compared)")
-            }
-            None => println!("model card: none next to the blob"),
-        }
-        match (&r.planner, &r.planner_px) {
-            (Some(p), px) => {
-                println!("what a planner gets (learned endpoint probabilities, radii around the point forecast):");
-                let both = |v: f64, w: Option<f64>| match w {
-                    Some(w) => format!("{v:.3} {u} ({w:.2} px)"),
-                    None => format!("{v:.3} {u}"),
-                };
-                println!(
-                    "  P(most probable = closest) {:.3}; FDE of the most probable {}, of the probability-weighted mean {}, of the point forecast {}",
-                    p.top_is_closest,
-                    both(p.top_fde, px.map(|x| x.top_fde)),
-                    both(p.weighted_fde, px.map(|x| x.weighted_fde)),
-                    both(p.point_fde, px.map(|x| x.point_fde))
-                );
-                println!(
-                    "  brier-minFDE {}; ECE {:.4} (top-label {:.4}); mixture NLL {:.3} vs {:.3} with equal weights",
-                    both(p.brier_min_fde, px.map(|x| x.brier_min_fde)),
-                    p.ece,
-                    p.top_ece,
-                    p.mixture_nll,
-                    p.uniform_nll
-                );
-                println!(
-                    "  truth within r50 {:.1} %, within r90 {:.1} % of the point forecast; r90 10/50/90th percentile {}",
-                    100.0 * p.r50_coverage,
-                    100.0 * p.r90_coverage,
-                    p.r90_percentiles
-                        .iter()
-                        .map(|v| format!("{v:.3}"))
-                        .collect::<Vec<_>>()
-                        .join(" / ")
-                );
-            }
-            (None, _) => {
-                println!("endpoint probabilities: none in this model (1/K each, no radii)")
-            }
-        }
-        if let Some(p) = &r.svg {
-            println!("drew predictions to {}", p.display());
-        }
-        if let Some(p) = &r.reliability {
-            println!("drew the reliability diagram to {}", p.display());
-        }
+        print!("{}", gpecnet_trainer::eval_report::table(&r));
     }
     if let Some(u) = update {
         eprintln!("{u}");
