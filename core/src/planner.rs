@@ -158,7 +158,7 @@ pub fn radii(
     }
 }
 
-/// libm's `expf`, out of line: one copy in flash however the loop above is unrolled.
+/// libm's `expf`, out of line: one copy in flash, called from the softmax's loop.
 #[inline(never)]
 fn exp(x: f32) -> f32 {
     libm::expf(x)
