@@ -6,28 +6,9 @@ use crate::common;
 
 use common::*;
 use gpecnet_blob_writer::{BlobHead, WireLayer};
-use gpecnet_core::blob::{Activation, Meta, NetworkId, NumericKind, PositionUnit};
+use gpecnet_core::blob::{Activation, NetworkId, NumericKind};
 use gpecnet_core::planner::{radii, softmax, Forecast};
 use gpecnet_core::{BlobError, LibmSine, Model, PredictError, Predictor};
-
-const META: Meta<'static> = Meta {
-    unit: PositionUnit::Metre,
-    metres_per_pixel: 0.0,
-    period_s: 0.4,
-    data: "test",
-    licence: "",
-};
-
-const PAST: [[f32; 2]; 8] = [
-    [1.0, 2.0],
-    [1.3, 2.1],
-    [1.7, 2.3],
-    [2.0, 2.4],
-    [2.4, 2.6],
-    [2.7, 2.7],
-    [3.1, 2.9],
-    [3.4, 3.0],
-];
 
 /// A proposal of `k` latents (zdim 3) and `logits` logit rows: 4 → 5 (ReLU) → 3k + logits.
 fn proposal(k: usize, logits: usize) -> Vec<WireLayer> {

@@ -7,29 +7,8 @@ use crate::common;
 use common::*;
 use gpecnet_blob_writer::{BlobHead, WireLayer};
 use gpecnet_core::batch::BatchPredictor;
-use gpecnet_core::blob::{
-    Activation, Extensions, Meta, NetworkId, NumericKind, PositionUnit, MAX_PROPOSAL_LATENTS,
-};
+use gpecnet_core::blob::{Activation, Extensions, NetworkId, NumericKind, MAX_PROPOSAL_LATENTS};
 use gpecnet_core::{BlobError, LibmSine, Model, PredictError, Predictor};
-
-const META: Meta<'static> = Meta {
-    unit: PositionUnit::Metre,
-    metres_per_pixel: 0.0,
-    period_s: 0.4,
-    data: "test",
-    licence: "",
-};
-
-const PAST: [[f32; 2]; 8] = [
-    [1.0, 2.0],
-    [1.3, 2.1],
-    [1.7, 2.3],
-    [2.0, 2.4],
-    [2.4, 2.6],
-    [2.7, 2.7],
-    [3.1, 2.9],
-    [3.4, 3.0],
-];
 
 /// Writes the small f32 model with `proposal` (fdim 4, zdim 3) and `ext`.
 fn write_f32(

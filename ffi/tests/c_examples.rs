@@ -148,13 +148,37 @@ fn camera(f: u32, id: u32) -> (u32, Option<[f32; 2]>) {
     (t_ms, Some([x, y]))
 }
 
+/// The scene of `metric_tracker.c` through the timed track table at `period`: every fresh
+/// history as (end time, id, the observed past), in the order the C example prints them.
+fn scene_histories(period: core::num::NonZeroU32) -> Vec<(u32, u32, [[f32; 2]; 8])> {
+    use gpecnet_core::tracks::{Observation, TimedTrackTable};
+    let mut table: TimedTrackTable<16> = TimedTrackTable::new(period, 1_000);
+    let mut out = Vec::new();
+    for f in 0..150 {
+        let mut seen = Vec::new();
+        let mut t_ms = 0;
+        for id in 0..6 {
+            let (t, pos) = camera(f, id);
+            t_ms = t;
+            if let Some(pos) = pos {
+                seen.push(Observation { id, pos });
+            }
+        }
+        table.update(t_ms, &seen);
+        for tr in table.fresh() {
+            out.push((tr.end_ms(), tr.id(), tr.past()));
+        }
+    }
+    out
+}
+
 /// The C metric tracker (the signed metric model verified under the test key,
 /// 30 Hz detections in metres → timed track table → the model declared in
 /// metres) prints the forecasts the core computes directly, bit for bit, and
 /// refuses an unsigned blob.
 #[test]
 fn c_metric_tracker_matches_the_core() {
-    use gpecnet_core::tracks::{period_ms_of, Observation, TimedTrackTable};
+    use gpecnet_core::tracks::period_ms_of;
     use gpecnet_core::units::CallerUnit;
     use gpecnet_core::{LibmSine, Model, Predictor};
 
@@ -183,29 +207,14 @@ fn c_metric_tracker_matches_the_core() {
     let model = Model::from_blob(&bytes).unwrap();
     let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
     let period = period_ms_of(&model).unwrap();
-    let mut table: TimedTrackTable<16> = TimedTrackTable::new(period, 1_000);
     let mut want = Vec::new();
-    for f in 0..150 {
-        let mut seen = Vec::new();
-        let mut t_ms = 0;
-        for id in 0..6 {
-            let (t, pos) = camera(f, id);
-            t_ms = t;
-            if let Some(pos) = pos {
-                seen.push(Observation { id, pos });
-            }
-        }
-        table.update(t_ms, &seen);
-        for tr in table.fresh() {
-            let end = *p.predict_point(&tr.past()).unwrap().last().unwrap();
-            want.push(format!(
-                "t={:>5} ms id={} [{:08x} {:08x}]",
-                tr.end_ms(),
-                tr.id(),
-                end[0].to_bits(),
-                end[1].to_bits()
-            ));
-        }
+    for (end_ms, id, past) in scene_histories(period) {
+        let end = *p.predict_point(&past).unwrap().last().unwrap();
+        want.push(format!(
+            "t={end_ms:>5} ms id={id} [{:08x} {:08x}]",
+            end[0].to_bits(),
+            end[1].to_bits()
+        ));
     }
     let got: Vec<String> = text
         .lines()
@@ -232,31 +241,15 @@ fn c_metric_tracker_matches_the_core() {
     let bytes = std::fs::read(root().join("weights/sdd-m-lp-qe.gpec")).unwrap();
     let model = Model::from_blob(&bytes).unwrap();
     let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
-    let mut table: TimedTrackTable<16> = TimedTrackTable::new(period, 1_000);
     let mut want = Vec::new();
-    for f in 0..150 {
-        let mut seen = Vec::new();
-        let mut t_ms = 0;
-        for id in 0..6 {
-            let (t, pos) = camera(f, id);
-            t_ms = t;
-            if let Some(pos) = pos {
-                seen.push(Observation { id, pos });
-            }
-        }
-        table.update(t_ms, &seen);
-        for tr in table.fresh() {
-            let fc: gpecnet_core::planner::Forecast<20> =
-                p.predict_forecast(&tr.past(), 0).unwrap();
-            let top = fc.most_probable().unwrap();
-            want.push(format!(
-                "t={:>5} ms id={} [{:08x} {:08x}] e{top}",
-                tr.end_ms(),
-                tr.id(),
-                fc.radii.unwrap().r90.to_bits(),
-                fc.probabilities[top].to_bits()
-            ));
-        }
+    for (end_ms, id, past) in scene_histories(period) {
+        let fc: gpecnet_core::planner::Forecast<20> = p.predict_forecast(&past, 0).unwrap();
+        let top = fc.most_probable().unwrap();
+        want.push(format!(
+            "t={end_ms:>5} ms id={id} [{:08x} {:08x}] e{top}",
+            fc.radii.unwrap().r90.to_bits(),
+            fc.probabilities[top].to_bits()
+        ));
     }
     let got: Vec<String> = text
         .lines()

@@ -244,17 +244,7 @@ pub fn eval_blob(
     };
     let reliability = match (reliability, &planner_outs) {
         (Some(path), Some(outs)) => {
-            let mut acc = crate::planner_metrics::PlannerAccumulator::new();
-            for (w, o) in test.windows.iter().zip(outs) {
-                acc.add(&crate::planner_metrics::PlannerWindow {
-                    endpoints: &o.endpoints,
-                    probs: &o.probs,
-                    truth: w.pos[crate::data::PAST + crate::data::FUTURE - 1],
-                    point: o.point,
-                    radii: o.radii,
-                    unit: 1.0,
-                });
-            }
+            let acc = crate::core_eval::planner_accumulator(&test.windows, outs, |_| Ok(1.0))?;
             let m = acc.finish();
             let title = format!(
                 "{} on {spec} test: endpoint probabilities, ECE {:.4} ({} bins)",

@@ -379,15 +379,15 @@ pub fn planner_core(
     Ok(Some(blocks.into_iter().flatten().collect()))
 }
 
-/// [`crate::planner_metrics::PlannerMetrics`] of `outs` on `ds`, window `w`'s distances
-/// times `unit(w)`.
-pub fn planner_metrics(
-    ds: &Dataset,
+/// The [`crate::planner_metrics::PlannerAccumulator`] of `outs` on `windows`, window `w`'s
+/// distances times `unit(w)`.
+pub fn planner_accumulator(
+    windows: &[Window],
     outs: &[PlannerOut],
     unit: impl Fn(&Window) -> Result<f64>,
-) -> Result<crate::planner_metrics::PlannerMetrics> {
+) -> Result<crate::planner_metrics::PlannerAccumulator> {
     let mut acc = crate::planner_metrics::PlannerAccumulator::new();
-    for (w, o) in ds.windows.iter().zip(outs) {
+    for (w, o) in windows.iter().zip(outs) {
         acc.add(&crate::planner_metrics::PlannerWindow {
             endpoints: &o.endpoints,
             probs: &o.probs,
@@ -397,5 +397,15 @@ pub fn planner_metrics(
             unit: unit(w)?,
         });
     }
-    Ok(acc.finish())
+    Ok(acc)
+}
+
+/// [`crate::planner_metrics::PlannerMetrics`] of `outs` on `windows`, window `w`'s
+/// distances times `unit(w)`.
+pub fn planner_metrics(
+    windows: &[Window],
+    outs: &[PlannerOut],
+    unit: impl Fn(&Window) -> Result<f64>,
+) -> Result<crate::planner_metrics::PlannerMetrics> {
+    Ok(planner_accumulator(windows, outs, unit)?.finish())
 }

@@ -529,15 +529,19 @@ pub fn planner_pair(
     test: &Dataset,
     outs: &[crate::core_eval::PlannerOut],
 ) -> Result<(PlannerMetrics, Option<PlannerMetrics>)> {
-    let own = crate::core_eval::planner_metrics(test, outs, |_| Ok(1.0))?;
+    let own = crate::core_eval::planner_metrics(&test.windows, outs, |_| Ok(1.0))?;
     let px = if *spec == DatasetSpec::SddMetres {
         let scales = data::sdd_metres_per_pixel(data_root)?;
-        Some(crate::core_eval::planner_metrics(test, outs, |w| {
-            let s = scales
-                .get(&w.scene)
-                .with_context(|| format!("no metres-per-pixel factor for scene {}", w.scene))?;
-            Ok(1.0 / *s as f32 as f64)
-        })?)
+        Some(crate::core_eval::planner_metrics(
+            &test.windows,
+            outs,
+            |w| {
+                let s = scales
+                    .get(&w.scene)
+                    .with_context(|| format!("no metres-per-pixel factor for scene {}", w.scene))?;
+                Ok(1.0 / *s as f32 as f64)
+            },
+        )?)
     } else {
         None
     };

@@ -361,3 +361,24 @@ pub fn small_blob_with_meta(meta: gpecnet_core::blob::Meta<'_>) -> Vec<u8> {
     let [a, b, c, d] = &small_nets(Activation::Sine);
     blob_bytes(&head, [a, b, c, d, &[]]).unwrap()
 }
+
+/// The description of the small metric test models (format 4 on).
+pub const META: gpecnet_core::blob::Meta<'static> = gpecnet_core::blob::Meta {
+    unit: gpecnet_core::blob::PositionUnit::Metre,
+    metres_per_pixel: 0.0,
+    period_s: 0.4,
+    data: "test",
+    licence: "",
+};
+
+/// An observed track of 8 points, walking.
+pub const PAST: [[f32; 2]; 8] = [
+    [1.0, 2.0],
+    [1.3, 2.1],
+    [1.7, 2.3],
+    [2.0, 2.4],
+    [2.4, 2.6],
+    [2.7, 2.7],
+    [3.1, 2.9],
+    [3.4, 3.0],
+];

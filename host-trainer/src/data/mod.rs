@@ -38,8 +38,8 @@ pub use scales::sdd_metres_per_pixel;
 pub use sdd::{load_sdd, parse_sdd_file, SddSplit};
 pub use spec::{load, DatasetSpec, LoadError, Split, DATASET_NAMES};
 pub use window::{
-    default_sdd_val_scenes, denormalize_point, normalize, split_by_scene, time_reversed, Dataset,
-    Sample, Unit, Window,
+    default_sdd_val_scenes, denormalize_point, mirrored, normalize, split_by_scene, time_reversed,
+    Dataset, Sample, Unit, Window,
 };
 
 /// Number of observed steps (3.2 s at 2.5 Hz).

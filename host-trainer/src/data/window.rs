@@ -225,6 +225,16 @@ pub fn denormalize_point(p: [f32; 2], first_obs: [f32; 2], data_scale: f32) -> [
     ]
 }
 
+/// The window mirrored across the x axis (`y → −y`): the trainer's mirror augmentation.
+/// Applying it twice gives the original window.
+pub fn mirrored(w: &Window) -> Window {
+    let mut m = w.clone();
+    for p in m.pos.iter_mut() {
+        p[1] = -p[1];
+    }
+    m
+}
+
 /// The window played backwards (positions and frames reversed): PECNet's training augmentation
 /// (`np.flip` along time). Applying it twice gives the original window.
 pub fn time_reversed(w: &Window) -> Window {

@@ -111,14 +111,7 @@ fn augment(mut ws: Vec<Window>, s: &ProposeSettings) -> Vec<Window> {
         ws.extend(rev);
     }
     if s.mirror {
-        let mir: Vec<Window> = ws
-            .iter()
-            .map(|w| {
-                let mut m = w.clone();
-                m.pos.iter_mut().for_each(|p| p[1] = -p[1]);
-                m
-            })
-            .collect();
+        let mir: Vec<Window> = ws.iter().map(data::mirrored).collect();
         ws.extend(mir);
     }
     ws

@@ -4,9 +4,10 @@
 
 use anyhow::{bail, Context, Result};
 
+use crate::core_eval::{planner_metrics, PlannerOut};
 use crate::data::{Window, FUTURE, PAST};
 use crate::network::Layer;
-use crate::planner_metrics::{closest, PlannerAccumulator, PlannerMetrics, PlannerWindow};
+use crate::planner_metrics::{closest, PlannerMetrics};
 use crate::reference::{radii, RefModel, SineKind};
 
 /// The frozen model's view of a set of windows.
@@ -257,25 +258,41 @@ pub fn scored(model: &RefModel, logits: &Logits, scales: [f32; 2]) -> Result<Ref
     Ok(m)
 }
 
+/// One window under the scored `model`: its K endpoints, their probabilities, the point
+/// forecast's endpoint and the radii with the model's multipliers (f32 reference
+/// arithmetic, libm sine).
+fn outputs(model: &RefModel, w: &Window) -> Result<PlannerOut> {
+    let k = model.proposal_latents();
+    let past = &w.pos[..PAST];
+    let endpoints = model.predict(past, 0, k, SineKind::Libm, false).endpoints;
+    let probs = model
+        .probabilities(past, k, SineKind::Libm)
+        .context("no probabilities")?;
+    let point = model
+        .predict_point(past, SineKind::Libm)
+        .and_then(|p| p.last().copied());
+    let radii = point.map(|pt| radii(pt, &endpoints, &probs, model.config.radius_scales));
+    Ok(PlannerOut {
+        endpoints,
+        probs,
+        point,
+        radii,
+    })
+}
+
 /// The multipliers `[c50, c90]`: the 50th and 90th percentiles (the smallest values that
 /// cover half and nine tenths of the windows) of `d / s` on `windows`, `d` the distance of
 /// the truth to the point forecast and `s` the probability-weighted spread of the endpoints
-/// around it ([`radii`] with unit scales), under the scored `model`.
-pub fn radius_scales(model: &RefModel, windows: &[Window]) -> Result<[f32; 2]> {
-    let k = model.proposal_latents();
+/// around it (the radius with unit multipliers), under `model` scored with multipliers
+/// `[1, 1]`.
+pub fn radius_scales(unit_scored: &RefModel, windows: &[Window]) -> Result<[f32; 2]> {
     let mut ratios = Vec::with_capacity(windows.len());
     for w in windows {
-        let past = &w.pos[..PAST];
-        let ends = model.predict(past, 0, k, SineKind::Libm, false).endpoints;
-        let probs = model
-            .probabilities(past, k, SineKind::Libm)
-            .context("no probabilities")?;
-        let pt = *model
-            .predict_point(past, SineKind::Libm)
-            .context("the radii need a point-forecast head")?
-            .last()
-            .context("empty point forecast")?;
-        let s = radii(pt, &ends, &probs, [1.0, 1.0])[0];
+        let o = outputs(unit_scored, w)?;
+        let (pt, [s, _]) = o
+            .point
+            .zip(o.radii)
+            .context("the radii need a point-forecast head")?;
         let t = w.pos[PAST + FUTURE - 1];
         let d = (f64::from(t[0] - pt[0]).powi(2) + f64::from(t[1] - pt[1]).powi(2)).sqrt();
         if s > 0.0 && s.is_finite() {
@@ -292,26 +309,9 @@ pub fn radius_scales(model: &RefModel, windows: &[Window]) -> Result<[f32; 2]> {
 
 /// The planner metrics of the scored `model` on `windows` (the data set's unit).
 pub fn metrics(model: &RefModel, windows: &[Window]) -> Result<PlannerMetrics> {
-    let k = model.proposal_latents();
-    let scales = model.config.radius_scales;
-    let mut acc = PlannerAccumulator::new();
-    for w in windows {
-        let past = &w.pos[..PAST];
-        let ends = model.predict(past, 0, k, SineKind::Libm, false).endpoints;
-        let probs = model
-            .probabilities(past, k, SineKind::Libm)
-            .context("no probabilities")?;
-        let point = model
-            .predict_point(past, SineKind::Libm)
-            .and_then(|p| p.last().copied());
-        acc.add(&PlannerWindow {
-            endpoints: &ends,
-            probs: &probs,
-            truth: w.pos[PAST + FUTURE - 1],
-            point,
-            radii: point.map(|pt| radii(pt, &ends, &probs, scales)),
-            unit: 1.0,
-        });
-    }
-    Ok(acc.finish())
+    let outs = windows
+        .iter()
+        .map(|w| outputs(model, w))
+        .collect::<Result<Vec<_>>>()?;
+    planner_metrics(windows, &outs, |_| Ok(1.0))
 }

@@ -118,14 +118,7 @@ impl ScoreArgs {
         let val_scenes = data::default_sdd_val_scenes();
         let mut train = data::load(&self.data, &spec, data::Split::Train, &val_scenes)?.windows;
         if !self.no_mirror {
-            let mir: Vec<_> = train
-                .iter()
-                .map(|w| {
-                    let mut m = w.clone();
-                    m.pos.iter_mut().for_each(|p| p[1] = -p[1]);
-                    m
-                })
-                .collect();
+            let mir: Vec<_> = train.iter().map(data::mirrored).collect();
             train.extend(mir);
         }
         let val = data::load(&self.data, &spec, data::Split::Val, &val_scenes)?.windows;

@@ -129,16 +129,7 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
     };
     let mut train_windows = canon(train.windows);
     if cfg.mirror {
-        let mirrored: Vec<Window> = train_windows
-            .iter()
-            .map(|w| {
-                let mut m = w.clone();
-                for p in m.pos.iter_mut() {
-                    p[1] = -p[1];
-                }
-                m
-            })
-            .collect();
+        let mirrored: Vec<Window> = train_windows.iter().map(crate::data::mirrored).collect();
         train_windows.extend(mirrored);
     }
     if !cfg.speed_scales.is_empty() {
