@@ -379,6 +379,23 @@ pub fn planner_core(
     Ok(Some(blocks.into_iter().flatten().collect()))
 }
 
+/// Whether every window's probabilities through `gpecnet-core` (`outs`) equal, bit for bit,
+/// those a reference computes for its observed past (`reference`; `None` = it has none).
+pub fn probabilities_match(
+    windows: &[Window],
+    outs: &[PlannerOut],
+    reference: impl Fn(&[[f32; 2]]) -> Option<Vec<f32>>,
+) -> bool {
+    windows.len() == outs.len()
+        && outs.iter().zip(windows).all(|(o, w)| {
+            reference(&w.obs()).is_some_and(|p| {
+                p.iter()
+                    .map(|v| v.to_bits())
+                    .eq(o.probs.iter().map(|v| v.to_bits()))
+            })
+        })
+}
+
 /// The [`crate::planner_metrics::PlannerAccumulator`] of `outs` on `windows`, window `w`'s
 /// distances times `unit(w)`.
 pub fn planner_accumulator(

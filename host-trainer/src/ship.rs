@@ -490,8 +490,8 @@ pub fn ship_with(
 }
 
 /// The planner metrics of a blob with endpoint probabilities on `test` through
-/// gpecnet-core, and in pixels for SDD in metres; `None` for other blobs. With `reference`,
-/// the probabilities and radii must equal the reference path's bit for bit.
+/// gpecnet-core, and in pixels for SDD in metres; `None` for other blobs. The probabilities
+/// must equal those of `reference` (the reference path) bit for bit.
 pub fn test_planner(
     data_root: &Path,
     spec: &DatasetSpec,
@@ -504,19 +504,12 @@ pub fn test_planner(
     let Some(outs) = crate::core_eval::planner_core(blob, sine, test, base_seed)? else {
         return Ok(None);
     };
-    if reference.is_scored() {
-        let k = reference.proposal_latents();
-        for (w, o) in test.windows.iter().zip(&outs) {
-            let probs = reference.probabilities(&w.obs(), k, sine);
-            let same = probs.as_ref().is_some_and(|p| {
-                p.iter()
-                    .map(|v| v.to_bits())
-                    .eq(o.probs.iter().map(|v| v.to_bits()))
-            });
-            if !same {
-                bail!("gpecnet-core and the reference path disagree on the probabilities");
-            }
-        }
+    let k = reference.proposal_latents();
+    let same = crate::core_eval::probabilities_match(&test.windows, &outs, |past| {
+        reference.probabilities(past, k, sine)
+    });
+    if !same {
+        bail!("gpecnet-core and the reference path disagree on the probabilities");
     }
     planner_pair(data_root, spec, test, &outs).map(Some)
 }

@@ -200,12 +200,8 @@ pub fn quantize_blob_with(
     let planner = match crate::core_eval::planner_core(&blob, sine, &test, base_seed)? {
         Some(outs) => {
             let k = q.proposal_latents();
-            let same = outs.iter().zip(&test.windows).all(|(o, w)| {
-                q.probabilities(&w.obs(), k).is_some_and(|p| {
-                    p.iter()
-                        .map(|v| v.to_bits())
-                        .eq(o.probs.iter().map(|v| v.to_bits()))
-                })
+            let same = crate::core_eval::probabilities_match(&test.windows, &outs, |past| {
+                q.probabilities(past, k)
             });
             if !same {
                 bail!("gpecnet-core's fixed probabilities and the integer reference disagree");
