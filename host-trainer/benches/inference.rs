@@ -27,7 +27,7 @@ use gpecnet_trainer::core_eval::HOST_WIDTH;
 use gpecnet_trainer::core_eval::{evaluate_core, evaluate_reference, queries};
 use gpecnet_trainer::data::{self, load_sdd, SddSplit};
 use gpecnet_trainer::export::read_blob;
-use gpecnet_trainer::quantize::evaluate_core_fixed;
+use gpecnet_trainer::fixed_eval::evaluate_core_fixed;
 use gpecnet_trainer::reference::SineKind;
 
 fn bench_inference(c: &mut Criterion) {

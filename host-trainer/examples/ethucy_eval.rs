@@ -28,8 +28,8 @@ use gpecnet_trainer::data::{default_data_root, load_eth_ucy, EthUcySplit, ETH_UC
 use gpecnet_trainer::eval::{constant_velocity_n, evaluate_baseline_with, select_cv_n};
 use gpecnet_trainer::export::blob_bytes;
 use gpecnet_trainer::reference::SineKind;
+use gpecnet_trainer::run_export::{model_from_run, ExportSettings};
 use gpecnet_trainer::select::{best, select, table};
-use gpecnet_trainer::ship::{model_from_run, ExportSettings};
 
 /// Endpoints per window.
 const K: usize = 20;

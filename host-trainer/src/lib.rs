@@ -1,33 +1,20 @@
-//! gpecnet-trainer: see the crate README and ARCHITECTURE.md.
-pub mod blob_eval;
-pub mod checkpoint;
-pub mod config;
-pub mod core_eval;
-pub mod csvfile;
-pub mod data;
-pub mod draw;
-pub mod eval;
+//! gpecnet-trainer: the `gpecnet` command line (`src/main.rs`: argument parsing and printing)
+//! over the trainer's crates, one per pipeline stage (ARCHITECTURE.md, "The trainer's
+//! crates"), and one import path to all of them for the trainer's integration tests, benches
+//! and examples. Each module below is the crate or module of the stage that owns it.
+
 pub mod eval_report;
-pub mod export;
-pub mod frame;
-pub mod inpath;
-pub mod model;
-pub mod network;
-pub mod onnx;
-pub mod optim;
-pub mod outpath;
-pub mod planner_metrics;
-pub mod propose;
-pub mod quantize;
-pub mod reference;
-pub mod rng;
-pub mod rundir;
-pub mod score;
-pub mod select;
-pub mod ship;
-pub mod signing;
-pub mod social;
-pub mod synth;
-pub mod train;
-pub mod tts;
-pub mod units;
+
+pub use gpecnet_data as data;
+pub use gpecnet_data::units;
+pub use gpecnet_files::{csvfile, inpath, outpath, rundir};
+pub use gpecnet_metrics::{
+    card, core_eval, draw, eval, fixed_eval, planner_metrics, proposal_file, score_file,
+};
+pub use gpecnet_nn::{mlp, ops, optim, pool, rng};
+pub use gpecnet_onnx as onnx;
+pub use gpecnet_reference::{export, frame, network, quantize, reference, signing, tts};
+pub use gpecnet_ship::{blob_eval, quantize_blob, score};
+pub use gpecnet_train::{
+    checkpoint, config, model, propose, run_export, select, social, synth, train,
+};

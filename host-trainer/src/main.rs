@@ -303,7 +303,7 @@ impl SignOptions {
 }
 
 fn cmd_quantize(a: QuantizeArgs) -> Result<()> {
-    let c = gpecnet_trainer::quantize::quantize_blob_with(
+    let c = gpecnet_trainer::quantize_blob::quantize_blob_with(
         &a.blob,
         &a.out,
         &a.data,
@@ -421,7 +421,7 @@ struct EvalArgs {
 }
 
 fn cmd_export(a: ExportArgs) -> Result<()> {
-    let settings = gpecnet_trainer::ship::ExportSettings {
+    let settings = gpecnet_trainer::run_export::ExportSettings {
         sine: a.sine,
         k: a.sampling.k,
         base_seed: a.sampling.seed,
@@ -431,7 +431,7 @@ fn cmd_export(a: ExportArgs) -> Result<()> {
         score: a.score.clone(),
     };
     let sign = a.signing.spec()?;
-    let card = gpecnet_trainer::ship::ship_with(
+    let card = gpecnet_trainer::run_export::ship_with(
         &a.run,
         &a.name,
         &a.out,

@@ -427,7 +427,7 @@ fn lock_files_are_complete_or_absent() {
 #[test]
 fn fixed_point_models_far_from_their_source_are_refused_without_force() {
     use gpecnet_trainer::data::Unit;
-    use gpecnet_trainer::quantize::check_fixed_tolerance;
+    use gpecnet_trainer::quantize_blob::check_fixed_tolerance;
     assert!(check_fixed_tolerance(18.77, 18.78, Unit::Pixels, false).is_ok());
     let e = check_fixed_tolerance(19.9, 48.3, Unit::Pixels, false).unwrap_err();
     assert!(

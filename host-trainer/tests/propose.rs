@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use common::{run, s, temp_dir};
 use gpecnet_trainer::data::{self, DatasetSpec, Split};
-use gpecnet_trainer::propose::{frozen_fingerprint, ProposalFile};
+use gpecnet_trainer::proposal_file::{frozen_fingerprint, ProposalFile};
 use gpecnet_trainer::reference::SineKind;
 
 fn root() -> PathBuf {
@@ -88,7 +88,7 @@ fn a_proposal_joins_only_its_own_model_and_runs_bit_exact() {
     let bytes = std::fs::read(blob()).unwrap();
     let mut m = gpecnet_trainer::export::read_blob(&bytes).unwrap();
     m.config.tts_samples = 0;
-    let settings = |proposal: PathBuf| gpecnet_trainer::ship::ExportSettings {
+    let settings = |proposal: PathBuf| gpecnet_trainer::run_export::ExportSettings {
         sine: SineKind::Libm,
         k: 20,
         base_seed: 0,
@@ -128,14 +128,14 @@ fn a_proposal_joins_only_its_own_model_and_runs_bit_exact() {
     // Quantised: the integer reference and the core's fixed-point engine agree too.
     let q = gpecnet_trainer::quantize::quantize_with_data(&m, &val, 4, 8, "propose-q").unwrap();
     assert!(!q.nets.proposal.is_empty());
-    let (qa, qpa) = gpecnet_trainer::quantize::evaluate_core_fixed(
+    let (qa, qpa) = gpecnet_trainer::fixed_eval::evaluate_core_fixed(
         &gpecnet_trainer::export::blob_bytes(&q).unwrap(),
         &val,
         20,
         0,
     )
     .unwrap();
-    let (qb, qpb) = gpecnet_trainer::quantize::evaluate_reference_fixed(&q, &val, 20, 0).unwrap();
+    let (qb, qpb) = gpecnet_trainer::fixed_eval::evaluate_reference_fixed(&q, &val, 20, 0).unwrap();
     assert_eq!((qa, qpa), (qb, qpb));
     let _ = std::fs::remove_dir_all(&dir);
 }

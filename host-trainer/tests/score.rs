@@ -8,7 +8,7 @@ use crate::common;
 use std::path::{Path, PathBuf};
 
 use common::{run, s, temp_dir};
-use gpecnet_trainer::score::{scored_fingerprint, ScoreFile};
+use gpecnet_trainer::score_file::{scored_fingerprint, ScoreFile};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")

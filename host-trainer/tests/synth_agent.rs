@@ -61,7 +61,7 @@ fn log_prob_is_the_gaussian_log_density() {
 }
 
 /// A fresh policy from `seed` (one candle thread) and `n` sampled (not greedy) episodes of it.
-fn policy_and_batch(seed: u64, n: usize) -> (gpecnet_trainer::model::Mlp, Vec<Episode>) {
+fn policy_and_batch(seed: u64, n: usize) -> (gpecnet_trainer::mlp::Mlp, Vec<Episode>) {
     one_thread();
     let mut rng = Rng::new(seed);
     let net = new_policy(&mut rng).unwrap();
@@ -85,7 +85,7 @@ fn advantages_have_zero_mean_per_step_and_unit_rms() {
 }
 
 /// Writes flat parameters (the order of [`policy_params`]) into the policy's variables.
-fn set_params(net: &gpecnet_trainer::model::Mlp, p: &[f64]) {
+fn set_params(net: &gpecnet_trainer::mlp::Mlp, p: &[f64]) {
     let mut off = 0;
     for v in net.vars() {
         let n = v.elem_count();

@@ -5,11 +5,12 @@ use std::path::{Path, PathBuf};
 use gpecnet_core::golden::GoldenSet;
 use gpecnet_core::{Model, NumericKind, Predictor, Sine};
 
-use gpecnet_trainer::data::Dataset;
-use gpecnet_trainer::eval::Prediction;
+use gpecnet_data::Dataset;
+use gpecnet_metrics::eval::Prediction;
 
-use gpecnet_trainer::network::{Act, Layer, Networks};
-use gpecnet_trainer::reference::{RefConfig, RefModel};
+use gpecnet_reference::network::RefConfig;
+use gpecnet_reference::network::{Act, Layer, Networks};
+use gpecnet_reference::reference::RefModel;
 
 /// The workspace root.
 pub fn workspace_root() -> PathBuf {
@@ -41,15 +42,15 @@ pub fn shipped_blobs() -> Vec<PathBuf> {
 
 /// The data set a shipped blob's card is about (`dataset` in `<blob>.json`; `sdd` when the card
 /// does not say).
-pub fn card_dataset(blob: &Path) -> gpecnet_trainer::data::DatasetSpec {
+pub fn card_dataset(blob: &Path) -> gpecnet_data::DatasetSpec {
     let card: serde_json::Value =
         serde_json::from_slice(&std::fs::read(blob.with_extension("json")).unwrap()).unwrap();
-    gpecnet_trainer::ship::card_dataset(&card).unwrap()
+    gpecnet_metrics::card::card_dataset(&card).unwrap()
 }
 
 /// The test split of the data set a shipped blob's card is about.
 pub fn card_test_set(blob: &Path) -> Dataset {
-    gpecnet_trainer::ship::test_windows(&data_root(), &card_dataset(blob))
+    gpecnet_metrics::card::test_windows(&data_root(), &card_dataset(blob))
         .expect("test set (see ../shared/data/README.md)")
 }
 

@@ -10,8 +10,8 @@
 use gpecnet_core::batch::{set_wide_vectors, BatchPredictor};
 use gpecnet_core::blob::MAX_TTS_SAMPLES;
 use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine, Trajectory};
+use gpecnet_metrics::core_eval::queries;
 use gpecnet_tests::{card_test_set, shipped_blobs};
-use gpecnet_trainer::core_eval::queries;
 
 type Past = [[f32; 2]; 8];
 

@@ -2,11 +2,11 @@
 //! on real SDD test windows — independent of any shipped weights.
 
 use gpecnet_core::Model;
+use gpecnet_data::{load_sdd, SddSplit};
+use gpecnet_metrics::core_eval::{evaluate_core, evaluate_reference};
+use gpecnet_reference::export::{blob_bytes, read_blob};
+use gpecnet_reference::reference::SineKind;
 use gpecnet_tests::{data_root, mismatches, random_siren};
-use gpecnet_trainer::core_eval::{evaluate_core, evaluate_reference};
-use gpecnet_trainer::data::{load_sdd, SddSplit};
-use gpecnet_trainer::export::{blob_bytes, read_blob};
-use gpecnet_trainer::reference::SineKind;
 
 #[test]
 fn export_roundtrip_is_lossless() {
@@ -46,8 +46,8 @@ fn relu_model_matches() {
         &mut m.nets.predictor,
     ] {
         for l in net.iter_mut() {
-            if l.act == gpecnet_trainer::network::Act::Sine {
-                l.act = gpecnet_trainer::network::Act::Relu;
+            if l.act == gpecnet_reference::network::Act::Sine {
+                l.act = gpecnet_reference::network::Act::Relu;
             }
         }
     }

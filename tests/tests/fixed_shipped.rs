@@ -5,9 +5,10 @@
 
 use gpecnet_core::blob::NumericKind;
 use gpecnet_core::Model;
+use gpecnet_metrics::eval::dist_metrics;
+use gpecnet_metrics::fixed_eval::evaluate_core_fixed;
+use gpecnet_ship::quantize_blob::QuantCard;
 use gpecnet_tests::{assert_sidecars, card_test_set, shipped_blobs_of, Shipped};
-use gpecnet_trainer::eval::dist_metrics;
-use gpecnet_trainer::quantize::{evaluate_core_fixed, QuantCard};
 
 fn fixed_blobs() -> Vec<std::path::PathBuf> {
     shipped_blobs_of(NumericKind::Int16Q15)
@@ -62,8 +63,10 @@ fn fixed_cards_are_reproduced() {
         .unwrap();
         let same_protocol = src["k"].as_u64() == Some(card.k as u64)
             && src["base_seed"].as_u64() == Some(card.base_seed)
-            && serde_json::from_value::<gpecnet_trainer::reference::SineKind>(src["sine"].clone())
-                .is_ok_and(|s| s.core_name() == card.source_sine);
+            && serde_json::from_value::<gpecnet_reference::reference::SineKind>(
+                src["sine"].clone(),
+            )
+            .is_ok_and(|s| s.core_name() == card.source_sine);
         if same_protocol {
             assert_eq!(
                 serde_json::from_value(src["test_dist"].clone()).ok(),
@@ -117,7 +120,7 @@ fn scored_fixed_blobs_match_the_integer_reference() {
         // for bit, and refuses to write otherwise.
         let dir = std::env::temp_dir().join(format!("gpecnet-scored-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let again = gpecnet_trainer::quantize::quantize_blob_with(
+        let again = gpecnet_ship::quantize_blob::quantize_blob_with(
             &path.with_file_name(&card.source),
             &dir.join(path.file_name().unwrap()),
             &gpecnet_tests::data_root(),

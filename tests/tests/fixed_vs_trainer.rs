@@ -1,15 +1,15 @@
 //! `gpecnet_core`'s fixed-point engine (`Engine<Q15>`) against the trainer's independent integer
-//! reference (`gpecnet_trainer::quantize`), bit for bit, on the whole SDD test set.
+//! reference (`gpecnet_reference::quantize`), bit for bit, on the whole SDD test set.
 
 use gpecnet_core::Model;
+use gpecnet_data::{load_sdd, SddSplit};
+use gpecnet_metrics::core_eval::evaluate_core;
+use gpecnet_metrics::fixed_eval::{evaluate_core_fixed, evaluate_reference_fixed};
+use gpecnet_reference::export::blob_bytes;
+use gpecnet_reference::quantize::quantize_with_data;
+use gpecnet_reference::quantize::{qgolden_bytes, sin_q15_ref};
+use gpecnet_reference::reference::SineKind;
 use gpecnet_tests::{data_root, golden_inputs, mismatches, random_siren};
-use gpecnet_trainer::core_eval::evaluate_core;
-use gpecnet_trainer::data::{load_sdd, SddSplit};
-use gpecnet_trainer::export::blob_bytes;
-use gpecnet_trainer::quantize::{
-    evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize_with_data, sin_q15_ref,
-};
-use gpecnet_trainer::reference::SineKind;
 
 #[test]
 fn trainer_sine_equals_core_sine() {

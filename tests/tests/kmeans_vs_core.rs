@@ -1,11 +1,11 @@
 //! `gpecnet_core::cluster::kmeans_reduce` against the trainer's independent
-//! re-implementation `gpecnet_trainer::tts::kmeans`, bit for bit, on many
+//! re-implementation `gpecnet_reference::tts::kmeans`, bit for bit, on many
 //! random point sets (both initialisations, several k, n and iteration
 //! counts), including sets with many exact ties.
 
 use gpecnet_core::cluster::{kmeans_reduce, ClusterError, Init, MAX_CENTERS};
+use gpecnet_reference::tts::{kmeans, TtsInit};
 use gpecnet_tests::SplitMix64 as Rng;
-use gpecnet_trainer::tts::{kmeans, TtsInit};
 
 /// A point set of one of several shapes: Gaussian-ish blobs in pixels, a
 /// coarse integer grid (many exact ties and duplicates), tiny and huge scales.

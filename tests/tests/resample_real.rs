@@ -17,8 +17,8 @@ use std::num::NonZeroU32;
 use gpecnet_core::tracks::{Observation, TimedTrackTable, HISTORY};
 use gpecnet_core::units::CallerUnit;
 use gpecnet_core::{LibmSine, Model, Predictor};
+use gpecnet_data::{DatasetSpec, Window};
 use gpecnet_tests::{data_root, workspace_root};
-use gpecnet_trainer::data::{DatasetSpec, Window};
 
 const PERIOD_MS: u32 = 400;
 
@@ -103,7 +103,7 @@ struct Case {
 
 fn check(case: &Case) {
     let spec = DatasetSpec::parse(case.spec).unwrap();
-    let test = gpecnet_trainer::ship::test_windows(&data_root(), &spec).expect("test data");
+    let test = gpecnet_metrics::card::test_windows(&data_root(), &spec).expect("test data");
     let bytes = std::fs::read(workspace_root().join("weights").join(case.blob)).unwrap();
     let model = Model::from_blob(&bytes).unwrap();
     let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::ModelUnit).unwrap();

@@ -3,15 +3,15 @@
 //! whole SDD test set through `gpecnet-core` reproduces its model card exactly.
 
 use gpecnet_core::NumericKind;
+use gpecnet_metrics::card::{test_planner, ModelCard};
+use gpecnet_metrics::core_eval::evaluate_core;
+use gpecnet_metrics::eval::dist_metrics;
+use gpecnet_metrics::planner_metrics::PlannerMetrics;
+use gpecnet_reference::export::read_blob;
+use gpecnet_reference::reference::SineKind;
 use gpecnet_tests::{
     assert_sidecars, card_dataset, card_test_set, data_root, shipped_blobs_of, Shipped,
 };
-use gpecnet_trainer::core_eval::evaluate_core;
-use gpecnet_trainer::eval::dist_metrics;
-use gpecnet_trainer::export::read_blob;
-use gpecnet_trainer::planner_metrics::PlannerMetrics;
-use gpecnet_trainer::reference::SineKind;
-use gpecnet_trainer::ship::{test_planner, ModelCard};
 
 fn f32_blobs() -> Vec<std::path::PathBuf> {
     shipped_blobs_of(NumericKind::F32)
@@ -58,7 +58,7 @@ fn golden_vectors_replay_bit_exact() {
         let golden = shipped.golden();
         // Every 10th test window (SDD: 283 cases), at most 283 on larger test sets.
         let n_test = card_test_set(&path).windows.len();
-        let stride = gpecnet_trainer::ship::golden_stride(n_test);
+        let stride = gpecnet_metrics::card::golden_stride(n_test);
         assert_eq!(golden.info().n_cases as usize, n_test.div_ceil(stride));
         shipped.assert_replays();
 

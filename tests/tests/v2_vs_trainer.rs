@@ -3,15 +3,15 @@
 //! test windows, in f32 (both sines) and fixed point; and format-1 exports keep their bytes.
 
 use gpecnet_core::Model;
+use gpecnet_data::{load_sdd, Dataset, SddSplit};
+use gpecnet_metrics::core_eval::{evaluate_core, evaluate_point_core, evaluate_reference};
+use gpecnet_metrics::eval::Prediction;
+use gpecnet_metrics::fixed_eval::{evaluate_core_fixed, evaluate_reference_fixed};
+use gpecnet_reference::export::{blob_bytes, read_blob};
+use gpecnet_reference::quantize::qgolden_bytes;
+use gpecnet_reference::quantize::quantize_with_data;
+use gpecnet_reference::reference::SineKind;
 use gpecnet_tests::{data_root, golden_inputs, mismatches, random_siren, with_v2_features};
-use gpecnet_trainer::core_eval::{evaluate_core, evaluate_point_core, evaluate_reference};
-use gpecnet_trainer::data::{load_sdd, Dataset, SddSplit};
-use gpecnet_trainer::eval::Prediction;
-use gpecnet_trainer::export::{blob_bytes, read_blob};
-use gpecnet_trainer::quantize::{
-    evaluate_core_fixed, evaluate_reference_fixed, qgolden_bytes, quantize_with_data,
-};
-use gpecnet_trainer::reference::SineKind;
 
 fn test_subset(step: usize) -> Dataset {
     let mut test = load_sdd(&data_root(), SddSplit::Test)
@@ -20,7 +20,7 @@ fn test_subset(step: usize) -> Dataset {
     test
 }
 
-fn base() -> gpecnet_trainer::reference::RefModel {
+fn base() -> gpecnet_reference::reference::RefModel {
     random_siren("v2", &[32, 32], &[48, 32], &[8, 16], &[64, 32], 11)
 }
 

@@ -1,0 +1,490 @@
+//! `gpecnet eval`: a shipped blob through `gpecnet-core` on the test split of a data set (after
+//! the unit check of [`crate::units`]), compared with its model card when the card is about
+//! the same data set, with the SDD-in-metres results converted back to pixels; and
+//! `--update-card`, which adds the distribution metrics to an existing card.
+
+use crate::planner_metrics::PlannerMetrics;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+
+use crate::card::{
+    card_dataset, cv_baseline, model_card_dist_rows, test_windows, validation_windows, ModelCard,
+};
+use crate::core_eval::evaluate_core;
+use crate::data::{self, Dataset, DatasetSpec, Unit};
+use crate::eval::{
+    constant_velocity, constant_velocity_n, dist_accumulator, dist_metrics, evaluate_baseline,
+    evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
+};
+use crate::reference::SineKind;
+use crate::rundir::write_atomic;
+use crate::units::check_unit;
+
+/// What `gpecnet eval` prints and returns.
+#[derive(Clone, Debug)]
+pub struct EvalReport {
+    /// Model name from the blob.
+    pub name: String,
+    /// The data set evaluated (`sdd`, `sdd-m`, `eth_ucy:<scene>`).
+    pub dataset: String,
+    /// The unit of every number (checked against the blob's).
+    pub unit: Unit,
+    /// Metrics through gpecnet-core.
+    pub metrics: Metrics,
+    /// Constant-velocity baseline (last step, `n = 1`) on the same windows.
+    pub constant_velocity: Metrics,
+    /// Distribution quality of the K samples on the test set (KDE NLL, hit rates at 20/40 px).
+    pub dist: DistMetrics,
+    /// The model's single point forecast (ADE, FDE) on the test set, when it has one; `None`
+    /// until a point forecast exists (printed as `null` / "n/a").
+    pub point: Option<(f64, f64)>,
+    /// Constant-velocity window `n` (1..=7 observed steps) chosen by the lowest FDE on the SDD
+    /// validation scenes.
+    pub cv_n: usize,
+    /// Constant velocity with `cv_n` on the test set.
+    pub cv: Metrics,
+    /// Constant velocity with `n = 1..=7` on the validation scenes (element `n - 1`).
+    pub cv_val: Vec<Metrics>,
+    /// Number of validation windows `cv_n` was chosen on.
+    pub n_val: usize,
+    /// Fractions of windows with a sample within each radius of the true endpoint (dataset
+    /// units: 20 and 40 px, or 0.5 and 1 m).
+    pub hits: [(f64, f64); 2],
+    /// SDD in metres only: the same results in pixels, scene by scene.
+    pub pixels: Option<PixelEquivalent>,
+    /// The blob's card is about another data set (so it was not compared).
+    pub card_on_other_data: bool,
+    /// `Some(true)` when the blob's model card exists and its numbers (ADE/FDE and the
+    /// distribution metrics) are reproduced exactly.
+    pub matches_card: Option<bool>,
+    /// Where the picture was written.
+    pub svg: Option<PathBuf>,
+    /// What a planner gets (a model with endpoint probabilities; the data set's unit).
+    pub planner: Option<PlannerMetrics>,
+    /// The same in pixels (SDD in metres only).
+    pub planner_px: Option<PlannerMetrics>,
+    /// Where the reliability diagram was written.
+    pub reliability: Option<PathBuf>,
+}
+
+/// Field `key` of a model card's JSON `card`, if present and of type `T`.
+fn card_field<T: serde::de::DeserializeOwned>(card: &serde_json::Value, key: &str) -> Option<T> {
+    card.get(key)
+        .and_then(|t| serde_json::from_value(t.clone()).ok())
+}
+
+/// SDD-in-metres results converted back to pixels scene by scene (every error divided by
+/// its scene's metres per pixel), so they compare with the pixel literature.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PixelEquivalent {
+    /// Best-of-K metrics in pixels.
+    pub metrics: Metrics,
+    /// The point forecast's (ADE, FDE) in pixels.
+    pub point: Option<(f64, f64)>,
+    /// Constant velocity with the validation-chosen window, on the pixel test set.
+    pub cv: Metrics,
+}
+
+/// What a blob is evaluated on: a data set, and the unit to assume for a blob that states
+/// none ([`check_unit`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalTarget {
+    /// The data set (its test split is evaluated, its validation split picks the CV window).
+    pub dataset: DatasetSpec,
+    /// Unit of a blob before format version 4.
+    pub assume_unit: Option<Unit>,
+}
+
+impl Default for EvalTarget {
+    fn default() -> Self {
+        Self {
+            dataset: DatasetSpec::Sdd,
+            assume_unit: None,
+        }
+    }
+}
+
+/// Evaluates a blob through `gpecnet-core` on the test split of `target`'s data set (after
+/// [`check_unit`]: a blob in another unit is refused before anything runs), compares with
+/// its model card when the card is about the same data set, and draws `n_draw` predictions
+/// (every `stride`-th window).
+#[allow(clippy::too_many_arguments)]
+pub fn eval_blob(
+    blob_path: &Path,
+    data_root: &Path,
+    target: &EvalTarget,
+    sine: Option<SineKind>,
+    k: usize,
+    base_seed: u64,
+    svg: Option<&Path>,
+    n_draw: usize,
+    reliability: Option<&Path>,
+) -> Result<EvalReport> {
+    for (flag, out) in [("--draw", svg), ("--reliability", reliability)] {
+        let Some(out) = out else { continue };
+        let inputs = crate::outpath::blob_and_sidecars(blob_path);
+        let mut refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        refs.push(blob_path);
+        let data_dirs = crate::outpath::data_input_dirs(data_root);
+        let dirs: Vec<&Path> = data_dirs.iter().map(PathBuf::as_path).collect();
+        crate::outpath::check_output(flag, out, &refs, &dirs)?;
+    }
+    if svg.is_some() && svg == reliability {
+        bail!("--draw and --reliability name the same file");
+    }
+    let blob = crate::inpath::read_limited(blob_path, crate::inpath::FileKind::Blob)?;
+    let model = gpecnet_core::Model::from_blob(&blob)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
+    let spec = &target.dataset;
+    let meta = gpecnet_core::blob::Meta::of_blob(&blob)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
+    let unit = check_unit(&model, &meta, spec, target.assume_unit)
+        .with_context(|| format!("evaluating {}", blob_path.display()))?;
+    let test = test_windows(data_root, spec)?;
+    let val = validation_windows(data_root, spec)?;
+    let (cv_n, cv_val) = select_cv_n(&val)
+        .with_context(|| format!("no {spec} validation window under {}", data_root.display()))?;
+    let card: Option<serde_json::Value> = crate::inpath::read_limited(
+        &blob_path.with_extension("json"),
+        crate::inpath::FileKind::Text,
+    )
+    .ok()
+    .and_then(|b| serde_json::from_slice(&b).ok());
+    // A card is only compared on its own data set.
+    let card_on_other_data = card
+        .as_ref()
+        .is_some_and(|c| card_dataset(c).ok().as_ref() != Some(spec));
+    let card = card.filter(|_| !card_on_other_data);
+    let (metrics, (dist, dist_acc), preds, matches_card, point_preds) = if model.numeric()
+        == gpecnet_core::NumericKind::F32
+    {
+        let sine = sine
+            .or_else(|| crate::export::sine_of_blob(blob_path))
+            .unwrap_or(SineKind::Libm);
+        let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
+        let acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
+        let dist = acc.finish().context("empty test set")?;
+        let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?;
+        let point_m = point.as_ref().map(|p| p.0);
+        let matches = card.map(|v| {
+            let want_point: Option<Metrics> = card_field(&v, "test_point");
+            let want_dist: Option<DistMetrics> = card_field(&v, "test_dist");
+            let c: Option<ModelCard> = serde_json::from_value(v).ok();
+            c.is_some_and(|c| {
+                c.blob_crc == model.crc()
+                    && c.k == k
+                    && c.base_seed == base_seed
+                    && c.sine == sine
+                    && c.test == metrics
+            }) && want_dist == Some(dist)
+                && want_point == point_m
+        });
+        (metrics, (dist, acc), preds, matches, point)
+    } else {
+        if sine.is_some() {
+            bail!(
+                "--sine applies to f32 blobs; {} is fixed point (integer table sine)",
+                blob_path.display()
+            );
+        }
+        let (metrics, preds) = crate::fixed_eval::evaluate_core_fixed(&blob, &test, k, base_seed)?;
+        let acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
+        let dist = acc.finish().context("empty test set")?;
+        let point = crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?;
+        let point_m = point.as_ref().map(|p| p.0);
+        let matches = card.map(|c| {
+            let want_point: Option<Metrics> = card_field(&c, "test_fixed_point");
+            let want: Option<Metrics> = card_field(&c, "test_fixed");
+            let want_dist: Option<DistMetrics> = card_field(&c, "test_fixed_dist");
+            c.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
+                && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
+                && want == Some(metrics)
+                && want_dist == Some(dist)
+                && want_point == point_m
+        });
+        (metrics, (dist, acc), preds, matches, point)
+    };
+    let point = point_preds.as_ref().map(|p| (p.0.ade_k1, p.0.fde_k1));
+    let pixels = if *spec == DatasetSpec::SddMetres {
+        Some(pixel_equivalent(
+            data_root,
+            &test,
+            &preds,
+            point_preds.as_ref().map(|p| p.1.as_slice()),
+        )?)
+    } else {
+        None
+    };
+    let hit_radii = crate::eval::hit_radii(unit);
+    let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
+    let run_sine = sine
+        .or_else(|| crate::export::sine_of_blob(blob_path))
+        .unwrap_or(SineKind::Libm);
+    let planner_outs = crate::core_eval::planner_core(&blob, run_sine, &test, base_seed)?;
+    let planner = match &planner_outs {
+        Some(outs) => Some(crate::card::planner_pair(data_root, spec, &test, outs)?),
+        None => None,
+    };
+    let reliability = match (reliability, &planner_outs) {
+        (Some(path), Some(outs)) => {
+            let acc = crate::core_eval::planner_accumulator(&test.windows, outs, |_| Ok(1.0))?;
+            let m = acc.finish();
+            let title = format!(
+                "{} on {spec} test: endpoint probabilities, ECE {:.4} ({} bins)",
+                model.name(),
+                m.ece,
+                crate::planner_metrics::ECE_BINS
+            );
+            write_atomic(
+                path,
+                crate::draw::reliability_svg(&title, acc.bins()).as_bytes(),
+            )?;
+            Some(path.to_path_buf())
+        }
+        (Some(_), None) => bail!(
+            "--reliability: {} has no endpoint probabilities (format version 6, `gpecnet score`)",
+            blob_path.display()
+        ),
+        (None, _) => None,
+    };
+    let svg = match svg {
+        Some(path) => {
+            let stride = (test.windows.len() / n_draw.max(1)).max(1);
+            let items: Vec<_> = test
+                .windows
+                .iter()
+                .zip(&preds)
+                .enumerate()
+                .map(|(i, (w, p))| (w, p, planner_outs.as_ref().and_then(|o| o.get(i))))
+                .step_by(stride)
+                .take(n_draw)
+                .collect();
+            let u = unit.suffix();
+            let title = format!(
+                "{} on {spec} test (K = {k}, through gpecnet-core): minADE {:.2} {u}, minFDE {:.2} {u}",
+                model.name(),
+                metrics.min_ade,
+                metrics.min_fde
+            );
+            write_atomic(
+                path,
+                crate::draw::predictions_svg(&title, u, &items, 4).as_bytes(),
+            )?;
+            Some(path.to_path_buf())
+        }
+        None => None,
+    };
+    Ok(EvalReport {
+        name: model.name().to_string(),
+        dataset: spec.to_string(),
+        unit,
+        metrics,
+        constant_velocity: evaluate_baseline(&test, constant_velocity),
+        dist,
+        hits,
+        point,
+        cv_n,
+        cv: evaluate_baseline_with(&test, |w| constant_velocity_n(w, cv_n)),
+        cv_val,
+        n_val: val.windows.len(),
+        pixels,
+        matches_card,
+        card_on_other_data,
+        svg,
+        planner: planner.map(|p| p.0),
+        planner_px: planner.and_then(|p| p.1),
+        reliability,
+    })
+}
+
+/// [`PixelEquivalent`] of SDD-in-metres predictions: each window's errors divided by its
+/// scene's metres per pixel; constant velocity (window chosen on the SDD validation scenes)
+/// on the pixel test set itself.
+pub fn pixel_equivalent(
+    data_root: &Path,
+    test: &Dataset,
+    preds: &[crate::eval::Prediction],
+    point: Option<&[crate::eval::Prediction]>,
+) -> Result<PixelEquivalent> {
+    let scales = data::sdd_metres_per_pixel(data_root)?;
+    let convert = |preds: &[crate::eval::Prediction]| -> Result<Metrics> {
+        let mut acc = crate::eval::MetricsAccumulator::new();
+        for (w, p) in test.windows.iter().zip(preds) {
+            let s = scales
+                .get(&w.scene)
+                .with_context(|| format!("no metres-per-pixel factor for scene {}", w.scene))?;
+            acc.add_scaled(w, p, 1.0 / *s as f32 as f64)?;
+        }
+        Ok(acc.finish())
+    };
+    let px_test = test_windows(data_root, &DatasetSpec::Sdd)?;
+    let cv = cv_baseline(data_root, &DatasetSpec::Sdd, &px_test)?;
+    Ok(PixelEquivalent {
+        metrics: convert(preds)?,
+        point: match point {
+            Some(p) => {
+                let m = convert(p)?;
+                Some((m.ade_k1, m.fde_k1))
+            }
+            None => None,
+        },
+        cv: cv.test,
+    })
+}
+
+/// Appends `fields` (in order) as the last members of the pretty-printed JSON object `text`,
+/// formatted as `serde_json::to_string_pretty` formats a struct whose last fields they are.
+fn append_json_fields(text: &str, fields: &[(&str, &DistMetrics)]) -> Result<String> {
+    let end = text
+        .rfind('}')
+        .context("model card JSON does not end with '}'")?;
+    let (body, tail) = (text[..end].trim_end(), &text[end..]);
+    let mut out = body.to_string();
+    for (name, d) in fields {
+        let v = serde_json::to_string_pretty(d)?.replace('\n', "\n  ");
+        out.push_str(&format!(",\n  {}: {v}", serde_json::to_string(name)?));
+    }
+    out.push('\n');
+    out.push_str(tail);
+    Ok(out)
+}
+
+/// Inserts `rows` after the first line of `md` that starts with `anchor`.
+fn insert_md_rows(md: &str, anchor: &str, rows: &str) -> Result<String> {
+    let start = md
+        .find(&format!("\n{anchor}"))
+        .with_context(|| format!("model card .md has no row starting with {anchor:?}"))?
+        + 1;
+    let eol = md[start..].find('\n').map_or(md.len(), |i| start + i + 1);
+    Ok(format!("{}{rows}{}", &md[..eol], &md[eol..]))
+}
+
+/// `gpecnet eval --update-card`: adds the distribution metrics ([`DistMetrics`], K and seeds
+/// of the card) to an **existing** model card (`<blob>.json` and `.md`) without touching
+/// anything else: no retraining, the blob and golden file are not rewritten, and the card's
+/// other bytes stay as they are. The card's ADE/FDE must be reproduced by `report` first (same
+/// K, seed and sine). An f32 card gets `test_dist`; a fixed-point card gets `test_f32_dist` (its
+/// f32 source, re-evaluated through gpecnet-core) and `test_fixed_dist`. A card that already
+/// has the fields is checked, not rewritten. Returns what was done, in words.
+pub fn update_card_dist(
+    blob_path: &Path,
+    data_root: &Path,
+    report: &EvalReport,
+    k: usize,
+    base_seed: u64,
+) -> Result<String> {
+    let p_json = blob_path.with_extension("json");
+    let p_md = blob_path.with_extension("md");
+    let text = crate::inpath::read_text_limited(&p_json, crate::inpath::FileKind::Text)?;
+    let v: serde_json::Value = serde_json::from_str(&text)?;
+    let card_k = v.get("k").and_then(|x| x.as_u64());
+    let card_seed = v.get("base_seed").and_then(|x| x.as_u64());
+    if card_k != Some(k as u64) || card_seed != Some(base_seed) {
+        bail!(
+            "{}: card has K = {card_k:?}, seed = {card_seed:?}; run with its K and seed",
+            p_json.display()
+        );
+    }
+    let get = |key: &str| -> Option<Metrics> { card_field(&v, key) };
+    let getd = |key: &str| -> Option<DistMetrics> { card_field(&v, key) };
+    let fixed = v.get("test_fixed").is_some();
+    let (key, fields): (&str, Vec<(&str, DistMetrics)>) = if fixed {
+        if get("test_fixed") != Some(report.metrics) {
+            bail!("{}: test_fixed is not reproduced", p_json.display());
+        }
+        let source = v
+            .get("source")
+            .and_then(|x| x.as_str())
+            .context("fixed-point card without source")?;
+        let src_path = blob_path.with_file_name(source);
+        let src = crate::inpath::read_limited(&src_path, crate::inpath::FileKind::Blob)?;
+        let sine = match v.get("source_sine").and_then(|x| x.as_str()) {
+            Some("libm") => SineKind::Libm,
+            Some("fast-f32") => SineKind::Fast,
+            other => bail!("{}: unknown source_sine {other:?}", p_json.display()),
+        };
+        let test = data::load_sdd(data_root, data::SddSplit::Test)?;
+        let (m, preds) = evaluate_core(&src, sine, &test, k, base_seed)?;
+        let want = get("test_f32").context("fixed-point card without test_f32")?;
+        if m != want {
+            bail!(
+                "{}: test_f32 of {source} is not reproduced",
+                p_json.display()
+            );
+        }
+        let f32_dist = dist_metrics(&test, &preds).context("empty SDD test set")?;
+        (
+            "test_fixed_dist",
+            vec![
+                ("test_f32_dist", f32_dist),
+                ("test_fixed_dist", report.dist),
+            ],
+        )
+    } else {
+        if get("test") != Some(report.metrics)
+            || v.get("blob_crc").and_then(|x| x.as_u64()).is_none()
+        {
+            bail!("{}: test metrics are not reproduced", p_json.display());
+        }
+        ("test_dist", vec![("test_dist", report.dist)])
+    };
+    if v.get(key).is_some() {
+        for (name, d) in &fields {
+            match getd(name) {
+                Some(have) if have == *d => {}
+                have => bail!(
+                    "{}: {name} is {have:?} but the evaluation gives {d:?}",
+                    p_json.display()
+                ),
+            }
+        }
+        return Ok(format!(
+            "{}: already has {key}, reproduced",
+            p_json.display()
+        ));
+    }
+    let refs: Vec<(&str, &DistMetrics)> = fields.iter().map(|(n, d)| (*n, d)).collect();
+    let new_text = append_json_fields(&text, &refs)?;
+    // The result must be exactly what the card writers produce.
+    let canonical = if fixed {
+        serde_json::to_string_pretty(&serde_json::from_str::<crate::quantize_blob::QuantCard>(
+            &new_text,
+        )?)?
+    } else {
+        serde_json::to_string_pretty(&serde_json::from_str::<ModelCard>(&new_text)?)?
+    };
+    if canonical != new_text {
+        bail!(
+            "{}: the updated card would not be byte-identical to the writer's output",
+            p_json.display()
+        );
+    }
+    let md = crate::inpath::read_text_limited(&p_md, crate::inpath::FileKind::Text)?;
+    let new_md = if fixed {
+        insert_md_rows(
+            &md,
+            "| FDE, K = 1 |",
+            &crate::quantize_blob::quant_card_dist_rows(&fields[0].1, &fields[1].1, k),
+        )?
+    } else {
+        insert_md_rows(
+            &md,
+            "| mean FDE over the K samples |",
+            &model_card_dist_rows(&report.dist, k),
+        )?
+    };
+    write_atomic(&p_json, new_text.as_bytes())?;
+    write_atomic(&p_md, new_md.as_bytes())?;
+    Ok(format!(
+        "{}: added {}; {}: added the rows",
+        p_json.display(),
+        fields
+            .iter()
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>()
+            .join(", "),
+        p_md.display()
+    ))
+}

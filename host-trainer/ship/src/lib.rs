@@ -1,0 +1,17 @@
+//! Blob-level commands of the gpecnet trainer, everything that starts from a blob rather than
+//! from a training run: `gpecnet quantize` ([`quantize_blob`]), `gpecnet score` ([`score`],
+//! endpoint probabilities and radii fitted on validation) and `gpecnet eval` ([`blob_eval`]).
+//!
+//! Depends on `gpecnet-metrics` and below; no candle.
+pub mod blob_eval;
+pub mod quantize_blob;
+pub mod score;
+
+// The lower crates' modules under the names the code uses (`crate::data::Window`).
+use gpecnet_data as data;
+use gpecnet_data::units;
+use gpecnet_files::{inpath, outpath, rundir};
+use gpecnet_metrics::{
+    card, core_eval, draw, eval, fixed_eval, planner_metrics, proposal_file, score_file,
+};
+use gpecnet_reference::{export, network, quantize, reference, signing};

@@ -1,0 +1,192 @@
+//! The proposal's training step and its validation pass: tensors of the frozen model's
+//! features and true endpoints, the soft-min best-of-K loss through the frozen decoder.
+
+use anyhow::{bail, Result};
+use candle_core::{DType, Device, Tensor, Var};
+
+use crate::data::{Window, FUTURE, PAST};
+use crate::mlp::{Dense, Mlp};
+use crate::network::{Act, Layer};
+use crate::reference::{RefModel, SineKind};
+
+/// The frozen model's view of a set of windows: features `f` (`[n, fdim]`, exactly the
+/// reference path's `encoder_past` output) and true endpoints in the networks' normalised
+/// frame (`[n, 2]`).
+pub struct Encoded {
+    /// `[n, fdim]`.
+    pub features: Tensor,
+    /// `[n, 2]`.
+    pub targets: Tensor,
+    /// Windows.
+    pub n: usize,
+}
+
+impl Encoded {
+    /// Encodes `windows` with the frozen `model` (f32 reference arithmetic, libm sine).
+    pub fn of(model: &RefModel, windows: &[Window]) -> Result<Self> {
+        let c = &model.config;
+        let (mut feats, mut targets) = (Vec::new(), Vec::new());
+        for w in windows {
+            let past = &w.pos[..PAST];
+            let (fr, f) = model.features(past, SineKind::Libm);
+            if f.len() != c.fdim {
+                bail!(
+                    "the encoder gives {} features, the config says {}",
+                    f.len(),
+                    c.fdim
+                );
+            }
+            feats.extend_from_slice(&f);
+            targets.extend_from_slice(&fr.input(w.pos[PAST + FUTURE - 1], c.data_scale));
+        }
+        let n = windows.len();
+        Ok(Self {
+            features: Tensor::from_vec(feats, (n, c.fdim), &Device::Cpu)?,
+            targets: Tensor::from_vec(targets, (n, 2), &Device::Cpu)?,
+            n,
+        })
+    }
+
+    /// Rows `idx` of both tensors.
+    pub fn rows(&self, idx: &[u32]) -> Result<(Tensor, Tensor)> {
+        let i = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
+        Ok((
+            self.features.index_select(&i, 0)?,
+            self.targets.index_select(&i, 0)?,
+        ))
+    }
+}
+
+/// A network of exported (w0-folded) layers as a candle MLP; its parameters are left out of
+/// every optimiser (the decoder stays frozen).
+pub fn frozen_mlp(layers: &[Layer]) -> Result<Mlp> {
+    let hidden = layers
+        .first()
+        .filter(|_| layers.len() > 1)
+        .map_or(Act::Linear, |l| l.act);
+    if layers.iter().rev().skip(1).any(|l| l.act != hidden) || layers.last().is_none() {
+        bail!("the decoder's hidden layers must share one activation");
+    }
+    let dense = layers
+        .iter()
+        .map(|l| -> Result<Dense> {
+            Ok(Dense {
+                weight: Var::from_tensor(&Tensor::from_slice(
+                    &l.w,
+                    (l.out_dim, l.in_dim),
+                    &Device::Cpu,
+                )?)?,
+                bias: Var::from_tensor(&Tensor::from_slice(&l.b, l.out_dim, &Device::Cpu)?)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Mlp::from_layers(dense, hidden))
+}
+
+/// The loss settings (all lengths in the networks' normalised units).
+#[derive(Clone, Copy, Debug)]
+pub struct LossSpec {
+    /// Latents per window.
+    pub k: usize,
+    /// Latent width.
+    pub zdim: usize,
+    /// Each latent component is clamped to `±bound` (as the core does).
+    pub bound: f32,
+    /// Soft-min temperature.
+    pub temperature: f32,
+    /// Weight of `½‖z‖²` (the prior's log-density up to a constant).
+    pub prior_weight: f32,
+}
+
+/// The K endpoints of a batch (`[b, k, 2]`) and its clamped latents (`[b·k, zdim]`).
+pub fn endpoints(
+    proposal: &Mlp,
+    decoder: &Mlp,
+    f: &Tensor,
+    spec: &LossSpec,
+) -> Result<(Tensor, Tensor)> {
+    let (b, fdim) = f.dims2()?;
+    let z = proposal
+        .forward(f)?
+        .reshape((b * spec.k, spec.zdim))?
+        .clamp(-spec.bound, spec.bound)?;
+    let fk = f
+        .unsqueeze(1)?
+        .broadcast_as((b, spec.k, fdim))?
+        .reshape((b * spec.k, fdim))?;
+    let input = Tensor::cat(&[&fk, &z], 1)?.contiguous()?;
+    let d = decoder.forward(&input)?.reshape((b, spec.k, 2))?;
+    Ok((d, z))
+}
+
+/// Distances `[b, k]` of the K endpoints to the truth `t` (`[b, 2]`).
+pub fn distances(d: &Tensor, t: &Tensor) -> Result<Tensor> {
+    let diff = d.broadcast_sub(&t.unsqueeze(1)?)?;
+    Ok((diff.sqr()?.sum(2)? + 1e-8)?.sqrt()?)
+}
+
+/// The training loss of one batch: the soft minimum over the K endpoint errors
+/// (`m − T·ln Σ_k exp(−(d_k − m)/T)`, `m` the hard minimum, not differentiated) plus
+/// `prior_weight · ½‖z‖²` averaged over the latents.
+pub fn loss(
+    proposal: &Mlp,
+    decoder: &Mlp,
+    f: &Tensor,
+    t: &Tensor,
+    spec: &LossSpec,
+) -> Result<Tensor> {
+    let (d, z) = endpoints(proposal, decoder, f, spec)?;
+    let dist = distances(&d, t)?;
+    let m = dist.min_keepdim(1)?.detach();
+    let temp = f64::from(spec.temperature);
+    let soft = (m.squeeze(1)?
+        - (dist
+            .broadcast_sub(&m)?
+            .affine(-1.0 / temp, 0.0)?
+            .exp()?
+            .sum(1)?
+            .log()?
+            * temp)?)?;
+    let prior = (z.sqr()?.sum(1)?.mean_all()? * (0.5 * f64::from(spec.prior_weight)))?;
+    Ok((soft.mean_all()? + prior)?)
+}
+
+/// Validation numbers of one pass (normalised units; divide by `data_scale` for the
+/// caller's).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ValScore {
+    /// Mean over windows of the smallest endpoint error.
+    pub min_fde: f64,
+    /// Share of latent components at the clamp.
+    pub clamped: f64,
+    /// Mean latent norm.
+    pub z_norm: f64,
+}
+
+/// Best-of-K endpoint error of `proposal` on all of `enc`, in chunks.
+pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -> Result<ValScore> {
+    let (mut fde, mut clamped, mut norm, mut comps) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    let idx: Vec<u32> = (0..enc.n as u32).collect();
+    for chunk in idx.chunks(1024) {
+        let (f, t) = enc.rows(chunk)?;
+        let (d, z) = endpoints(proposal, decoder, &f, spec)?;
+        let dist = distances(&d, &t)?.min(1)?.to_dtype(DType::F64)?;
+        fde += dist.sum_all()?.to_scalar::<f64>()?;
+        let zv = z.flatten_all()?.to_vec1::<f32>()?;
+        clamped += zv.iter().filter(|v| v.abs() >= spec.bound).count() as f64;
+        comps += zv.len();
+        norm += z
+            .sqr()?
+            .sum(1)?
+            .sqrt()?
+            .to_dtype(DType::F64)?
+            .sum_all()?
+            .to_scalar::<f64>()?;
+    }
+    let n = enc.n.max(1) as f64;
+    Ok(ValScore {
+        min_fde: fde / n,
+        clamped: clamped / comps.max(1) as f64,
+        z_norm: norm / (n * spec.k as f64),
+    })
+}

@@ -1,0 +1,343 @@
+//! The training loop of `gpecnet propose`: data, the proposal network, Adam, one
+//! checkpoint per epoch, selection on validation, and the exported proposal with its
+//! validation numbers through `gpecnet-core`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
+
+use super::fit::{self, Encoded, LossSpec};
+use crate::data::{self, DatasetSpec, Window};
+use crate::mlp::Mlp;
+use crate::optim::{Adam, AdamParams, AdamState};
+use crate::proposal_file::{
+    frozen_fingerprint, EpochRow, LayerFile, ProposalFile, ProposeSettings, ValCore,
+};
+use crate::reference::RefModel;
+use crate::rng::{Rng, RngState};
+use crate::rundir::{write_atomic, RunLock};
+
+/// Everything needed to continue a run.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Checkpoint {
+    settings: ProposeSettings,
+    epoch: usize,
+    weights: Vec<Vec<f32>>,
+    adam: AdamState,
+    rng: RngState,
+    best_epoch: usize,
+    best_weights: Vec<Vec<f32>>,
+    rows: Vec<EpochRow>,
+}
+
+/// A proposal run.
+pub struct ProposeRun<'a> {
+    /// The frozen model.
+    pub model: &'a RefModel,
+    /// Its settings.
+    pub settings: ProposeSettings,
+    /// Data root.
+    pub data_root: PathBuf,
+    /// Run folder.
+    pub out: PathBuf,
+    /// Continue the run in `out`.
+    pub resume: bool,
+    /// The frozen blob's path (for the record).
+    pub source: PathBuf,
+}
+
+fn windows(
+    root: &Path,
+    spec: &DatasetSpec,
+    split: data::Split,
+    s: &ProposeSettings,
+) -> Result<Vec<Window>> {
+    Ok(data::load(root, spec, split, &s.val_scenes)?.windows)
+}
+
+fn build(s: &ProposeSettings, fdim: usize, zdim: usize) -> Result<Mlp> {
+    let mut rng = Rng::new(s.seed);
+    let out = s.k * zdim;
+    let mlp = Mlp::new(fdim, &s.hidden, out, s.act, 1.0, &mut rng)?;
+    // Start every latent as a draw of the prior (sigma 1) with a weak dependence on the
+    // features, so the first epochs already see the decoder's whole range.
+    let last = mlp.layers().last().context("empty proposal")?;
+    let scale = if s.codebook { 0.0 } else { 0.1 };
+    last.weight
+        .set(&(last.weight.as_tensor() * scale)?)
+        .map_err(anyhow::Error::from)?;
+    let b =
+        candle_core::Tensor::from_vec(rng.normal_vec(out, 1.0), out, &candle_core::Device::Cpu)?;
+    last.bias.set(&b)?;
+    Ok(mlp)
+}
+
+fn trainable(mlp: &Mlp, codebook: bool) -> Vec<candle_core::Var> {
+    if codebook {
+        mlp.layers().iter().map(|l| l.bias.clone()).collect()
+    } else {
+        mlp.vars()
+    }
+}
+
+fn weights_of(mlp: &Mlp) -> Result<Vec<Vec<f32>>> {
+    mlp.vars()
+        .iter()
+        .map(|v| Ok(v.as_tensor().flatten_all()?.to_vec1::<f32>()?))
+        .collect()
+}
+
+fn set_weights(mlp: &Mlp, w: &[Vec<f32>]) -> Result<()> {
+    let vars = mlp.vars();
+    if vars.len() != w.len() {
+        bail!(
+            "checkpoint holds {} tensors, the proposal has {}",
+            w.len(),
+            vars.len()
+        );
+    }
+    for (v, w) in vars.iter().zip(w) {
+        let t = candle_core::Tensor::from_slice(w, v.shape(), &candle_core::Device::Cpu)?;
+        v.set(&t)?;
+    }
+    Ok(())
+}
+
+fn augment(mut ws: Vec<Window>, s: &ProposeSettings) -> Vec<Window> {
+    if s.time_reversal {
+        let rev: Vec<Window> = ws.iter().map(data::time_reversed).collect();
+        ws.extend(rev);
+    }
+    if s.mirror {
+        let mir: Vec<Window> = ws.iter().map(data::mirrored).collect();
+        ws.extend(mir);
+    }
+    ws
+}
+
+impl ProposeRun<'_> {
+    /// Trains (or continues) the run and writes `proposal.json`; returns it.
+    pub fn run(&self) -> Result<ProposalFile> {
+        let s = &self.settings;
+        let c = &self.model.config;
+        if s.k == 0 || s.batch == 0 || s.epochs == 0 {
+            bail!("k, batch and epochs must be at least 1");
+        }
+        if !(s.bound.is_finite() && s.bound > 0.0) {
+            bail!("--bound must be finite and > 0, got {}", s.bound);
+        }
+        if !(s.temperature.is_finite() && s.temperature > 0.0) {
+            bail!(
+                "--temperature must be finite and > 0, got {}",
+                s.temperature
+            );
+        }
+        std::fs::create_dir_all(&self.out)
+            .with_context(|| format!("creating {}", self.out.display()))?;
+        let _lock = RunLock::acquire(&self.out)?;
+        let ckpt_path = self.out.join("checkpoint.json");
+        let spec = DatasetSpec::parse(&s.dataset).map_err(anyhow::Error::msg)?;
+        let train = augment(windows(&self.data_root, &spec, data::Split::Train, s)?, s);
+        let val = windows(&self.data_root, &spec, data::Split::Val, s)?;
+        let train = Encoded::of(self.model, &train)?;
+        let val = Encoded::of(self.model, &val)?;
+        let decoder = fit::frozen_mlp(&self.model.nets.decoder)?;
+        let proposal = build(s, c.fdim, c.zdim)?;
+        let ds = f64::from(c.data_scale);
+        let loss_spec = LossSpec {
+            k: s.k,
+            zdim: c.zdim,
+            bound: s.bound,
+            temperature: s.temperature * c.data_scale,
+            prior_weight: s.prior_weight,
+        };
+        let mut adam = Adam::new(trainable(&proposal, s.codebook), AdamParams::with_lr(s.lr));
+        let mut rng = Rng::with_stream(s.seed, 1);
+        let mut ck = Checkpoint {
+            settings: s.clone(),
+            epoch: 0,
+            weights: weights_of(&proposal)?,
+            adam: adam.state().clone(),
+            rng: rng.state(),
+            best_epoch: 0,
+            best_weights: weights_of(&proposal)?,
+            rows: Vec::new(),
+        };
+        if ckpt_path.exists() {
+            if !self.resume {
+                bail!(
+                    "{} holds a run; continue it with --resume or choose another --out",
+                    self.out.display()
+                );
+            }
+            let text =
+                crate::inpath::read_text_limited(&ckpt_path, crate::inpath::FileKind::Checkpoint)?;
+            let old: Checkpoint = serde_json::from_str(&text)
+                .with_context(|| format!("reading {}", ckpt_path.display()))?;
+            if old.settings != *s {
+                bail!(
+                    "{} was made with other settings ({:?}); refusing to mix runs",
+                    ckpt_path.display(),
+                    old.settings
+                );
+            }
+            set_weights(&proposal, &old.weights)?;
+            adam = Adam::from_state(
+                trainable(&proposal, s.codebook),
+                AdamParams::with_lr(s.lr),
+                old.adam.clone(),
+            )?;
+            rng = Rng::from_state(&old.rng);
+            ck = old;
+        }
+        let bar = ProgressBar::new(s.epochs as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} epochs {msg} ({eta})")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(format!("propose seed {}", s.seed));
+        bar.set_position(ck.epoch as u64);
+        let mut order: Vec<u32> = (0..train.n as u32).collect();
+        while ck.epoch < s.epochs {
+            rng.shuffle(&mut order);
+            let (mut sum, mut n) = (0.0f64, 0usize);
+            for chunk in order.chunks(s.batch) {
+                let (f, t) = train.rows(chunk)?;
+                let l = fit::loss(&proposal, &decoder, &f, &t, &loss_spec)?;
+                adam.backward_step(&l)?;
+                sum += f64::from(l.to_scalar::<f32>()?);
+                n += 1;
+            }
+            let v = fit::validate(&proposal, &decoder, &val, &loss_spec)?;
+            if !v.min_fde.is_finite() || val.n == 0 {
+                bail!(
+                    "epoch {}: validation minFDE is {} on {} windows; nothing to select on",
+                    ck.epoch + 1,
+                    v.min_fde,
+                    val.n
+                );
+            }
+            ck.epoch += 1;
+            let row = EpochRow {
+                epoch: ck.epoch,
+                loss: sum / n.max(1) as f64,
+                val_min_fde: v.min_fde / ds,
+                val_clamped: v.clamped,
+                val_z_norm: v.z_norm,
+            };
+            let best = ck
+                .rows
+                .iter()
+                .find(|r| r.epoch == ck.best_epoch)
+                .is_none_or(|b| row.val_min_fde < b.val_min_fde);
+            ck.weights = weights_of(&proposal)?;
+            if best {
+                ck.best_epoch = ck.epoch;
+                ck.best_weights = ck.weights.clone();
+            }
+            bar.set_message(format!(
+                "val minFDE {:.4} (best {:.4} @ {})",
+                row.val_min_fde,
+                if best {
+                    row.val_min_fde
+                } else {
+                    ck.rows
+                        .iter()
+                        .find(|r| r.epoch == ck.best_epoch)
+                        .map_or(f64::NAN, |r| r.val_min_fde)
+                },
+                ck.best_epoch
+            ));
+            ck.rows.push(row);
+            ck.adam = adam.state().clone();
+            ck.rng = rng.state();
+            write_atomic(&ckpt_path, serde_json::to_string(&ck)?.as_bytes())?;
+            write_atomic(
+                &self.out.join("metrics.csv"),
+                metrics_csv(&ck.rows).as_bytes(),
+            )?;
+            bar.inc(1);
+        }
+        bar.finish();
+        set_weights(&proposal, &ck.best_weights)?;
+        let exported = proposal.export()?;
+        let val_row = ck
+            .rows
+            .iter()
+            .find(|r| r.epoch == ck.best_epoch)
+            .cloned()
+            .context("no epoch recorded")?;
+        let file = ProposalFile {
+            settings: s.clone(),
+            frozen: frozen_fingerprint(self.model),
+            source: self.source.display().to_string(),
+            epoch: ck.best_epoch,
+            val: val_row,
+            layers: exported
+                .iter()
+                .map(|l| LayerFile {
+                    in_dim: l.in_dim,
+                    out_dim: l.out_dim,
+                    act: l.act,
+                    w: l.w.clone(),
+                    b: l.b.clone(),
+                })
+                .collect(),
+            val_core: None,
+        };
+        let file = ProposalFile {
+            val_core: Some(self.val_core(&file, &spec)?),
+            ..file
+        };
+        write_atomic(
+            &self.out.join("proposal.json"),
+            serde_json::to_string_pretty(&file)?.as_bytes(),
+        )?;
+        Ok(file)
+    }
+}
+
+impl ProposeRun<'_> {
+    /// [`ValCore`] of `file` joined to the frozen model.
+    fn val_core(&self, file: &ProposalFile, spec: &DatasetSpec) -> Result<ValCore> {
+        let mut m = self.model.clone();
+        m.config.tts_samples = 0;
+        m.nets.proposal = file.layers();
+        m.config.latent_bound = file.settings.bound;
+        let blob = crate::export::blob_bytes(&m)?;
+        let val = data::load(
+            &self.data_root,
+            spec,
+            data::Split::Val,
+            &file.settings.val_scenes,
+        )?;
+        let k = file.settings.k;
+        let sine = crate::reference::SineKind::Libm;
+        let (metrics, preds) = crate::core_eval::evaluate_core(&blob, sine, &val, k, 0)?;
+        let acc = crate::eval::dist_accumulator(&val, &preds).context("no validation windows")?;
+        let dist = acc.finish().context("no validation windows")?;
+        let radii = crate::eval::hit_radii(val.unit);
+        Ok(ValCore {
+            n: metrics.n,
+            min_ade: metrics.min_ade,
+            min_fde: metrics.min_fde,
+            mean_fde: metrics.mean_fde,
+            kde_nll: dist.kde_nll,
+            radii,
+            hits: radii.map(|r| acc.within(r)),
+        })
+    }
+}
+
+fn metrics_csv(rows: &[EpochRow]) -> String {
+    let mut s = String::from("epoch,loss,val_min_fde,val_clamped,val_z_norm\n");
+    for r in rows {
+        s.push_str(&format!(
+            "{},{:.6},{:.6},{:.6},{:.4}\n",
+            r.epoch, r.loss, r.val_min_fde, r.val_clamped, r.val_z_norm
+        ));
+    }
+    s
+}
