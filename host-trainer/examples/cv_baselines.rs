@@ -11,10 +11,11 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use gpecnet_trainer::baseline::{cv_sweep, select_cv_n};
 use gpecnet_trainer::data::{
     default_data_root, default_sdd_val_scenes, load_sdd, split_by_scene, SddSplit,
 };
-use gpecnet_trainer::eval::{cv_sweep, select_cv_n, DistMetrics};
+use gpecnet_trainer::dist::DistMetrics;
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);

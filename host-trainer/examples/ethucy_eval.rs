@@ -23,9 +23,9 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use gpecnet_trainer::baseline::{constant_velocity_n, evaluate_baseline_with, select_cv_n};
 use gpecnet_trainer::core_eval::{evaluate_core, evaluate_point_core};
 use gpecnet_trainer::data::{default_data_root, load_eth_ucy, EthUcySplit, ETH_UCY_SCENES};
-use gpecnet_trainer::eval::{constant_velocity_n, evaluate_baseline_with, select_cv_n};
 use gpecnet_trainer::export::blob_bytes;
 use gpecnet_trainer::reference::SineKind;
 use gpecnet_trainer::run_export::{model_from_run, ExportSettings};

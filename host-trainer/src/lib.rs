@@ -9,7 +9,8 @@ pub use gpecnet_data as data;
 pub use gpecnet_data::units;
 pub use gpecnet_files::{csvfile, inpath, outpath, rundir};
 pub use gpecnet_metrics::{
-    card, core_eval, draw, eval, fixed_eval, planner_metrics, proposal_file, score_file,
+    baseline, card, core_eval, dist, draw, eval, fixed_eval, planner_metrics, proposal_file,
+    score_file,
 };
 pub use gpecnet_nn::{mlp, ops, optim, pool, rng};
 pub use gpecnet_onnx as onnx;

@@ -438,7 +438,7 @@ fn sdd_in_metres_is_sdd_times_the_scene_scale() {
     }
     let test_px = load(&r, &DatasetSpec::Sdd, Split::Test, &[]).unwrap();
     let test_m = load(&r, &DatasetSpec::SddMetres, Split::Test, &[]).unwrap();
-    let cv = |w: &Window| gpecnet_trainer::eval::constant_velocity_n(w, 2);
+    let cv = |w: &Window| gpecnet_trainer::baseline::constant_velocity_n(w, 2);
     let mut acc = gpecnet_trainer::eval::MetricsAccumulator::new();
     for w in &test_px.windows {
         let p = gpecnet_trainer::eval::Prediction {
@@ -448,7 +448,7 @@ fn sdd_in_metres_is_sdd_times_the_scene_scale() {
             .unwrap();
     }
     let via_px = acc.finish();
-    let direct = gpecnet_trainer::eval::evaluate_baseline_with(&test_m, cv);
+    let direct = gpecnet_trainer::baseline::evaluate_baseline_with(&test_m, cv);
     assert!((via_px.fde_k1 - direct.fde_k1).abs() < 1e-5 * direct.fde_k1);
     assert!((via_px.ade_k1 - direct.ade_k1).abs() < 1e-5 * direct.ade_k1);
     // A scene without a factor is an error naming it, never a pixel window in a metre set.

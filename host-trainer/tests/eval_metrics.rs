@@ -3,7 +3,9 @@
 
 use crate::common;
 
+use gpecnet_trainer::baseline::*;
 use gpecnet_trainer::data::*;
+use gpecnet_trainer::dist::*;
 use gpecnet_trainer::eval::*;
 
 fn line_window() -> Window {

@@ -5,7 +5,7 @@
 
 use gpecnet_core::blob::NumericKind;
 use gpecnet_core::Model;
-use gpecnet_metrics::eval::dist_metrics;
+use gpecnet_metrics::dist::dist_metrics;
 use gpecnet_metrics::fixed_eval::evaluate_core_fixed;
 use gpecnet_ship::quantize_blob::QuantCard;
 use gpecnet_tests::{assert_sidecars, card_test_set, shipped_blobs_of, Shipped};

@@ -5,7 +5,7 @@
 use gpecnet_core::NumericKind;
 use gpecnet_metrics::card::{test_planner, ModelCard};
 use gpecnet_metrics::core_eval::evaluate_core;
-use gpecnet_metrics::eval::dist_metrics;
+use gpecnet_metrics::dist::dist_metrics;
 use gpecnet_metrics::planner_metrics::PlannerMetrics;
 use gpecnet_reference::export::read_blob;
 use gpecnet_reference::reference::SineKind;

@@ -7,8 +7,10 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
+use crate::baseline::{constant_velocity_n, evaluate_baseline_with, select_cv_n};
 use crate::data::{self, default_sdd_val_scenes, Dataset, DatasetSpec, Split};
-use crate::eval::{constant_velocity_n, evaluate_baseline_with, select_cv_n, DistMetrics, Metrics};
+use crate::dist::DistMetrics;
+use crate::eval::Metrics;
 use crate::planner_metrics::PlannerMetrics;
 use crate::reference::{RefModel, SineKind};
 
@@ -179,7 +181,7 @@ impl Inference {
 }
 
 /// Constant velocity from the mean velocity of the last `n` observed steps, `n` chosen on
-/// the SDD validation scenes ([`crate::eval::select_cv_n`]), evaluated on the test set.
+/// the SDD validation scenes ([`crate::baseline::select_cv_n`]), evaluated on the test set.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CvBaseline {
     /// Observed steps averaged.

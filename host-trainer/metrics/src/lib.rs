@@ -5,8 +5,10 @@
 //! [`score_file`]) and SVG drawings ([`draw`]).
 //!
 //! Depends on `gpecnet-reference`, `gpecnet-data` and `gpecnet-files`; no candle.
+pub mod baseline;
 pub mod card;
 pub mod core_eval;
+pub mod dist;
 pub mod draw;
 pub mod eval;
 pub mod fixed_eval;

@@ -11,7 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::eval::kde_nll_weighted;
+use crate::dist::kde_nll_weighted;
 
 /// Equal-width probability bins of the calibration errors.
 pub const ECE_BINS: usize = 15;
@@ -54,10 +54,10 @@ pub struct PlannerMetrics {
     /// The same over the most probable endpoint of each window only (top-label ECE).
     pub top_ece: f64,
     /// Mean KDE NLL of the truth under the probability-weighted mixture (nats; Scott's
-    /// bandwidth on the K endpoints, `crate::eval::kde_nll_weighted`, in the endpoints' own
+    /// bandwidth on the K endpoints, `crate::dist::kde_nll_weighted`, in the endpoints' own
     /// unit).
     pub mixture_nll: f64,
-    /// The same with equal weights (`crate::eval::kde_nll`), for comparison.
+    /// The same with equal weights (`crate::dist::kde_nll`), for comparison.
     pub uniform_nll: f64,
     /// Mean distance of the point forecast to the truth (0 when there is none).
     pub point_fde: f64,

@@ -97,7 +97,7 @@ pub struct ValCore {
     pub min_fde: f64,
     /// Mean FDE over the K endpoints.
     pub mean_fde: f64,
-    /// KDE NLL of the true endpoint under the K endpoints (nats; `crate::eval::kde_nll`).
+    /// KDE NLL of the true endpoint under the K endpoints (nats; `crate::dist::kde_nll`).
     pub kde_nll: f64,
     /// The two hit radii (0.5 / 1 m, or 20 / 40 px).
     pub radii: [f64; 2],

@@ -9,15 +9,16 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
+use crate::baseline::{
+    constant_velocity, constant_velocity_n, evaluate_baseline, evaluate_baseline_with, select_cv_n,
+};
 use crate::card::{
     card_dataset, cv_baseline, model_card_dist_rows, test_windows, validation_windows, ModelCard,
 };
 use crate::core_eval::evaluate_core;
 use crate::data::{self, Dataset, DatasetSpec, Unit};
-use crate::eval::{
-    constant_velocity, constant_velocity_n, dist_accumulator, dist_metrics, evaluate_baseline,
-    evaluate_baseline_with, select_cv_n, DistMetrics, Metrics,
-};
+use crate::dist::{dist_accumulator, dist_metrics, DistMetrics};
+use crate::eval::Metrics;
 use crate::reference::SineKind;
 use crate::rundir::write_atomic;
 use crate::units::check_unit;
@@ -217,7 +218,7 @@ pub fn eval_blob(
     } else {
         None
     };
-    let hit_radii = crate::eval::hit_radii(unit);
+    let hit_radii = crate::dist::hit_radii(unit);
     let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
     let run_sine = sine
         .or_else(|| crate::export::sine_of_blob(blob_path))

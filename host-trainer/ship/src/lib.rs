@@ -12,6 +12,7 @@ use gpecnet_data as data;
 use gpecnet_data::units;
 use gpecnet_files::{inpath, outpath, rundir};
 use gpecnet_metrics::{
-    card, core_eval, draw, eval, fixed_eval, planner_metrics, proposal_file, score_file,
+    baseline, card, core_eval, dist, draw, eval, fixed_eval, planner_metrics, proposal_file,
+    score_file,
 };
 use gpecnet_reference::{export, network, quantize, reference, signing};

@@ -6,7 +6,8 @@ use gpecnet_core::blob::NumericKind;
 use serde::{Deserialize, Serialize};
 
 use crate::card::CardMd;
-use crate::eval::{dist_metrics, DistMetrics, Metrics};
+use crate::dist::{dist_metrics, DistMetrics};
+use crate::eval::Metrics;
 use crate::fixed_eval::{evaluate_core_fixed, evaluate_reference_fixed};
 use crate::quantize::{qgolden_bytes, quantize_with_data, QModel, MARGIN};
 

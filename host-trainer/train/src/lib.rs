@@ -18,7 +18,7 @@ pub mod train;
 // The lower crates' modules under the names the code uses (`crate::data::Window`).
 use gpecnet_data as data;
 use gpecnet_files::{csvfile, inpath, outpath, rundir};
-use gpecnet_metrics::{card, core_eval, draw, eval, proposal_file, score_file};
+use gpecnet_metrics::{baseline, card, core_eval, dist, draw, eval, proposal_file, score_file};
 use gpecnet_nn::{mlp, optim, rng};
 use gpecnet_reference::{export, frame, network, reference, signing};
 use gpecnet_ship::score;

@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 
+use crate::baseline::{constant_velocity, evaluate_baseline};
 use crate::card::{
     card_v2_rows, cv_baseline, golden_stride, model_card_dist_rows, planner_rows, score_fact_row,
     test_planner, test_windows, CardData, CardMd, Inference, ModelCard,
@@ -22,7 +23,7 @@ use crate::checkpoint::{load_model, Which};
 use crate::config::TrainConfig;
 use crate::core_eval::{evaluate_core, evaluate_reference};
 use crate::data::{DatasetSpec, PAST};
-use crate::eval::{constant_velocity, dist_metrics, evaluate_baseline};
+use crate::dist::dist_metrics;
 use crate::export::{blob_bytes, golden_bytes, golden_cases};
 use crate::network::RefConfig;
 use crate::reference::{RefModel, SineKind};

@@ -80,9 +80,9 @@ pub fn select(
             m.config.tts_init = 0;
             let blob = blob_bytes(&m)?;
             let (val_m, preds) = evaluate_core(&blob, sine, &val, k, 0)?;
-            let acc = crate::eval::dist_accumulator(&val, &preds)
+            let acc = crate::dist::dist_accumulator(&val, &preds)
                 .ok_or_else(|| anyhow::anyhow!("one prediction per validation window"))?;
-            let radii = crate::eval::hit_radii(val.unit);
+            let radii = crate::dist::hit_radii(val.unit);
             rows.push(SelectRow {
                 sigma,
                 tts: n,

@@ -316,9 +316,9 @@ impl ProposeRun<'_> {
         let k = file.settings.k;
         let sine = crate::reference::SineKind::Libm;
         let (metrics, preds) = crate::core_eval::evaluate_core(&blob, sine, &val, k, 0)?;
-        let acc = crate::eval::dist_accumulator(&val, &preds).context("no validation windows")?;
+        let acc = crate::dist::dist_accumulator(&val, &preds).context("no validation windows")?;
         let dist = acc.finish().context("no validation windows")?;
-        let radii = crate::eval::hit_radii(val.unit);
+        let radii = crate::dist::hit_radii(val.unit);
         Ok(ValCore {
             n: metrics.n,
             min_ade: metrics.min_ade,
