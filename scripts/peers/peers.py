@@ -1,7 +1,7 @@
 """Shared helpers of the peer scripts: the dumps of `peer_bench dump`, the ONNX model run by
 onnxruntime, and the same graph rebuilt as a PyTorch module from the ONNX initializers.
 
-The ONNX graph is the one `gpecnet onnx` writes (host-trainer/src/onnx.rs): inputs x [n, 2P],
+The ONNX graph is the one `gpecnet onnx` writes (host-trainer/onnx/src/lib.rs): inputs x [n, 2P],
 z [n, k, zdim], pos [n, 2] (with a trajectory predictor); outputs d [n, k, 2], point
 [n, 2F] (point head), traj [n, k, 2(F-1)] (predictor); every dense layer is
 MatMul(input, W^T) + b then Sin/Relu; the first layer of the decoder and of the predictor is

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """One G-PECNet training epoch in PyTorch eager: the trainer's architecture, loss, batch size
-and Adam (host-trainer/src/model.rs, train/trainer.rs, optim.rs), on the trainer's own
+and Adam (host-trainer/train/src/model.rs, train/trainer.rs, optim.rs), on the trainer's own
 training samples (`peer_bench train-data`), for the side-by-side benchmark.
 
     python scripts/peers/train_torch.py --data target/peers/train-sdd-small --threads 1

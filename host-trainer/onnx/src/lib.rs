@@ -405,7 +405,7 @@ pub fn model_proto(
         ("tts_samples", c.tts_samples.to_string()),
     ];
     let doc = format!(
-        "G-PECNet model {} exported by gpecnet onnx from an f32 blob (CRC-32 {blob_crc:08x}); inputs and outputs: see host-trainer/src/onnx.rs",
+        "G-PECNet model {} exported by gpecnet onnx from an f32 blob (CRC-32 {blob_crc:08x}); inputs and outputs: see host-trainer/onnx/src/lib.rs",
         model.name
     );
     let graph = GraphProto {

@@ -139,7 +139,7 @@ pub fn run_classify(data: &Path, out: &Path) -> Result<String> {
     let ct = classify::type_counts(windows_of(&train));
     let ce = classify::type_counts(windows_of(&test));
     let mut rep = format!(
-        "Trajectory types (rules: host-trainer/src/synth/classify.rs)\n\n{}",
+        "Trajectory types (rules: host-trainer/train/src/synth/classify.rs)\n\n{}",
         type_table(&[(&train.name, ct), (&test.name, ce)])
     );
     let ht = classify::unique_histogram(windows_of(&train));
