@@ -45,7 +45,7 @@
 
 use heapless::Vec;
 
-use crate::output::PredictError;
+use crate::output::{PredictError, Trajectory};
 
 /// The two radii of a point forecast (caller's unit): the true endpoint lies
 /// within `r50` of the point forecast's endpoint in about half of the windows
@@ -78,16 +78,38 @@ pub struct Forecast<const K: usize> {
 
 impl<const K: usize> Forecast<K> {
     /// The index of the most probable endpoint (the first of equals), `None`
-    /// when empty.
+    /// without endpoints ([`most_probable`]).
     pub fn most_probable(&self) -> Option<usize> {
-        let mut best: Option<(usize, f32)> = None;
-        for (i, &p) in self.probabilities.iter().enumerate() {
-            if best.is_none_or(|(_, b)| p > b) {
-                best = Some((i, p));
-            }
-        }
-        best.map(|(i, _)| i)
+        most_probable(&self.probabilities)
     }
+}
+
+/// What [`Predictor::predict_planner`](crate::predictor::Predictor::predict_planner)
+/// gives besides the endpoints and probabilities it writes into the caller's
+/// buffers: the slice form of a [`Forecast`], for callers whose buffer sizes
+/// are only known at run time (the C ABI, the golden replay).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannerOutput {
+    /// Whether the probabilities are the model's learned ones (`false`:
+    /// `1/k` each, the model has none).
+    pub learned: bool,
+    /// The point forecast, when the model has a point head.
+    pub point: Option<Trajectory>,
+    /// The radii around the point forecast's endpoint, for a model with
+    /// probabilities.
+    pub radii: Option<Radii>,
+}
+
+/// The index of the most probable of `probabilities` (the first of equals),
+/// `None` when empty.
+pub fn most_probable(probabilities: &[f32]) -> Option<usize> {
+    let mut best: Option<(usize, f32)> = None;
+    for (i, &p) in probabilities.iter().enumerate() {
+        if best.is_none_or(|(_, b)| p > b) {
+            best = Some((i, p));
+        }
+    }
+    best.map(|(i, _)| i)
 }
 
 /// Step 2: the softmax of `logits` into `out` in place (the logits are read

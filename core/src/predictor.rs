@@ -31,7 +31,7 @@ use crate::engine::Engine;
 use crate::fixed::Q15;
 use crate::float::Float;
 pub use crate::output::{PredictError, Trajectory};
-use crate::planner::{radii, Forecast};
+use crate::planner::{radii, Forecast, PlannerOutput};
 use crate::sine::Sine;
 use crate::units::{CallerUnit, Conversion};
 use crate::Error;
@@ -232,7 +232,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
 
     /// What a planner needs in one call ([`crate::planner`]): the model's
     /// endpoints, as many as it gives up to `K`
-    /// ([`crate::sampling::max_endpoints_of`]; [`Predictor::predict_endpoint_set`] with `N = K`, so a
+    /// ([`crate::sampling::max_endpoints_of`]; [`Predictor::predict_planner`] with `N = K`, so a
     /// test-time-sampling model fails with
     /// [`PredictError::CapacityExceeded`]), their probabilities, the point
     /// forecast's endpoint (with a point head) and its radii (with
@@ -242,27 +242,60 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         past: &[[f32; 2]],
         seed: u64,
     ) -> Result<Forecast<K>, PredictError> {
-        let mut f = Forecast {
-            endpoints: heapless::Vec::new(),
-            probabilities: heapless::Vec::new(),
-            learned: false,
-            point: None,
-            radii: None,
-        };
+        let mut endpoints = heapless::Vec::new();
+        let mut probabilities = heapless::Vec::new();
         // At most K elements each (the capacity), so neither resize can fail.
         let n = crate::sampling::max_endpoints_of(self.model(), K);
-        let _ = f.endpoints.resize(n, [0.0; 2]);
-        let _ = f.probabilities.resize(n, 0.0);
-        self.predict_endpoint_set::<K>(past, seed, &mut f.endpoints)?;
-        f.learned = self.probabilities(&mut f.probabilities)?;
-        if self.model().has_point_head() {
-            f.point = self.predict_point(past)?.last().copied();
+        let _ = endpoints.resize(n, [0.0; 2]);
+        let _ = probabilities.resize(n, 0.0);
+        let out = self.predict_planner::<K>(past, seed, &mut endpoints, &mut probabilities)?;
+        Ok(Forecast {
+            endpoints,
+            probabilities,
+            learned: out.learned,
+            point: out.point.and_then(|t| t.last().copied()),
+            radii: out.radii,
+        })
+    }
+
+    /// [`Predictor::predict_forecast`] into the caller's buffers, in one
+    /// order every caller shares: the endpoint set into `endpoints`
+    /// ([`Predictor::predict_endpoint_set`] with its `N`), their
+    /// probabilities into `probabilities` ([`Predictor::probabilities`]),
+    /// then the point forecast (with a point head) and, for a model with
+    /// probabilities, the radii ([`crate::planner::radii`]).
+    /// [`PredictError::BadSampleCount`] when the two buffers differ in length.
+    pub fn predict_planner<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        endpoints: &mut [[f32; 2]],
+        probabilities: &mut [f32],
+    ) -> Result<PlannerOutput, PredictError> {
+        if probabilities.len() != endpoints.len() {
+            return Err(PredictError::BadSampleCount);
         }
-        if let (true, Some(pt)) = (f.learned, f.point) {
-            let scales = self.model().radius_scales();
-            f.radii = Some(radii(pt, &f.endpoints, &f.probabilities, scales)?);
-        }
-        Ok(f)
+        self.predict_endpoint_set::<N>(past, seed, endpoints)?;
+        let learned = self.probabilities(probabilities)?;
+        let point = if self.model().has_point_head() {
+            Some(self.predict_point(past)?)
+        } else {
+            None
+        };
+        let radii = match point.as_ref().and_then(|t| t.last()) {
+            Some(&pt) if learned => Some(radii(
+                pt,
+                endpoints,
+                probabilities,
+                self.model().radius_scales(),
+            )?),
+            _ => None,
+        };
+        Ok(PlannerOutput {
+            learned,
+            point,
+            radii,
+        })
     }
 
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.

@@ -7,7 +7,7 @@ use crate::common;
 use common::*;
 use gpecnet_blob_writer::{BlobHead, WireLayer};
 use gpecnet_core::blob::{Activation, NetworkId, NumericKind};
-use gpecnet_core::planner::{radii, softmax, Forecast};
+use gpecnet_core::planner::{most_probable, radii, softmax, Forecast};
 use gpecnet_core::{BlobError, LibmSine, Model, PredictError, Predictor};
 
 /// A proposal of `k` latents (zdim 3) and `logits` logit rows: 4 → 5 (ReLU) → 3k + logits.
@@ -79,6 +79,31 @@ fn a_scored_blob_is_version_6_and_returns_probabilities_and_radii() {
         ((0.5 * s).to_bits(), (1.5 * s).to_bits())
     );
     assert!(f.most_probable().is_some_and(|i| i < 4));
+}
+
+#[test]
+fn the_slice_form_gives_the_forecast_bit_for_bit() {
+    let blob = write_scored(&proposal(4, 4), [0.5, 1.5], true).unwrap();
+    let mut p = predictor(&blob);
+    let f: Forecast<8> = p.predict_forecast(&PAST, 5).unwrap();
+    let (mut ends, mut probs) = ([[0.0f32; 2]; 4], [0.0f32; 4]);
+    let out = p
+        .predict_planner::<8>(&PAST, 5, &mut ends, &mut probs)
+        .unwrap();
+    assert_eq!(f.endpoints.as_slice(), &ends);
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&f.probabilities), bits(&probs));
+    assert_eq!(out.point, Some(p.predict_point(&PAST).unwrap()));
+    assert_eq!((out.learned, out.radii), (f.learned, f.radii));
+    assert_eq!(most_probable(&probs), f.most_probable());
+    assert_eq!(most_probable(&[]), None);
+    assert_eq!(most_probable(&[0.25, 0.5, 0.5]), Some(1), "the first of equals");
+    // Buffers of different lengths are refused before anything runs.
+    let mut short = [0.0f32; 3];
+    assert_eq!(
+        p.predict_planner::<8>(&PAST, 5, &mut ends, &mut short),
+        Err(PredictError::BadSampleCount)
+    );
 }
 
 #[test]

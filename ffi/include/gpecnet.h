@@ -489,8 +489,7 @@ int32_t gpecnet_predict_endpoints(struct GpecnetPredictor *p,
 // forecast's endpoint with its radii `r50` / `r90` into `*out_planner`
 // (`gpecnet_core::planner`, `weights/FORMAT.md` "Format version 6"). A model
 // without probabilities gives `1/k` each and `learned = 0`. Identical, bit
-// for bit, to the core's `Predictor` (`predict_endpoint_set`,
-// `probabilities`, `predict_point`, `planner::radii`). Nothing is written on
+// for bit, to the core's `Predictor::predict_planner`. Nothing is written on
 // failure.
 //
 // # Safety

@@ -826,8 +826,7 @@ pub struct GpecnetPlanner {
 /// forecast's endpoint with its radii `r50` / `r90` into `*out_planner`
 /// (`gpecnet_core::planner`, `weights/FORMAT.md` "Format version 6"). A model
 /// without probabilities gives `1/k` each and `learned = 0`. Identical, bit
-/// for bit, to the core's `Predictor` (`predict_endpoint_set`,
-/// `probabilities`, `predict_point`, `planner::radii`). Nothing is written on
+/// for bit, to the core's `Predictor::predict_planner`. Nothing is written on
 /// failure.
 ///
 /// # Safety
@@ -853,26 +852,13 @@ pub unsafe extern "C" fn gpecnet_predict_forecast(
         let past = past.get(..past_len).unwrap_or(&[]);
         let mut ends = [[0.0f32; 2]; GPECNET_MAX_SAMPLES];
         let out = ends.get_mut(..k).ok_or(GPECNET_E_CAPACITY_EXCEEDED)?;
-        pred.predict_endpoint_set::<GPECNET_MAX_SAMPLES>(past, seed, out)
-            .map_err(predict_status)?;
         let mut probs = [0.0f32; GPECNET_MAX_SAMPLES];
         let probs = probs.get_mut(..k).ok_or(GPECNET_E_CAPACITY_EXCEEDED)?;
-        let learned = pred.probabilities(probs).map_err(predict_status)?;
-        let point = if pred.model().has_point_head() {
-            pred.predict_point(past)
-                .map_err(predict_status)?
-                .last()
-                .copied()
-        } else {
-            None
-        };
-        let radii = match point {
-            Some(pt) if learned => Some(
-                gpecnet_core::planner::radii(pt, out, probs, pred.model().radius_scales())
-                    .map_err(predict_status)?,
-            ),
-            _ => None,
-        };
+        let got = pred
+            .predict_planner::<GPECNET_MAX_SAMPLES>(past, seed, out, probs)
+            .map_err(predict_status)?;
+        let (learned, radii) = (got.learned, got.radii);
+        let point = got.point.and_then(|t| t.last().copied());
         let planner = GpecnetPlanner {
             learned: learned.into(),
             has_point: point.is_some().into(),

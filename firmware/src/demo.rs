@@ -26,7 +26,7 @@ use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 
 use gpecnet_core::blob::PositionUnit;
-use gpecnet_core::planner::{radii, Radii};
+use gpecnet_core::planner::{most_probable, Radii};
 use gpecnet_core::units::CallerUnit;
 use gpecnet_core::{LibmSine, Model, NumericKind, PredictError, Predictor};
 use heapless::Vec;
@@ -79,25 +79,14 @@ fn forecast(
     let mut ends: Vec<[f32; 2], K> = Vec::new();
     let n = gpecnet_core::sampling::max_endpoints_of(p.model(), K);
     let _ = ends.resize(n, [0.0; 2]);
-    p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
     let mut probs = [0.0f32; K];
     let probs = &mut probs[..n];
-    let learned = p.probabilities(probs)?;
-    let point = if p.model().has_point_head() {
-        p.predict_point(past)?.last().copied()
-    } else {
-        None
-    };
-    let radii = match point {
-        Some(pt) if learned => Some(radii(pt, &ends, probs, p.model().radius_scales())?),
-        _ => None,
-    };
-    let mut top = (0, 0.0);
-    for (i, &q) in probs.iter().enumerate() {
-        if q > top.1 {
-            top = (i, q);
-        }
-    }
+    let out = p.predict_planner::<MAX_SAMPLES>(past, seed, &mut ends, probs)?;
+    let (learned, radii) = (out.learned, out.radii);
+    let point = out.point.and_then(|t| t.last().copied());
+    let top = most_probable(probs)
+        .and_then(|i| probs.get(i).map(|&q| (i, q)))
+        .unwrap_or((0, 0.0));
     Ok(Forecast {
         endpoints: ends,
         point,

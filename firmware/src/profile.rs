@@ -12,7 +12,7 @@
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
-use gpecnet_core::planner::{radii, Radii};
+use gpecnet_core::planner::Radii;
 use gpecnet_core::{Model, PredictError, Trajectory};
 use heapless::Vec;
 
@@ -56,11 +56,11 @@ pub extern "C" fn bench_end() {
 }
 
 /// The measured function: out of line, so its instruction count does not
-/// depend on what LTO inlines around it. One call of what a planner asks for:
-/// the point forecast (when the model has a point head), the model's set of
-/// K = 20 endpoints (plain samples, or test-time sampling when the blob says so),
-/// their probabilities and, for a model with them, the radii
-/// (`gpecnet_core::planner`).
+/// depend on what LTO inlines around it. One call of what a planner asks for
+/// (`Predictor::predict_planner`): the model's set of K = 20 endpoints (plain
+/// samples, or test-time sampling when the blob says so), their probabilities,
+/// the point forecast (when the model has a point head) and, for a model with
+/// probabilities, the radii (`gpecnet_core::planner`).
 #[inline(never)]
 #[no_mangle]
 pub fn gpecnet_predict_k20(
@@ -68,21 +68,11 @@ pub fn gpecnet_predict_k20(
     past: &[[f32; 2]; 8],
     seed: u64,
 ) -> Result<(Vec<[f32; 2], K>, Trajectory, [f32; K], Option<Radii>), PredictError> {
-    let point = if p.model().has_point_head() {
-        p.predict_point(past)?
-    } else {
-        Trajectory::new()
-    };
     let mut ends: Vec<[f32; 2], K> = Vec::new();
     let _ = ends.resize(K, [0.0; 2]);
-    p.predict_endpoint_set::<MAX_SAMPLES>(past, seed, &mut ends)?;
     let mut probs = [0.0f32; K];
-    let learned = p.probabilities(&mut probs)?;
-    let r = match point.last() {
-        Some(&pt) if learned => Some(radii(pt, &ends, &probs, p.model().radius_scales())?),
-        _ => None,
-    };
-    Ok((ends, point, probs, r))
+    let out = p.predict_planner::<MAX_SAMPLES>(past, seed, &mut ends, &mut probs)?;
+    Ok((ends, out.point.unwrap_or_default(), probs, out.radii))
 }
 
 /// A pedestrian walking ~2.5 px per step (pixel units, like the SDD models).

@@ -266,28 +266,19 @@ fn predict_case<S: Sine, const W: usize>(
 ) -> Result<Output, PredictError> {
     let mut ends: Vec<[f32; 2], MAX_K> = Vec::new();
     let _ = ends.resize(c.k().min(MAX_K), [0.0; 2]);
-    p.predict_endpoint_set::<MAX_SAMPLES>(&c.past, c.seed, &mut ends)?;
+    let mut probs = [0.0f32; MAX_K];
+    let probs = &mut probs[..ends.len()];
+    let out = p.predict_planner::<MAX_SAMPLES>(&c.past, c.seed, &mut ends, probs)?;
     let mut planner = Vec::new();
-    if p.model().has_probabilities() {
-        let mut probs = [0.0f32; MAX_K];
-        let probs = &mut probs[..ends.len()];
-        p.probabilities(probs)?;
-        let point = p.predict_point(&c.past)?;
-        let pt = point.last().copied().ok_or(PredictError::NoPointHead)?;
-        let r = gpecnet_core::planner::radii(pt, &ends, probs, p.model().radius_scales())?;
+    if out.learned {
+        let r = out.radii.ok_or(PredictError::NoPointHead)?;
         for v in probs.iter().chain([&r.r50, &r.r90]) {
             planner
                 .push(v.to_bits())
                 .map_err(|_| PredictError::CapacityExceeded)?;
         }
-        return Ok((ends, point, planner));
     }
-    let point = if p.model().has_point_head() {
-        p.predict_point(&c.past)?
-    } else {
-        Trajectory::new()
-    };
-    Ok((ends, point, planner))
+    Ok((ends, out.point.unwrap_or_default(), planner))
 }
 
 /// A predictor for `blob`, built out of line: the `Model` view it parses
