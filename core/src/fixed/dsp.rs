@@ -15,7 +15,7 @@ use super::SINE_PAIRS;
 /// (`B_j`: the i32 LE bias at `bias[4j..]`, or 0 for `None` when the sums
 /// hold it, as the decoder's latent rows do; `s_j = shifts[j] as i8`) on a
 /// Cortex-M4/M7: runs of rows by the asm loop `kernels::sine_rows_q15`
-/// (the same integer steps as [`sine_phase`] and [`sin_q15`], see there);
+/// (the same integer steps as [`sine_phase`](super::activation::sine_phase) and [`sin_q15`](super::sin_q15), see there);
 /// a row it stops before (a shift outside −31..=32, which it does not
 /// take) by [`activate_q`]. `short`: every shift is in −31..=32 (the
 /// layer's `short_shifts`), so the loop skips its range check. Rows past
@@ -57,10 +57,10 @@ fn sine_rows(sums: &[i64], bias: Option<&[u8]>, shifts: &[u8], out: &mut [i16], 
     }
 }
 
-/// A `Sine` layer of [`dense_q`] on a Cortex-M4/M7 (its weights `w`, row
+/// A `Sine` layer of [`dense_q`](super::dense::dense_q) on a Cortex-M4/M7 (its weights `w`, row
 /// stride `n` bytes, then its i32 LE `bias`, `shifts` and whether all of
 /// them are in −31..=32, `short`): for at most
-/// `kernels::ROW_CHUNK` rows the row kernel's sums (as in [`rows_with`]:
+/// `kernels::ROW_CHUNK` rows the row kernel's sums (as in [`rows_with`](super::rows::rows_with):
 /// `kernels::dot_rows_q15`, [`dot_rows_rest`] for the columns it leaves,
 /// [`dot_row`] for an odd last row), then the activation of the kernel's
 /// rows by [`sine_rows`] (bias added there); more rows are taken in chunks
@@ -141,7 +141,7 @@ pub(super) fn dense_sine(
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 const LATENT_CHUNK: usize = 64;
 
-/// [`latent_with`] for exactly 16 latent columns on a Cortex-M4/M7: for at
+/// [`latent_with`](super::dense::latent_with) for exactly 16 latent columns on a Cortex-M4/M7: for at
 /// most [`LATENT_CHUNK`] rows, `buf_j = part_j + Σ_{i<16} q_j,lo/2+i · z_i`
 /// by `kernels::latent_rows_q15` (one unrolled `asm!` row loop), then
 /// `out_j = activate_q(act, buf_j, s_j)` in a loop of its own, or, for
@@ -154,7 +154,7 @@ const LATENT_CHUNK: usize = 64;
 /// `part`, `shifts` and `w` hold a row for every output and the 16 columns
 /// lie inside a row (`lo + 32 ≤ n`); a chunk the kernel refuses
 /// (alignment) takes the portable [`dot_row`]. The same exact `i64` sums
-/// as [`rows_with`], so the same outputs.
+/// as [`rows_with`](super::rows::rows_with), so the same outputs.
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
 pub(super) fn latent16(

@@ -10,7 +10,7 @@ use super::dot::dot1;
 
 /// `(acc0 + Σ_i q0_i · x_i, acc1 + Σ_i q1_i · x_i)` for the two rows of `g`
 /// (stride `n` bytes), columns from byte `lo`: the portable
-/// [`dot1`]/[`dot_even`] twice (a Cortex-M4/M7 takes its own
+/// [`dot1`](super::dot::dot1)/[`dot_even`](super::dot::dot_even) twice (a Cortex-M4/M7 takes its own
 /// [`rows_with`] and never comes here). Integer sums are exact.
 #[cfg(not(all(target_arch = "arm", target_feature = "dsp")))]
 #[inline(always)]
@@ -97,7 +97,7 @@ pub(super) fn rows_with<T>(
 
 /// What `kernels::dot_rows_q15` left of [`rows_with`]'s chunk: adds
 /// `Σ_i q_j,i · x_i` over the columns `k..` (fewer than 4) to `acc[j]` for
-/// each row it did, with the portable [`dot1`]; out of line so that it is
+/// each row it did, with the portable [`dot1`](super::dot::dot1); out of line so that it is
 /// compiled once. `lo + 2·x.len() ≤ n` (checked by the caller).
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
@@ -117,7 +117,7 @@ pub(super) fn dot_rows_rest(
 }
 
 /// `init + Σ_i q_j,i · x_i` for row `j` of [`rows_with`]'s chunk `w`, all
-/// columns, with the portable [`dot1`] (a row the kernel did not take);
+/// columns, with the portable [`dot1`](super::dot::dot1) (a row the kernel did not take);
 /// out of line. `lo + 2·x.len() ≤ n` (checked by the caller).
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 #[inline(never)]
