@@ -97,7 +97,11 @@ fn the_slice_form_gives_the_forecast_bit_for_bit() {
     assert_eq!((out.learned, out.radii), (f.learned, f.radii));
     assert_eq!(most_probable(&probs), f.most_probable());
     assert_eq!(most_probable(&[]), None);
-    assert_eq!(most_probable(&[0.25, 0.5, 0.5]), Some(1), "the first of equals");
+    assert_eq!(
+        most_probable(&[0.25, 0.5, 0.5]),
+        Some(1),
+        "the first of equals"
+    );
     // Buffers of different lengths are refused before anything runs.
     let mut short = [0.0f32; 3];
     assert_eq!(
