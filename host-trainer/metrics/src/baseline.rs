@@ -102,3 +102,68 @@ pub fn select_cv_n(val: &Dataset) -> Option<(usize, Vec<Metrics>)> {
     }
     Some((best + 1, sweep))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::WINDOW;
+
+    fn wiggly() -> Window {
+        let mut w = Window {
+            scene: "s".into(),
+            ped_id: 1.0,
+            frames: [0; WINDOW],
+            pos: [[0.0; 2]; WINDOW],
+        };
+        for (t, p) in w.pos.iter_mut().enumerate() {
+            let t = t as f32;
+            *p = [3.0 * t + (t * 1.7).sin(), 0.5 * t * t - (t * 0.9).cos()];
+        }
+        w
+    }
+
+    #[test]
+    fn constant_velocity_n_ends_match_the_named_baselines() {
+        let w = wiggly();
+        assert_eq!(constant_velocity_n(&w, 1), constant_velocity(&w));
+        assert_eq!(constant_velocity_n(&w, 7), constant_velocity_avg(&w));
+        // Clamped.
+        assert_eq!(constant_velocity_n(&w, 0), constant_velocity_n(&w, 1));
+        assert_eq!(constant_velocity_n(&w, 99), constant_velocity_n(&w, 7));
+        // n = 3: v = (p7 - p4) / 3.
+        let c = constant_velocity_n(&w, 3);
+        let v = [
+            (f64::from(w.pos[7][0]) - f64::from(w.pos[4][0])) / 3.0,
+            (f64::from(w.pos[7][1]) - f64::from(w.pos[4][1])) / 3.0,
+        ];
+        for (j, p) in c.iter().enumerate() {
+            let t = (j + 1) as f64;
+            assert_eq!(p[0], (f64::from(w.pos[7][0]) + v[0] * t) as f32);
+            assert_eq!(p[1], (f64::from(w.pos[7][1]) + v[1] * t) as f32);
+        }
+    }
+
+    #[test]
+    fn select_cv_n_picks_lowest_fde() {
+        // A pedestrian accelerating along x: the last step is the best velocity estimate.
+        let mut w = wiggly();
+        for (t, p) in w.pos.iter_mut().enumerate() {
+            let t = t as f32;
+            *p = [t * t, 0.0];
+        }
+        let ds = Dataset {
+            name: "acc".into(),
+            unit: crate::data::Unit::Pixels,
+            windows: vec![w],
+        };
+        let (n, sweep) = select_cv_n(&ds).unwrap();
+        assert_eq!(sweep.len(), 7);
+        assert_eq!(n, 1);
+        assert!(sweep.windows(2).all(|p| p[0].fde_k1 < p[1].fde_k1));
+        let empty = Dataset {
+            windows: vec![],
+            ..ds
+        };
+        assert!(select_cv_n(&empty).is_none());
+    }
+}

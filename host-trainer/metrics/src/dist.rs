@@ -244,3 +244,109 @@ pub fn dist_accumulator(ds: &Dataset, preds: &[Prediction]) -> Option<DistAccumu
     }
     Some(acc)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol * b.abs().max(1.0)
+    }
+
+    /// Five spread-out samples, the healthy set of the KDE tests.
+    const SPREAD: [[f32; 2]; 5] = [
+        [0.0, 0.0],
+        [10.0, 2.0],
+        [3.0, -7.0],
+        [-4.0, 5.0],
+        [8.0, 8.0],
+    ];
+
+    // Reference values: scipy 1.17 `-gaussian_kde(pts.T).logpdf(gt)[0]`.
+    #[test]
+    fn kde_nll_matches_scipy() {
+        let a = SPREAD;
+        assert!(close(kde_nll(&a, [2.0, 1.0]), 5.921155544059406, 1e-7));
+        let b = [
+            [100.5, 200.25],
+            [130.0, 190.0],
+            [90.0, 260.0],
+            [115.0, 215.0],
+            [140.0, 230.0],
+            [60.0, 180.0],
+            [125.0, 205.0],
+            [99.0, 199.0],
+        ];
+        assert!(close(kde_nll(&b, [170.0, 260.0]), 11.983679791168822, 1e-7));
+        let c = [[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]];
+        assert!(close(kde_nll(&c, [0.0, 0.0]), 2.854011807463979, 1e-7));
+        // Closed form for c: Σ = 4/3 I, H = 4/3 · 4^(-1/3) I, every sample at squared
+        // Mahalanobis distance 2 / h².
+        let h2 = 4.0 / 3.0 * 4f64.powf(-1.0 / 3.0);
+        let want = -((-1.0 / h2).exp() / (2.0 * std::f64::consts::PI * h2)).ln();
+        assert!(close(kde_nll(&c, [0.0, 0.0]), want, 1e-7));
+    }
+
+    #[test]
+    fn kde_nll_is_finite_on_degenerate_sets() {
+        // All equal (Σ = 0): point mass; far truth hits the floor, exact truth is very likely.
+        let same = [[5.0, 5.0]; 20];
+        assert_eq!(kde_nll(&same, [50.0, 5.0]), 20.0);
+        let at = kde_nll(&same, [5.0, 5.0]);
+        assert!(at.is_finite() && at < 0.0, "{at}");
+        // Collinear (singular Σ): finite; off the line it is the floor.
+        let line: Vec<[f32; 2]> = (0..20).map(|i| [i as f32, 2.0 * i as f32]).collect();
+        assert_eq!(kde_nll(&line, [3.0, 40.0]), 20.0);
+        assert!(kde_nll(&line, [3.0, 6.0]).is_finite());
+        // K = 1, empty, non-finite.
+        assert_eq!(kde_nll(&[[0.0, 0.0]], [1.0, 0.0]), 20.0);
+        assert_eq!(kde_nll(&[], [1.0, 0.0]), 20.0);
+        assert_eq!(kde_nll(&[[f32::NAN, 0.0], [1.0, 1.0]], [1.0, 0.0]), 20.0);
+        // A far-away truth under a healthy set is floored too.
+        let a = SPREAD;
+        assert_eq!(kde_nll(&a, [1e4, 1e4]), 20.0);
+    }
+
+    #[test]
+    fn kde_nll_is_translation_invariant_and_unit_dependent() {
+        let a = SPREAD;
+        let shifted: Vec<[f32; 2]> = a.iter().map(|p| [p[0] + 64.0, p[1] - 32.0]).collect();
+        assert!(close(
+            kde_nll(&a, [2.0, 1.0]),
+            kde_nll(&shifted, [66.0, -31.0]),
+            1e-9
+        ));
+        // Scaling coordinates by 2 divides the density by 4: NLL + ln 4.
+        let scaled: Vec<[f32; 2]> = a.iter().map(|p| [2.0 * p[0], 2.0 * p[1]]).collect();
+        assert!(close(
+            kde_nll(&scaled, [4.0, 2.0]),
+            kde_nll(&a, [2.0, 1.0]) + 4f64.ln(),
+            1e-7
+        ));
+    }
+
+    #[test]
+    fn dist_accumulator_within_and_merge() {
+        let mut acc = DistAccumulator::new();
+        assert!(acc.finish().is_none());
+        // Closest sample at 10, 20, 30 and 50.
+        for d in [10.0f32, 20.0, 30.0, 50.0] {
+            acc.add_endpoints(&[[d, 0.0], [0.0, 100.0]], [0.0, 0.0]);
+        }
+        assert_eq!(acc.len(), 4);
+        assert_eq!(acc.within(20.0), 0.5);
+        assert_eq!(acc.within(40.0), 0.75);
+        assert_eq!(acc.within(0.0), 0.0);
+        assert_eq!(acc.within(f64::INFINITY), 1.0);
+        let m = acc.finish().unwrap();
+        assert_eq!((m.hit20, m.hit40), (0.5, 0.75));
+        let mut a = DistAccumulator::new();
+        let mut b = DistAccumulator::new();
+        a.add_endpoints(&[[10.0, 0.0], [0.0, 100.0]], [0.0, 0.0]);
+        a.add_endpoints(&[[20.0, 0.0], [0.0, 100.0]], [0.0, 0.0]);
+        b.add_endpoints(&[[30.0, 0.0], [0.0, 100.0]], [0.0, 0.0]);
+        b.add_endpoints(&[[50.0, 0.0], [0.0, 100.0]], [0.0, 0.0]);
+        a.merge(&b);
+        assert_eq!(a, acc);
+    }
+}
