@@ -6,6 +6,7 @@ mod cli_safety;
 mod cli_snapshots;
 mod common;
 mod config_validation;
+mod data_errors;
 mod data_loading;
 mod data_range_eval;
 mod eval_metrics;

@@ -194,3 +194,10 @@ pub fn dead_pid() -> u32 {
     c.wait().unwrap();
     pid
 }
+
+/// A valid 20-row trajectory for ped `id` starting at frame `f0`.
+pub fn good_rows(id: &str, f0: i64) -> Vec<String> {
+    (0..20)
+        .map(|t| format!("{} {id} {}.0 5.5", f0 + 12 * t, 10 + t))
+        .collect()
+}
