@@ -5,10 +5,8 @@
 //! test set of the run's data set (the device's arithmetic) and cross-checked
 //! against the trainer's reference path, which must agree bit for bit. The
 //! model-card layout, the data sets' validation and test windows and the
-//! constant-velocity baseline live here too, for `quantize` and `eval`
-//! (`crate::blob_eval`) to share.
-
-//! The model-card layout lives in [`crate::card`].
+//! constant-velocity baseline are [`crate::card`]'s, shared with `gpecnet
+//! quantize` and `gpecnet eval` (`gpecnet-ship`).
 
 use std::path::{Path, PathBuf};
 
