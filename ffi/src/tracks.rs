@@ -21,9 +21,10 @@ use core::num::NonZeroU32;
 
 use gpecnet_core::tracks::{FrameDelta, Observation, TimedTrackTable, HISTORY};
 
-use crate::{guard, non_null, GPECNET_E_BAD_LENGTH, GPECNET_E_MISALIGNED};
-use crate::{GPECNET_E_NOT_INITIALISED, GPECNET_E_NULL_POINTER};
-use crate::{GPECNET_E_TRACKS_BAD_PERIOD, GPECNET_E_TRACKS_STALE_TIME};
+use crate::boundary::{guard, non_null};
+use crate::status::{GPECNET_E_BAD_LENGTH, GPECNET_E_MISALIGNED};
+use crate::status::{GPECNET_E_NOT_INITIALISED, GPECNET_E_NULL_POINTER};
+use crate::status::{GPECNET_E_TRACKS_BAD_PERIOD, GPECNET_E_TRACKS_STALE_TIME};
 
 /// Most tracks one table holds.
 pub const GPECNET_TRACKS_CAPACITY: usize = 32;
