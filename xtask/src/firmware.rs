@@ -4,6 +4,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::{Condvar, Mutex};
+use std::thread::{Scope, ScopedJoinHandle};
 
 use crate::mcu;
 use crate::toolchain::{deb_cargo, host_cargo, output, require, status};
@@ -81,6 +83,103 @@ pub(crate) fn fw_build(o: &Opts, extra: &[&str]) -> i32 {
     status(c)
 }
 
+/// Builds the firmware binary `bin` for `mcu` with `features` (the command `c` from
+/// [`fw_cargo`], its environment set) and copies the ELF to `copy`, out of the target
+/// directory, so the next build may replace it while QEMU still runs this one.
+/// `Err((exit, stderr))` when the build fails.
+pub(crate) fn build_image(
+    mut c: Command,
+    mcu: &mcu::Mcu,
+    bin: &str,
+    features: &[&str],
+    rest: &[String],
+    copy: &Path,
+) -> Result<(), (i32, String)> {
+    c.arg("build");
+    mcu.firmware_args(&mut c, &root(), bin, features);
+    c.args(rest);
+    let (rc, _, err) = output(c);
+    if rc != 0 {
+        return Err((rc, err));
+    }
+    if let Some(d) = copy.parent() {
+        std::fs::create_dir_all(d).unwrap_or_else(|e| die(&format!("{}: {e}", d.display())));
+    }
+    std::fs::copy(mcu.elf(&root(), bin), copy)
+        .map(|_| ())
+        .map_err(|e| (1, format!("{}: {e}", copy.display())))
+}
+
+/// Runs the image `elf` on `mcu`'s QEMU machine through firmware/qemu-run.sh, the cargo
+/// runner `cargo run` would start: (exit status, decoded defmt on stdout, stderr).
+pub(crate) fn run_image(mcu: &mcu::Mcu, elf: &Path) -> (i32, String, String) {
+    let _slot = QemuSlot::take();
+    let fw = root().join("firmware");
+    let mut c = Command::new(fw.join("qemu-run.sh"));
+    c.arg(elf).current_dir(&fw).env("QEMU_MACHINE", mcu.machine);
+    if let Ok(me) = std::env::current_exe() {
+        c.env("GPECNET_XTASK", me);
+    }
+    output(c)
+}
+
+/// One of the QEMU runs that may go on at once: one per CPU. More would only share the
+/// CPUs, and a run starved of CPU time could miss its watchdog (the supervisor counts
+/// host time: QEMU runs without `-icount`).
+struct QemuSlot;
+
+static QEMU_RUNNING: (Mutex<usize>, Condvar) = (Mutex::new(0), Condvar::new());
+
+impl QemuSlot {
+    /// Waits until fewer runs than CPUs go on, then counts this one in.
+    fn take() -> QemuSlot {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let (count, freed) = &QEMU_RUNNING;
+        let mut n = count.lock().unwrap_or_else(|e| e.into_inner());
+        while *n >= cpus {
+            n = freed.wait(n).unwrap_or_else(|e| e.into_inner());
+        }
+        *n += 1;
+        QemuSlot
+    }
+}
+
+impl Drop for QemuSlot {
+    fn drop(&mut self) {
+        let (count, freed) = &QEMU_RUNNING;
+        *count.lock().unwrap_or_else(|e| e.into_inner()) -= 1;
+        freed.notify_one();
+    }
+}
+
+/// A firmware image's QEMU run: started as soon as the image is built, while the next
+/// image builds (the fat-LTO link and QEMU are single-threaded each).
+pub(crate) type Run<'s> = ScopedJoinHandle<'s, (i32, String, String)>;
+
+/// [`build_image`], then [`run_image`] on a thread of `scope`; a failed build yields its
+/// exit status and stderr without a run.
+pub(crate) fn build_and_start<'s>(
+    scope: &'s Scope<'s, '_>,
+    c: Command,
+    mcu: &'static mcu::Mcu,
+    bin: &str,
+    features: &[&str],
+    rest: &[String],
+    copy: PathBuf,
+) -> Run<'s> {
+    let built = build_image(c, mcu, bin, features, rest, &copy);
+    scope.spawn(move || match built {
+        Ok(()) => run_image(mcu, &copy),
+        Err((rc, err)) => (rc, String::new(), err),
+    })
+}
+
+/// The result of a run started by [`build_and_start`].
+pub(crate) fn finish(run: Run<'_>) -> (i32, String, String) {
+    run.join()
+        .unwrap_or_else(|_| die("a QEMU run's thread panicked"))
+}
+
 /// The model the firmware demo runs (signed, metric).
 pub(crate) const DEMO_MODEL: &str = "sdd-m-lp-qe";
 
@@ -114,100 +213,112 @@ pub(crate) fn fw_class_args(o: &Opts, c: &mut Command) {
 
 pub(crate) fn fw_faults(o: &Opts) -> i32 {
     require(true);
-    let mut bad = 0;
-    let first = require_models(&weights_dir(o)).remove(0);
-    // Each injected failure must end the run with exit 1 and its own log line
-    // (no lockup, no silent corruption, no outer timeout).
-    for (f, want) in [
-        ("force-panic", "panic"),
-        ("force-hardfault", "HardFault"),
-        ("force-stack-overflow", "stack overflow"),
-        ("force-hang", "a task hung"),
-        ("force-corrupt-blob", "blob rejected"),
-    ] {
-        let mut c = fw_cargo(o);
-        // The corrupted-blob proof runs the golden mode on one model (the first).
-        c.env(gpecnet_mcu_models::ONLY_VAR, &first);
-        c.arg("run");
-        mcu::M4F.firmware_args(&mut c, &root(), "golden", &[f]);
-        let (rc, out, _) = output(c);
-        let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
-        let ok = rc == 1 && !last.is_empty();
-        println!(
-            "fw-faults {f:<22} exit {rc} (want 1), log {:?} {}",
-            last.trim(),
-            if ok { "ok" } else { "FAILED" }
-        );
-        bad += (!ok) as i32;
-    }
-    // A model in the wrong unit: the metric demo given a blob that does not
-    // record its unit must refuse it with the typed unit error and exit 1.
+    let models = require_models(&weights_dir(o));
+    let first = models[0].as_str();
     let unitless = "sdd-tiny-v2-qe";
-    if require_models(&weights_dir(o))
-        .iter()
-        .any(|m| m == unitless)
-    {
-        let mut c = fw_cargo(o);
-        c.env(gpecnet_mcu_models::ONLY_VAR, unitless)
-            .env("GPECNET_DEMO_MODEL", unitless)
-            .arg("run");
-        mcu::M4F.firmware_args(&mut c, &root(), "demo", &[]);
-        let (rc, out, _) = output(c);
-        let want = "refused for positions in metres";
-        let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
-        let ok = rc == 1 && last.contains("UnknownModelUnit");
-        println!(
-            "fw-faults {:<22} exit {rc} (want 1), log {:?} {}",
-            "unit-mismatch",
-            last.trim(),
-            if ok { "ok" } else { "FAILED" }
-        );
-        bad += (!ok) as i32;
-    } else {
-        println!("fw-faults unit-mismatch          FAILED: weights/{unitless}.gpec missing");
-        bad += 1;
-    }
-    // Signed weights: each attack ends in its defined state, named in the log. A forged
-    // copy (valid CRC, broken signature) is refused and the demo runs the last good model
-    // (exit 0); with only an untrusted key, or a stored minimum version above the model's,
-    // nothing is run (exit 1).
-    for (f, want_rc, wants) in [
-        (
-            "force-forged-blob",
-            0,
-            &[
-                "refused: BadSignature",
-                "falling back to the last good model",
-            ][..],
-        ),
-        (
-            "force-untrusted-key",
-            1,
-            &["refused: UnknownKey", "no trusted model"][..],
-        ),
-        (
-            "force-rollback",
-            1,
-            &["refused: RolledBack", "no trusted model"][..],
-        ),
-    ] {
-        let mut c = fw_cargo(o);
-        c.env(gpecnet_mcu_models::ONLY_VAR, DEMO_MODEL).arg("run");
-        mcu::M4F.firmware_args(&mut c, &root(), "demo", &[f]);
-        let (rc, out, _) = output(c);
-        let found: Vec<&str> = wants
-            .iter()
-            .filter_map(|w| out.lines().find(|l| l.contains(w)))
-            .collect();
-        let ok = rc == want_rc && found.len() == wants.len();
-        println!(
-            "fw-faults {f:<22} exit {rc} (want {want_rc}), log {:?} {}",
-            found.iter().map(|l| l.trim()).collect::<Vec<_>>(),
-            if ok { "ok" } else { "FAILED" }
-        );
-        bad += (!ok) as i32;
-    }
-    (bad != 0) as i32
+    let have_unitless = models.iter().any(|m| m == unitless);
+    let out_dir = root().join("target/fw-faults");
+    // Every image is built first, one after the other (one target directory); each runs
+    // in QEMU as soon as it is built, while the next one builds. The verdicts follow in order.
+    std::thread::scope(|s| {
+        let image = |name: &str, only: &str, demo_model: Option<&str>, bin: &str, f: &[&str]| {
+            let mut c = fw_cargo(o);
+            c.env(gpecnet_mcu_models::ONLY_VAR, only);
+            if let Some(d) = demo_model {
+                c.env("GPECNET_DEMO_MODEL", d);
+            }
+            let copy = out_dir.join(format!("{name}.elf"));
+            build_and_start(s, c, &mcu::M4F, bin, f, &[], copy)
+        };
+        // Each injected failure must end the run with exit 1 and its own log line
+        // (no lockup, no silent corruption, no outer timeout). The corrupted-blob proof
+        // runs the golden mode on one model (the first).
+        let injected: Vec<_> = [
+            ("force-panic", "panic"),
+            ("force-hardfault", "HardFault"),
+            ("force-stack-overflow", "stack overflow"),
+            ("force-hang", "a task hung"),
+            ("force-corrupt-blob", "blob rejected"),
+        ]
+        .into_iter()
+        .map(|(f, want)| (f, want, image(f, first, None, "golden", &[f])))
+        .collect();
+        // A model in the wrong unit: the metric demo given a blob that does not
+        // record its unit must refuse it with the typed unit error and exit 1.
+        let unit =
+            have_unitless.then(|| image("unit-mismatch", unitless, Some(unitless), "demo", &[]));
+        // Signed weights: each attack ends in its defined state, named in the log. A forged
+        // copy (valid CRC, broken signature) is refused and the demo runs the last good model
+        // (exit 0); with only an untrusted key, or a stored minimum version above the model's,
+        // nothing is run (exit 1).
+        let attacks: Vec<_> = [
+            (
+                "force-forged-blob",
+                0,
+                &[
+                    "refused: BadSignature",
+                    "falling back to the last good model",
+                ][..],
+            ),
+            (
+                "force-untrusted-key",
+                1,
+                &["refused: UnknownKey", "no trusted model"][..],
+            ),
+            (
+                "force-rollback",
+                1,
+                &["refused: RolledBack", "no trusted model"][..],
+            ),
+        ]
+        .into_iter()
+        .map(|(f, want_rc, wants)| (f, want_rc, wants, image(f, DEMO_MODEL, None, "demo", &[f])))
+        .collect();
+
+        let mut bad = 0;
+        for (f, want, run) in injected {
+            let (rc, out, _) = finish(run);
+            let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
+            let ok = rc == 1 && !last.is_empty();
+            println!(
+                "fw-faults {f:<22} exit {rc} (want 1), log {:?} {}",
+                last.trim(),
+                if ok { "ok" } else { "FAILED" }
+            );
+            bad += (!ok) as i32;
+        }
+        if let Some(run) = unit {
+            let (rc, out, _) = finish(run);
+            let want = "refused for positions in metres";
+            let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
+            let ok = rc == 1 && last.contains("UnknownModelUnit");
+            println!(
+                "fw-faults {:<22} exit {rc} (want 1), log {:?} {}",
+                "unit-mismatch",
+                last.trim(),
+                if ok { "ok" } else { "FAILED" }
+            );
+            bad += (!ok) as i32;
+        } else {
+            println!("fw-faults unit-mismatch          FAILED: weights/{unitless}.gpec missing");
+            bad += 1;
+        }
+        for (f, want_rc, wants, run) in attacks {
+            let (rc, out, _) = finish(run);
+            let found: Vec<&str> = wants
+                .iter()
+                .filter_map(|w| out.lines().find(|l| l.contains(w)))
+                .collect();
+            let ok = rc == want_rc && found.len() == wants.len();
+            println!(
+                "fw-faults {f:<22} exit {rc} (want {want_rc}), log {:?} {}",
+                found.iter().map(|l| l.trim()).collect::<Vec<_>>(),
+                if ok { "ok" } else { "FAILED" }
+            );
+            bad += (!ok) as i32;
+        }
+        (bad != 0) as i32
+    })
 }
 
 pub(crate) fn fw_test(tests: bool) -> i32 {
