@@ -12,7 +12,7 @@ use std::path::Path;
 
 use gpecnet_mcu_models::{blob_path, golden_path};
 
-use crate::firmware::{fw_cargo, require_models, weights_dir, Opts};
+use crate::firmware::{build_and_start, finish, fw_cargo, require_models, weights_dir, Opts};
 use crate::mcu::{self, Mcu};
 use crate::profile::{
     blob_is_fixed, build_profile_image, field, md_section, opt, opt_pair, per_mac, plugin,
@@ -20,6 +20,18 @@ use crate::profile::{
 };
 use crate::toolchain::{host_cargo, output, require};
 use crate::{die, root};
+
+/// `println!` into a class's report: the classes run side by side, and each report is
+/// printed whole when its class is done.
+macro_rules! outln {
+    ($log:expr, $($arg:tt)*) => {
+        let _ = writeln!($log, $($arg)*);
+    };
+}
+
+/// One golden-host run at a time: the runs of the classes share firmware/host's target
+/// directory and differ in features, so one run must not relink the binary another runs.
+static HOST_RUN: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// What one class's golden replay found, per model.
 struct Replay {
@@ -109,22 +121,38 @@ pub fn qemu_models(o: &Opts, only: Option<&[&str]>) -> i32 {
             die(&format!("none of {only:?} is in {}", dir.display()));
         }
     }
-    let classes: Vec<&Mcu> = if o.all_targets {
+    let classes: Vec<&'static Mcu> = if o.all_targets {
         mcu::ALL.to_vec()
     } else {
         vec![o.mcu.unwrap_or(&mcu::M4F)]
     };
+    if o.all_targets {
+        // The instruction-window plugin, built here once (when stale) for every class.
+        plugin();
+    }
+    // The classes build into their own target directories: they run side by side (each
+    // class's images one after the other), their reports are printed in class order.
+    let reports: Vec<(String, bool, Vec<Row>)> = std::thread::scope(|s| {
+        let jobs: Vec<_> = classes
+            .iter()
+            .map(|&m| {
+                let (dir, models) = (&dir, &models);
+                s.spawn(move || class_report(o, m, dir, models))
+            })
+            .collect();
+        jobs.into_iter()
+            .map(|j| {
+                j.join()
+                    .unwrap_or_else(|_| die("a class's thread panicked"))
+            })
+            .collect()
+    });
     let mut ok = true;
     let mut rows = Vec::new();
-    for m in &classes {
-        println!("qemu: == {} ==", m.describe);
-        let r = replay(o, m, &dir, &models);
-        ok &= r.ok;
-        if o.all_targets {
-            let (prof_ok, mut class_rows) = profile_class(o, m, &dir, &models, &r);
-            ok &= prof_ok;
-            rows.append(&mut class_rows);
-        }
+    for (log, class_ok, mut class_rows) in reports {
+        print!("{log}");
+        ok &= class_ok;
+        rows.append(&mut class_rows);
     }
     if o.all_targets {
         let t = matrix_table(&rows);
@@ -148,14 +176,57 @@ pub fn qemu_models(o: &Opts, only: Option<&[&str]>) -> i32 {
     (!ok) as i32
 }
 
+/// One class: its golden replay and, with `--all-targets`, its profile images (built and
+/// run beside the replay's QEMU runs). Returns the class's report, whether all passed,
+/// and its rows of the MCU × model table.
+fn class_report(
+    o: &Opts,
+    m: &'static Mcu,
+    dir: &Path,
+    models: &[String],
+) -> (String, bool, Vec<Row>) {
+    let mut log = String::new();
+    outln!(log, "qemu: == {} ==", m.describe);
+    let (r, profiled) = std::thread::scope(|s| {
+        let profiled = o.all_targets.then(|| {
+            s.spawn(|| {
+                let mut report = String::new();
+                let (ok, rows) = profile_class(o, m, dir, models, &mut report);
+                (report, ok, rows)
+            })
+        });
+        let r = replay(o, m, dir, models, &mut log);
+        let profiled = profiled.map(|p| {
+            p.join()
+                .unwrap_or_else(|_| die("a profile thread panicked"))
+        });
+        (r, profiled)
+    });
+    let (mut ok, mut rows) = (r.ok, Vec::new());
+    if let Some((report, prof_ok, mut class_rows)) = profiled {
+        log.push_str(&report);
+        ok &= prof_ok;
+        // The golden replay's verdict and stack high-water mark per profiled model.
+        for row in class_rows.iter_mut().filter(|r| r.bit_exact.is_some()) {
+            let (verified, stack) = r.models.get(&row.model).copied().unwrap_or((false, None));
+            row.bit_exact = Some(verified);
+            row.stack_run = stack;
+        }
+        rows = class_rows;
+    }
+    (log, ok, rows)
+}
+
 /// Golden verification of every model that fits `mcu`, in QEMU and on the
 /// host, compared line by line. Logs: `target/fw-qemu/<mcu>/{firmware,host}.log`.
-fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
+fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut String) -> Replay {
     let mut models = Vec::new();
     for m in all {
         match fit(dir, m, mcu) {
             Ok(_) => models.push(m.clone()),
-            Err(why) => println!("qemu: {m:<16} {why}"),
+            Err(why) => {
+                outln!(log, "qemu: {m:<16} {why}");
+            }
         }
     }
     let log_dir = root().join("target/fw-qemu").join(mcu.name);
@@ -163,7 +234,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
         .unwrap_or_else(|e| die(&format!("{}: {e}", log_dir.display())));
     let mut per: BTreeMap<String, (bool, Option<u32>)> = BTreeMap::new();
     if models.is_empty() {
-        println!("qemu: no model fits {}", mcu.describe);
+        outln!(log, "qemu: no model fits {}", mcu.describe);
         return Replay {
             ok: false,
             models: per,
@@ -173,48 +244,63 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     // consecutive models, so the firmware's lines, concatenated, come in the host's order.
     let batches = image_batches(dir, &models, &["gpec", "golden"], mcu.image_data_budget);
     let (mut fw_rc, mut fw_out) = (0, String::new());
-    for batch in &batches {
-        eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
-        let mut c = fw_cargo(o);
-        c.env(gpecnet_mcu_models::ONLY_VAR, batch.join(","));
-        c.arg("run");
-        mcu.firmware_args(&mut c, &root(), "golden", &mcu.golden_features());
-        c.args(&o.rest);
-        let (rc, out, err) = output(c);
-        let stack = high_water(&out);
-        for m in batch {
-            per.insert(m.clone(), (false, stack));
+    // Each image runs in QEMU while the next one builds. The longest runs go first (f32
+    // models, in software floating point on the Cortex-M0, then the most golden cases);
+    // the outputs are taken in the batches' order.
+    let long = |batch: &Vec<String>| {
+        let f32_models = batch.iter().any(|m| !blob_is_fixed(&blob_path(dir, m)));
+        let golden: u64 = batch
+            .iter()
+            .map(|m| std::fs::metadata(golden_path(dir, m)).map_or(0, |md| md.len()))
+            .sum();
+        std::cmp::Reverse((f32_models, golden))
+    };
+    let mut order: Vec<usize> = (0..batches.len()).collect();
+    order.sort_by_key(|&i| long(&batches[i]));
+    std::thread::scope(|s| {
+        let mut started: BTreeMap<usize, _> = BTreeMap::new();
+        for i in order {
+            let batch = &batches[i];
+            eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
+            let mut c = fw_cargo(o);
+            c.env(gpecnet_mcu_models::ONLY_VAR, batch.join(","));
+            let copy = log_dir.join(format!("golden-{i}.elf"));
+            let features = mcu.golden_features();
+            let run = build_and_start(s, c, mcu, "golden", &features, &o.rest, copy);
+            started.insert(i, (Some(batch), run));
         }
-        fw_out.push_str(&out);
-        if rc != 0 {
-            fw_rc = rc;
-            // build errors / QEMU stderr
-            eprint!(
-                "{}",
-                err.lines()
-                    .filter(|l| !l.starts_with("warning"))
-                    .collect::<Vec<_>>()
-                    .join("\n")
-            );
-            eprintln!();
+        let mut runs: Vec<_> = started.into_values().collect();
+        // The tracker demo, its own binary, with the signed metric MCU model only (the
+        // demo verifies its signature at boot; more models would not fit the flash beside
+        // the verifier).
+        if mcu.demo && models.iter().any(|m| m == crate::firmware::DEMO_MODEL) {
+            eprintln!("xtask: {} demo", mcu.name);
+            let mut c = fw_cargo(o);
+            c.env(gpecnet_mcu_models::ONLY_VAR, crate::firmware::DEMO_MODEL);
+            let copy = log_dir.join("demo.elf");
+            runs.push((None, build_and_start(s, c, mcu, "demo", &[], &[], copy)));
         }
-    }
-    // The tracker demo, its own binary, with the signed metric MCU model only (the
-    // demo verifies its signature at boot; more models would not fit the flash beside
-    // the verifier).
-    if mcu.demo && models.iter().any(|m| m == crate::firmware::DEMO_MODEL) {
-        eprintln!("xtask: {} demo", mcu.name);
-        let mut c = fw_cargo(o);
-        c.env(gpecnet_mcu_models::ONLY_VAR, crate::firmware::DEMO_MODEL)
-            .arg("run");
-        mcu.firmware_args(&mut c, &root(), "demo", &[]);
-        let (rc, out, err) = output(c);
-        fw_out.push_str(&out);
-        if rc != 0 {
-            fw_rc = rc;
-            eprintln!("{err}");
+        for (batch, run) in runs {
+            let (rc, out, err) = finish(run);
+            let stack = high_water(&out);
+            for m in batch.into_iter().flatten() {
+                per.insert(m.clone(), (false, stack));
+            }
+            fw_out.push_str(&out);
+            if rc != 0 {
+                fw_rc = rc;
+                // build errors / QEMU stderr
+                outln!(
+                    log,
+                    "{}",
+                    err.lines()
+                        .filter(|l| !l.starts_with("warning"))
+                        .collect::<Vec<_>>()
+                        .join("\n")
+                );
+            }
         }
-    }
+    });
     let _ = std::fs::write(log_dir.join("firmware.log"), &fw_out);
     // The host runs the same code (firmware/src/golden.rs) with the same
     // compiled-in sines, on the same models.
@@ -232,9 +318,14 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     h.env(gpecnet_mcu_models::ONLY_VAR, models.join(","))
         .args(["--bin", "golden-host", "--"])
         .arg(dir);
-    let (host_rc, host_out, host_err) = output(h);
+    let (host_rc, host_out, host_err) = {
+        let _one = HOST_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        output(h)
+    };
     let _ = std::fs::write(log_dir.join("host.log"), format!("{host_out}{host_err}"));
-    eprint!("{host_err}");
+    if !host_err.trim().is_empty() {
+        outln!(log, "{}", host_err.trim_end());
+    }
     // The firmware's summary lines and everything it reports as an error.
     for l in fw_out.lines().map(str::trim_end).filter(|l| {
         [
@@ -251,7 +342,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
             || l.contains("panicked")
             || l.contains("HardFault")
     }) {
-        println!("firmware| {l}");
+        outln!(log, "firmware| {l}");
     }
     let keep = ["model ", "golden ", "xcheck "];
     let fl = lines_with(&fw_out, &keep);
@@ -277,7 +368,8 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
     let resampled = !fw_resample.is_empty()
         && host_resample.len() == 1
         && fw_resample.iter().all(|l| Some(l) == host_resample.first());
-    println!(
+    outln!(
+        log,
         "qemu: timed track table scene: {} firmware image(s) {:?}, host {:?}{}",
         fw_resample.len(),
         fw_resample.first().copied().unwrap_or("<none>"),
@@ -308,12 +400,14 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
         if let Some(e) = per.get_mut(m) {
             e.0 = verified && run_ok;
         }
-        println!(
+        outln!(
+            log,
             "qemu: {m:<16} {numeric:<8} sine {sine:<10} {golden}/{n} golden cases, {xcheck} xcheck lines{}",
             if verified { "" } else { "  <- NOT VERIFIED" }
         );
     }
-    println!(
+    outln!(
+        log,
         "qemu: {}: firmware exit {fw_rc}, host exit {host_rc}; {} firmware lines, {} host lines, {} differ (logs: target/fw-qemu/{}/)",
         mcu.name,
         fl.len(),
@@ -322,7 +416,7 @@ fn replay(o: &Opts, mcu: &Mcu, dir: &Path, all: &[String]) -> Replay {
         mcu.name
     );
     for (i, a, b) in differ.iter().take(20) {
-        println!("  line {i}: firmware {a:?} != host {b:?}");
+        outln!(log, "  line {i}: firmware {a:?} != host {b:?}");
     }
     Replay {
         ok: run_ok && missing_models == 0,
@@ -357,7 +451,7 @@ fn profile_class(
     mcu: &Mcu,
     dir: &Path,
     all: &[String],
-    replay: &Replay,
+    report: &mut String,
 ) -> (bool, Vec<Row>) {
     let so = plugin();
     let out_dir = root().join("target/fw-qemu").join(mcu.name);
@@ -402,10 +496,12 @@ fn profile_class(
             let windows = run.windows();
             let lines = run.profile_lines();
             if run.exit != Some(0) || lines.len() != batch.len() || windows.len() != batch.len() {
-                eprintln!("{}{}", run.text, run.plugin_log);
-                eprintln!(
+                outln!(report, "{}{}", run.text, run.plugin_log);
+                outln!(
+                    report,
                     "xtask: {} profile run ({path}) failed (exit {:?})",
-                    mcu.name, run.exit
+                    mcu.name,
+                    run.exit
                 );
                 ok = false;
             }
@@ -418,20 +514,20 @@ fn profile_class(
                     line.and_then(|l| field(l, key))
                         .and_then(|v| v.parse::<u64>().ok())
                 };
-                let (verified, stack_run) = replay.models.get(m).copied().unwrap_or((false, None));
                 rows.push(Row {
                     mcu: mcu.name,
                     model: m.clone(),
                     path: path.to_string(),
                     flash: Some(elf.flash() - blobs + blob_len(m)),
                     ram: Some(elf.ram()),
-                    stack_run,
+                    stack_run: None,
                     stack_call: num("predict_stack")
                         .zip(num("predictor_size"))
                         .map(|(a, b)| (a + b) as u32),
                     insns: windows.get(j).copied(),
                     macs: num("macs"),
-                    bit_exact: Some(verified),
+                    // From the golden replay (class_report): a profiled model is embedded.
+                    bit_exact: Some(false),
                 });
             }
         }
