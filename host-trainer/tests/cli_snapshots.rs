@@ -15,9 +15,24 @@ fn snapshot_path(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// Compares `now` with the snapshot `name` (or rewrites it with `UPDATE_SNAPSHOTS=1`),
-/// naming the first line that differs.
+/// `text` with the repository's absolute path (in defaults such as `--data`'s, which the
+/// build fixes) written as `<repo>`, so a snapshot holds for every checkout.
+fn portable(text: &str) -> String {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    if repo.is_empty() {
+        text.to_string()
+    } else {
+        text.replace(&repo, "<repo>")
+    }
+}
+
+/// Compares `now` (its repository path made [`portable`]) with the snapshot `name` (or
+/// rewrites it with `UPDATE_SNAPSHOTS=1`), naming the first line that differs.
 fn assert_snapshot(name: &str, now: &str) {
+    let now = portable(now);
     let path = snapshot_path(name);
     if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
         std::fs::write(&path, now).unwrap();
