@@ -142,9 +142,18 @@ fn errors_leave_centres_untouched() {
     assert!(kmeans_reduce(&big, &mut c, 1, Init::Farthest).is_ok());
 }
 
+/// Iteration counts the random cases try: 0 to this.
+const MAX_ITERS: usize = 6;
+
 /// The documented algorithm written out as plainly as possible (no
-/// shortcut, no early exit, `Vec`-free but otherwise naive).
-fn reference(samples: &[[f32; 2]], k: usize, iters: u8, init: Init) -> [[f32; 2]; MAX_CENTERS] {
+/// shortcut, no early exit, `Vec`-free but otherwise naive): the centres
+/// after 0, 1, …, [`MAX_ITERS`] iterations (with no early exit, `i`
+/// iterations are the first `i` of `MAX_ITERS`).
+fn reference(
+    samples: &[[f32; 2]],
+    k: usize,
+    init: Init,
+) -> [[[f32; 2]; MAX_CENTERS]; MAX_ITERS + 1] {
     let d =
         |a: [f32; 2], b: [f32; 2]| (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]);
     let mut c = [[0.0f32; 2]; MAX_CENTERS];
@@ -172,7 +181,9 @@ fn reference(samples: &[[f32; 2]], k: usize, iters: u8, init: Init) -> [[f32; 2]
             }
         }
     }
-    for _ in 0..iters {
+    let mut after = [[[0.0f32; 2]; MAX_CENTERS]; MAX_ITERS + 1];
+    after[0] = c;
+    for step in after[1..].iter_mut() {
         let mut member = [usize::MAX; 512];
         for (i, s) in samples.iter().enumerate() {
             let mut best = 0;
@@ -199,8 +210,9 @@ fn reference(samples: &[[f32; 2]], k: usize, iters: u8, init: Init) -> [[f32; 2]
                 [sx / count as f32, sy / count as f32]
             };
         }
+        *step = c;
     }
-    c
+    after
 }
 
 /// SplitMix64: a small deterministic generator for the random cases.
@@ -295,10 +307,11 @@ fn matches_plain_reference_bit_for_bit() {
             _ => 1 + rng.below(kmax),
         };
         for init in [Init::First, Init::Farthest] {
-            for iters in 0..=6u8 {
-                let want = reference(samples, k, iters, init);
+            let after = reference(samples, k, init);
+            for iters in 0..=MAX_ITERS {
+                let want = after[iters];
                 let mut got = [[f32::NAN; 2]; MAX_CENTERS];
-                kmeans_reduce(samples, &mut got[..k], iters, init).unwrap();
+                kmeans_reduce(samples, &mut got[..k], iters as u8, init).unwrap();
                 for j in 0..k {
                     assert!(
                         got[j][0].to_bits() == want[j][0].to_bits()
@@ -311,7 +324,7 @@ fn matches_plain_reference_bit_for_bit() {
                 non_finite += want[..k].iter().flatten().any(|v| !v.is_finite()) as usize;
                 // A fixed point before the last iteration: the early exit fires.
                 if iters >= 2 {
-                    let one_less = reference(samples, k, iters - 1, init);
+                    let one_less = after[iters - 1];
                     converged_early += (one_less[..k].iter().flatten().map(|v| v.to_bits()))
                         .eq(want[..k].iter().flatten().map(|v| v.to_bits()))
                         as usize;
