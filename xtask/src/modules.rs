@@ -16,6 +16,9 @@
 //!    integration-test binary (`autotests = false`): each `tests/<name>.rs`
 //!    and `tests/<name>/mod.rs` must be declared `mod <name>;` in `tests/it.rs`,
 //!    or cargo would silently skip it.
+//! 3. **No unit test goes unrun.** A target whose manifest says `test = false`
+//!    gets no test harness (CI builds fewer binaries): the package's `src/`
+//!    then holds no `#[test]` and no `#[cfg(test)]`, which would never run.
 //!
 //! Comments, strings and character literals are skipped; paths are read from
 //! the tokens, so `use crate::{a::X, b::{c, d}};` gives edges to `a`, `b::c`
@@ -438,6 +441,28 @@ fn undeclared_tests(dir: &Path) -> Vec<String> {
     missing
 }
 
+/// Rule 3 for one package: with `test = false` in its manifest, the `src/` files that
+/// hold a unit test (`#[test]` or `#[cfg(test)]`).
+fn unrun_unit_tests(dir: &Path) -> Vec<String> {
+    let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap_or_default();
+    let no_harness = manifest
+        .lines()
+        .any(|l| l.split('#').next().unwrap_or("").replace(' ', "") == "test=false");
+    if !no_harness {
+        return Vec::new();
+    }
+    let mut files = Vec::new();
+    rust_files(&dir.join("src"), &mut files);
+    files
+        .into_iter()
+        .filter(|f| {
+            std::fs::read_to_string(f)
+                .is_ok_and(|t| t.contains("#[test]") || t.contains("#[cfg(test)]"))
+        })
+        .map(|f| f.display().to_string())
+        .collect()
+}
+
 /// `cargo xtask check-modules`.
 pub(crate) fn check_modules() -> i32 {
     let root = root();
@@ -475,6 +500,11 @@ pub(crate) fn check_modules() -> i32 {
             println!("check-modules: {m} is not a module of {rel}/tests/it.rs: it is never compiled  <- FAIL");
         }
         failed |= !missing.is_empty();
+        let unrun = unrun_unit_tests(dir);
+        for f in &unrun {
+            println!("check-modules: {f} holds unit tests but {rel}/Cargo.toml says `test = false`: they never run  <- FAIL");
+        }
+        failed |= !unrun.is_empty();
         println!(
             "check-modules: {name:<20} ({rel}) {} mutual import(s){}",
             cycles.len(),
