@@ -602,4 +602,26 @@ mod tests {
             vec![tests.join("forgotten.rs").display().to_string()]
         );
     }
+
+    #[test]
+    fn a_unit_test_under_test_false_is_reported() {
+        let dir = std::env::temp_dir().join(format!("xtask-harness-{}", std::process::id()));
+        let src = dir.join("src");
+        std::fs::create_dir_all(&src).unwrap();
+        std::fs::write(src.join("lib.rs"), "mod a;\npub fn f() {}\n").unwrap();
+        std::fs::write(src.join("a.rs"), "#[cfg(test)]\nmod tests {}\n").unwrap();
+        let manifest = |extra: &str| {
+            let text = format!("[package]\nname = \"p\"\n\n[lib]\n{extra}\n");
+            std::fs::write(dir.join("Cargo.toml"), text).unwrap();
+            unrun_unit_tests(&dir)
+        };
+        let with_harness = manifest("");
+        let commented = manifest("# test = false");
+        let without = manifest("test = false");
+        std::fs::write(src.join("a.rs"), "pub fn g() {}\n").unwrap();
+        let without_tests = manifest("test = false");
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(with_harness.is_empty() && commented.is_empty() && without_tests.is_empty());
+        assert_eq!(without, vec![src.join("a.rs").display().to_string()]);
+    }
 }

@@ -128,7 +128,7 @@ pub fn min_endpoint_distance(endpoints: &[[f32; 2]], gt: [f32; 2]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Distribution-quality metrics of K sampled endpoints, next to [`Metrics`] (which stays
+/// Distribution-quality metrics of K sampled endpoints, next to [`Metrics`](crate::eval::Metrics) (which stays
 /// unchanged: its JSON is part of the model cards). Endpoints are the last points of the
 /// predicted trajectories, the same points minFDE uses.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -155,7 +155,7 @@ impl fmt::Display for DistMetrics {
 
 /// Running sums for [`DistMetrics`]: the sum of [`kde_nll`] and every window's distance from
 /// the truth to its closest sample, so [`DistAccumulator::within`] answers any radius.
-/// Mergeable like [`MetricsAccumulator`] (merge shards in window order for bit-identical sums).
+/// Mergeable like [`MetricsAccumulator`](crate::eval::MetricsAccumulator) (merge shards in window order for bit-identical sums).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DistAccumulator {
     sum_nll: f64,
