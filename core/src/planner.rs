@@ -100,6 +100,58 @@ pub struct PlannerOutput {
     pub radii: Option<Radii>,
 }
 
+/// The steps the planner sequence ([`sequence`]) runs, as the engine gives them
+/// in the model's unit and the predictor in the caller's.
+pub(crate) trait Steps {
+    /// The model's endpoint set into `out` (`predict_endpoint_set::<N>`).
+    fn endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError>;
+    /// The probabilities of the endpoints just drawn; `true` when learned.
+    fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError>;
+    /// The point forecast.
+    fn point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError>;
+    /// The model's point head and radius multipliers.
+    fn point_head_and_scales(&self) -> (bool, [f32; 2]);
+}
+
+/// The planner sequence, one order for every caller: the endpoint set into
+/// `endpoints`, their probabilities into `probabilities`, then the point
+/// forecast (with a point head) and, for a model with probabilities, the
+/// [`radii`]. [`PredictError::BadSampleCount`] when the two buffers differ in
+/// length.
+pub(crate) fn sequence<const N: usize, S: Steps>(
+    steps: &mut S,
+    past: &[[f32; 2]],
+    seed: u64,
+    endpoints: &mut [[f32; 2]],
+    probabilities: &mut [f32],
+) -> Result<PlannerOutput, PredictError> {
+    if probabilities.len() != endpoints.len() {
+        return Err(PredictError::BadSampleCount);
+    }
+    steps.endpoint_set::<N>(past, seed, endpoints)?;
+    let learned = steps.probabilities(probabilities)?;
+    let (point_head, scales) = steps.point_head_and_scales();
+    let point = if point_head {
+        Some(steps.point(past)?)
+    } else {
+        None
+    };
+    let radii = match point.as_ref().and_then(|t| t.last()) {
+        Some(&pt) if learned => Some(radii(pt, endpoints, probabilities, scales)?),
+        _ => None,
+    };
+    Ok(PlannerOutput {
+        learned,
+        point,
+        radii,
+    })
+}
+
 /// The index of the most probable of `probabilities` (the first of equals),
 /// `None` when empty.
 pub fn most_probable(probabilities: &[f32]) -> Option<usize> {

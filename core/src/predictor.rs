@@ -31,7 +31,7 @@ use crate::engine::Engine;
 use crate::fixed::Q15;
 use crate::float::Float;
 pub use crate::output::{PredictError, Trajectory};
-use crate::planner::{radii, Forecast, PlannerOutput};
+use crate::planner::{Forecast, PlannerOutput, Steps};
 use crate::sine::Sine;
 use crate::units::{CallerUnit, Conversion};
 use crate::Error;
@@ -272,30 +272,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         endpoints: &mut [[f32; 2]],
         probabilities: &mut [f32],
     ) -> Result<PlannerOutput, PredictError> {
-        if probabilities.len() != endpoints.len() {
-            return Err(PredictError::BadSampleCount);
-        }
-        self.predict_endpoint_set::<N>(past, seed, endpoints)?;
-        let learned = self.probabilities(probabilities)?;
-        let point = if self.model().has_point_head() {
-            Some(self.predict_point(past)?)
-        } else {
-            None
-        };
-        let radii = match point.as_ref().and_then(|t| t.last()) {
-            Some(&pt) if learned => Some(radii(
-                pt,
-                endpoints,
-                probabilities,
-                self.model().radius_scales(),
-            )?),
-            _ => None,
-        };
-        Ok(PlannerOutput {
-            learned,
-            point,
-            radii,
-        })
+        crate::planner::sequence::<N, Self>(self, past, seed, endpoints, probabilities)
     }
 
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.
@@ -303,6 +280,26 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         let mut t = on_kind!(&mut self.engine, e => e.last_trajectory())?;
         caller_points(self.units, &mut t);
         Ok(t)
+    }
+}
+
+impl<S: Sine, const W: usize> Steps for Predictor<'_, S, W> {
+    fn endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.predict_endpoint_set::<N>(past, seed, out)
+    }
+    fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
+        Predictor::probabilities(self, out)
+    }
+    fn point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
+        self.predict_point(past)
+    }
+    fn point_head_and_scales(&self) -> (bool, [f32; 2]) {
+        (self.model().has_point_head(), self.model().radius_scales())
     }
 }
 
