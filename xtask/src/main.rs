@@ -52,8 +52,8 @@ enum Cmd {
     Demo(FwArgs),
     /// Install missing prerequisites (apt: Debian rust toolchain, lld-22, qemu-system-arm).
     Setup,
-    /// Build gpecnet-core alone for thumbv7em-none-eabihf (-Zbuild-std=core), all feature
-    /// combinations, and link its embassy example.
+    /// Check gpecnet-core alone for thumbv7em-none-eabihf (-Zbuild-std=core) in all feature
+    /// combinations, and build and link its embassy example.
     BuildCoreThumb,
     /// Build the firmware (release; trailing ARGS go to cargo, e.g. --features force-panic).
     FwBuild(FwArgs),
