@@ -124,7 +124,19 @@ fn main() {
         "cargo:rerun-if-env-changed={}",
         gpecnet_mcu_models::ONLY_VAR
     );
-    let only = gpecnet_mcu_models::only_from_env();
+    // GPECNET_MODEL_PACK=<bytes> (`cargo xtask qemu`): the golden image embeds no model
+    // but an area of that many bytes for a model pack (gpecnet_replay::pack), which xtask
+    // writes into copies of the linked image, one per batch of models.
+    println!("cargo:rerun-if-env-changed=GPECNET_MODEL_PACK");
+    let pack_len = env::var("GPECNET_MODEL_PACK").ok().map(|v| {
+        v.parse::<usize>()
+            .unwrap_or_else(|_| panic!("GPECNET_MODEL_PACK={v:?}: not a size in bytes"))
+    });
+    let only = if pack_len.is_some() {
+        Some(Vec::new())
+    } else {
+        gpecnet_mcu_models::only_from_env()
+    };
     let selection = gpecnet_mcu_models::select(&weights, only.as_deref());
     for (n, len) in &selection.host_only {
         println!("cargo:warning=skipping {n}.gpec ({len} bytes > {MAX_MCU_BLOB}): host-only model");
@@ -269,8 +281,22 @@ fn main() {
     );
     let sine = env::var("GPECNET_SINE").unwrap_or_else(|_| "libm".into());
     println!("cargo:rustc-cfg=prof_sine=\"{sine}\"");
+    match pack_len {
+        Some(n) => {
+            src += &format!(
+                "/// The model pack's area, filled in by `cargo xtask qemu` after linking.\n\
+                 #[no_mangle]\n\
+                 #[link_section = \".rodata.gpecnet_model_pack\"]\n\
+                 pub static GPECNET_MODEL_PACK: AlignedBlob<{n}> = AlignedBlob([0; {n}]);\n\
+                 pub fn pack() -> Option<&'static [u8]> {{\n    \
+                 // Opaque: the linked area holds zeros, the image that runs holds the pack.\n    \
+                 Some(core::hint::black_box(&GPECNET_MODEL_PACK.0[..]))\n}}\n"
+            );
+        }
+        None => src += "pub fn pack() -> Option<&'static [u8]> {\n    None\n}\n",
+    }
     fs::write(out.join("models.rs"), src).unwrap();
-    if names.is_empty() {
+    if names.is_empty() && pack_len.is_none() {
         println!("cargo:warning=no model blob in weights/ (weights/<name>.gpec + <name>.golden): golden mode will report 'no model' and fail");
     }
 }

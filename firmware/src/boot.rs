@@ -50,9 +50,18 @@ pub fn banner() {
         "boot: gpecnet firmware {=str} on {=str} (embassy executor up), {=usize} model(s) embedded",
         env!("CARGO_PKG_VERSION"),
         env!("GPECNET_CHIP"),
-        crate::models::BLOBS.len()
+        embedded()
     );
     fatal::self_tests();
+}
+
+/// The models this image holds: its model pack's (an image linked for one), else the
+/// models compiled in.
+fn embedded() -> usize {
+    match crate::models::pack() {
+        Some(pack) => crate::golden::pack::ModelPack::parse(pack).map_or(0, |p| p.len()),
+        None => crate::models::BLOBS.len(),
+    }
 }
 
 /// Stack report + exit (QEMU) / park (board).

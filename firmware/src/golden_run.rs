@@ -1,25 +1,30 @@
-//! The golden mode: [`crate::golden::verify_all`] over every embedded model,
+//! The golden mode: [`crate::golden::verify_all`] over every embedded model
+//! (or [`crate::golden::verify_pack`] over the image's model pack),
 //! each result printed as one defmt line (the lines `cargo xtask qemu`
 //! compares with the host's `golden-host` run), then the totals.
 //!
 //! The text is [`crate::golden::Line::print`]'s (what the host prints), here
 //! with typed defmt arguments instead of `core::fmt`: the Cortex-M0's golden
-//! run peaks within about 100 B of its 16 KiB, and `core::fmt` in the
+//! run peaks within about 600 B of its 16 KiB, and `core::fmt` in the
 //! per-case callback overflows it.
 
 /// Golden verification of every embedded model, one defmt line per model
 /// and case (the lines `cargo xtask qemu` compares with the host's); `true`
 /// when every case matched.
 pub fn run() -> bool {
-    if crate::models::MODELS.is_empty() {
-        defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
-        return false;
-    }
-    let s =
-        crate::golden::verify_all::<{ crate::SCRATCH }>(crate::models::MODELS, true, &mut |l| {
-            crate::watchdog::feed();
-            print(l)
-        });
+    let mut out = |l: crate::golden::Line<'_>| {
+        crate::watchdog::feed();
+        print(l)
+    };
+    let s = match crate::models::pack() {
+        // An image linked for a model pack (`cargo xtask qemu`): the models xtask wrote into it.
+        Some(pack) => crate::golden::verify_pack::<{ crate::SCRATCH }>(pack, true, &mut out),
+        None if crate::models::MODELS.is_empty() => {
+            defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
+            return false;
+        }
+        None => crate::golden::verify_all::<{ crate::SCRATCH }>(crate::models::MODELS, true, &mut out),
+    };
     crate::golden::resample_scene(&mut print);
     defmt::println!(
         "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",

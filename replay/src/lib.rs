@@ -36,13 +36,15 @@ use gpecnet_core::tracks::{Observation, TimedTrackTable};
 use gpecnet_core::{fixed, Model, NumericKind, PredictError, Predictor, Trajectory};
 use heapless::Vec;
 
+pub mod pack;
+
 /// Maximum endpoints per golden case / prediction.
 pub const MAX_K: usize = 20;
 /// Most latent samples one prediction draws (test-time sampling reduces them to K):
 /// 8 bytes of stack each.
 pub const MAX_SAMPLES: usize = 128;
 
-/// One model compiled into the image (or read from disk on the host).
+/// One model compiled into the image, read from a [`pack`], or read from disk on the host.
 pub struct EmbeddedModel {
     /// The model's name (its file stem), as the lines print it.
     pub name: &'static str,
@@ -189,6 +191,15 @@ impl Summary {
 }
 
 impl Summary {
+    /// Adds another run's totals (the models of a pack verified one at a time).
+    pub fn add(&mut self, other: Summary) {
+        self.models += other.models;
+        self.cases += other.cases;
+        self.mismatches += other.mismatches;
+        self.errors += other.errors;
+        self.xchecks += other.xchecks;
+    }
+
     /// At least one case ran, and every case of every model matched.
     pub fn ok(&self) -> bool {
         self.models > 0 && self.cases > 0 && self.mismatches == 0 && self.errors == 0
@@ -363,6 +374,26 @@ impl EmbeddedModel {
             numeric: model.numeric(),
         })
     }
+}
+
+/// [`verify_all`] over the models of the [`pack::ModelPack`] at the start of
+/// `pack`, one model at a time (the same lines as one `verify_all` over the same
+/// models); a pack that cannot be read is one [`Line::Error`] (model `pack`).
+pub fn verify_pack<const W: usize>(
+    pack: &'static [u8],
+    xcheck: bool,
+    out: &mut dyn FnMut(Line<'_>),
+) -> Summary {
+    let mut s = Summary::default();
+    match pack::ModelPack::parse(pack) {
+        Ok(models) => {
+            for m in (0..models.len()).filter_map(|i| models.get(i)) {
+                s.add(verify_all::<W>(core::slice::from_ref(&m), xcheck, out));
+            }
+        }
+        Err(e) => s.error(out, "pack", e.what()),
+    }
+    s
 }
 
 /// Verifies every model with predictors of scratch width `W` (a model

@@ -104,3 +104,41 @@ impl Elf {
             .sum()
     }
 }
+
+/// Writes `data` into the `symbol`'s bytes of the ELF `image` (an object in a
+/// section with file contents, e.g. a flash area the firmware reads) and zeroes
+/// the rest of them: the image then runs with `data` as if it had been linked in.
+pub(crate) fn fill_symbol(image: &mut [u8], symbol: &str, data: &[u8]) -> Result<(), String> {
+    let file =
+        ElfFile32::<Endianness>::parse(&*image).map_err(|e| format!("not an ELF32 file: {e}"))?;
+    let endian = file.endian();
+    let sym = file
+        .symbols()
+        .find(|s| s.name() == Ok(symbol))
+        .ok_or_else(|| format!("no symbol {symbol}"))?;
+    let (addr, size) = (sym.address() as u32, sym.size() as u32);
+    if data.len() as u64 > u64::from(size) {
+        return Err(format!("{} B do not fit {symbol} ({size} B)", data.len()));
+    }
+    let headers = file
+        .elf_header()
+        .sections(endian, &*image)
+        .map_err(|e| format!("section headers: {e}"))?;
+    let offset = headers
+        .iter()
+        .find(|h| {
+            let (start, len) = (h.sh_addr(endian), h.sh_size(endian));
+            h.sh_type(endian) != SHT_NOBITS
+                && h.sh_flags(endian) & SHF_ALLOC != 0
+                && start <= addr
+                && addr.checked_add(size).is_some_and(|end| end <= start + len)
+        })
+        .map(|h| (h.sh_offset(endian) + (addr - h.sh_addr(endian))) as usize)
+        .ok_or_else(|| format!("{symbol} lies in no section with file contents"))?;
+    let area = image
+        .get_mut(offset..offset + size as usize)
+        .ok_or_else(|| format!("{symbol} lies past the end of the file"))?;
+    area.fill(0);
+    area[..data.len()].copy_from_slice(data);
+    Ok(())
+}

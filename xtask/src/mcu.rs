@@ -54,9 +54,9 @@ pub const M0: Mcu = Mcu {
     feature: "chip-nrf51",
     target: "thumbv6m-none-eabi",
     machine: "microbit",
-    // The M0's golden image holds both engines in soft float, the planner and defmt:
-    // its code and constants take 96,637 B (166,107 B of models overflowed the
-    // 262,144 B of flash by 600 B), so 95 KiB (97,280 B) are kept for them.
+    // The M0's golden image holds both engines in soft float, the planner and defmt, and
+    // a model-pack area of this size: 95 KiB (97,280 B) are kept for the code and
+    // constants (96,636 B of 262,144 B of flash are taken beside the area).
     image_data_budget: (256 - 95) * 1024,
     max_width: 64,
     micromath: false,

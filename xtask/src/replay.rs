@@ -12,7 +12,12 @@ use std::path::Path;
 
 use gpecnet_mcu_models::{blob_path, golden_path};
 
-use crate::firmware::{build_and_start, finish, fw_cargo, require_models, weights_dir, Opts};
+use gpecnet_replay::pack;
+
+use crate::elf::fill_symbol;
+use crate::firmware::{
+    build_and_start, build_image, finish, fw_cargo, require_models, run_image, weights_dir, Opts,
+};
 use crate::mcu::{self, Mcu};
 use crate::profile::{
     blob_is_fixed, build_profile_image, field, md_section, opt, opt_pair, per_mac, plugin,
@@ -63,6 +68,30 @@ fn fit(dir: &Path, m: &str, mcu: &Mcu) -> Result<usize, String> {
     }
 }
 
+/// `models` (sorted) split into runs of consecutive models that fit `budget` bytes
+/// together, each model taking `size(name)` bytes (a larger model alone gets its own).
+fn batches_by(
+    models: &[String],
+    size: impl Fn(&String) -> u64,
+    first: u64,
+    budget: u64,
+) -> Vec<Vec<String>> {
+    let mut batches: Vec<Vec<String>> = Vec::new();
+    let mut used = first;
+    for m in models {
+        let n = size(m);
+        match batches.last_mut() {
+            Some(b) if used + n <= budget => b.push(m.clone()),
+            _ => {
+                batches.push(vec![m.clone()]);
+                used = first;
+            }
+        }
+        used += n;
+    }
+    batches
+}
+
 /// `models` (sorted) split into runs of consecutive models whose files (the
 /// extensions `exts`) fit `budget` bytes together (a larger model alone gets its own).
 fn image_batches(dir: &Path, models: &[String], exts: &[&str], budget: u64) -> Vec<Vec<String>> {
@@ -71,20 +100,38 @@ fn image_batches(dir: &Path, models: &[String], exts: &[&str], budget: u64) -> V
             .map(|e| std::fs::metadata(dir.join(format!("{m}.{e}"))).map_or(0, |md| md.len()))
             .sum()
     };
-    let mut batches: Vec<Vec<String>> = Vec::new();
-    let mut used = 0;
-    for m in models {
-        let n = size(m);
-        match batches.last_mut() {
-            Some(b) if used + n <= budget => b.push(m.clone()),
-            _ => {
-                batches.push(vec![m.clone()]);
-                used = 0;
-            }
-        }
-        used += n;
-    }
-    batches
+    batches_by(models, size, 0, budget)
+}
+
+/// `models` (sorted) split into model packs of at most `budget` bytes each.
+fn pack_batches(dir: &Path, models: &[String], budget: u64) -> Vec<Vec<String>> {
+    let len = |p: std::path::PathBuf| std::fs::metadata(p).map_or(0, |md| md.len() as usize);
+    let size = |m: &String| -> u64 {
+        pack::max_entry_len(m.len(), len(blob_path(dir, m)), len(golden_path(dir, m))) as u64
+    };
+    batches_by(models, size, pack::HEADER_LEN as u64, budget)
+}
+
+/// The model pack of `batch` (gpecnet_replay::pack), read from `dir`.
+fn model_pack(dir: &Path, batch: &[String], budget: u64) -> Result<Vec<u8>, String> {
+    let read =
+        |p: std::path::PathBuf| std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()));
+    let files = batch
+        .iter()
+        .map(|m| {
+            Ok((
+                m.as_str(),
+                read(blob_path(dir, m))?,
+                read(golden_path(dir, m))?,
+            ))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let models: Vec<(&str, &[u8], &[u8])> =
+        files.iter().map(|(n, b, g)| (*n, &b[..], &g[..])).collect();
+    let mut out = vec![0; budget as usize];
+    let used = pack::write(&models, &mut out).map_err(|e| e.what().to_string())?;
+    out.truncate(used);
+    Ok(out)
 }
 
 fn lines_with<'a>(text: &'a str, prefixes: &[&str]) -> Vec<&'a str> {
@@ -240,9 +287,11 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
             models: per,
         };
     }
-    // Not every model fits one image: one image (and QEMU run) per batch of
-    // consecutive models, so the firmware's lines, concatenated, come in the host's order.
-    let batches = image_batches(dir, &models, &["gpec", "golden"], mcu.image_data_budget);
+    // Not every model fits one image: one QEMU run per batch of consecutive models, so
+    // the firmware's lines, concatenated, come in the host's order. The golden image is
+    // linked once, with an empty model-pack area of the class's image-data budget; each
+    // batch's pack is written into a copy of it.
+    let batches = pack_batches(dir, &models, mcu.image_data_budget);
     let (mut fw_rc, mut fw_out) = (0, String::new());
     // Each image runs in QEMU while the next one builds. The longest runs go first (f32
     // models, in software floating point on the Cortex-M0, then the most golden cases);
@@ -257,16 +306,41 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
     };
     let mut order: Vec<usize> = (0..batches.len()).collect();
     order.sort_by_key(|&i| long(&batches[i]));
+    let linked = log_dir.join("golden.elf");
+    let mut c = fw_cargo(o);
+    c.env("GPECNET_MODEL_PACK", mcu.image_data_budget.to_string());
+    let built =
+        build_image(c, mcu, "golden", &mcu.golden_features(), &o.rest, &linked).and_then(|()| {
+            std::fs::read(&linked).map_err(|e| (1, format!("{}: {e}", linked.display())))
+        });
     std::thread::scope(|s| {
         let mut started: BTreeMap<usize, _> = BTreeMap::new();
         for i in order {
             let batch = &batches[i];
             eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
-            let mut c = fw_cargo(o);
-            c.env(gpecnet_mcu_models::ONLY_VAR, batch.join(","));
             let copy = log_dir.join(format!("golden-{i}.elf"));
-            let features = mcu.golden_features();
-            let run = build_and_start(s, c, mcu, "golden", &features, &o.rest, copy);
+            let image = built.clone().and_then(|mut image| {
+                model_pack(dir, batch, mcu.image_data_budget)
+                    .and_then(|p| fill_symbol(&mut image, "GPECNET_MODEL_PACK", &p))
+                    .and_then(|()| {
+                        std::fs::write(&copy, &image)
+                            .map_err(|e| format!("{}: {e}", copy.display()))
+                    })
+                    .map_err(|e| {
+                        (
+                            1,
+                            format!(
+                                "xtask: {} golden image for {}: {e}",
+                                mcu.name,
+                                batch.join(", ")
+                            ),
+                        )
+                    })
+            });
+            let run = s.spawn(move || match image {
+                Ok(()) => run_image(mcu, &copy),
+                Err((rc, err)) => (rc, String::new(), err),
+            });
             started.insert(i, (Some(batch), run));
         }
         let mut runs: Vec<_> = started.into_values().collect();

@@ -1,0 +1,4 @@
+//! The replay's integration tests, one binary (each file a module).
+mod lines;
+mod pack;
+mod shipped;
