@@ -62,6 +62,8 @@ use crate::output::{PredictError, Trajectory};
 use crate::prng::Gaussian;
 use crate::{BlobError, Error};
 
+mod planner_steps;
+
 mod sealed {
     pub trait Sealed {}
 }
@@ -566,23 +568,6 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         })
     }
 
-    /// The planner sequence in the model's unit, as
-    /// [`Predictor::predict_planner`](crate::Predictor::predict_planner) runs it in the
-    /// caller's: the endpoint set into `endpoints` ([`Engine::predict_endpoint_set`]
-    /// with its `N`), their probabilities into `probabilities`
-    /// ([`Engine::probabilities`]), then the point forecast (with a point head) and,
-    /// for a model with probabilities, the radii ([`crate::planner::radii`]).
-    /// [`PredictError::BadSampleCount`] when the two buffers differ in length.
-    pub fn predict_planner<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        endpoints: &mut [[f32; 2]],
-        probabilities: &mut [f32],
-    ) -> Result<crate::planner::PlannerOutput, PredictError> {
-        crate::planner::sequence::<N, Self>(self, past, seed, endpoints, probabilities)
-    }
-
     /// `out.len()` full trajectories of plain latent samples (sample `i`'s
     /// endpoint is the last point of `out[i]`, and equals
     /// [`Engine::predict_samples`]' `i`-th endpoint).
@@ -599,25 +584,5 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
             e.next_endpoint()?;
             e.last_trajectory()
         })
-    }
-}
-
-impl<B: Backend, const W: usize> crate::planner::Steps for Engine<'_, B, W> {
-    fn endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.predict_endpoint_set::<N>(past, seed, out)
-    }
-    fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
-        Engine::probabilities(self, out)
-    }
-    fn point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        self.predict_point(past)
-    }
-    fn point_head_and_scales(&self) -> (bool, [f32; 2]) {
-        (self.model.has_point_head(), self.model.radius_scales())
     }
 }

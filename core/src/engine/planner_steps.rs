@@ -1,0 +1,45 @@
+//! The planner sequence on an [`Engine`]: [`Engine::predict_planner`] and the
+//! steps [`crate::planner::sequence`] runs, in the model's unit.
+
+use super::{Backend, Engine};
+use crate::output::{PredictError, Trajectory};
+use crate::planner::{PlannerOutput, Steps};
+
+impl<B: Backend, const W: usize> Engine<'_, B, W> {
+    /// The planner sequence in the model's unit, as
+    /// [`Predictor::predict_planner`](crate::Predictor::predict_planner) runs it in the
+    /// caller's: the endpoint set into `endpoints` ([`Engine::predict_endpoint_set`]
+    /// with its `N`), their probabilities into `probabilities`
+    /// ([`Engine::probabilities`]), then the point forecast (with a point head) and,
+    /// for a model with probabilities, the radii ([`crate::planner::radii`]).
+    /// [`PredictError::BadSampleCount`] when the two buffers differ in length.
+    pub fn predict_planner<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        endpoints: &mut [[f32; 2]],
+        probabilities: &mut [f32],
+    ) -> Result<PlannerOutput, PredictError> {
+        crate::planner::sequence::<N, Self>(self, past, seed, endpoints, probabilities)
+    }
+}
+
+impl<B: Backend, const W: usize> Steps for Engine<'_, B, W> {
+    fn endpoint_set<const N: usize>(
+        &mut self,
+        past: &[[f32; 2]],
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.predict_endpoint_set::<N>(past, seed, out)
+    }
+    fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
+        Engine::probabilities(self, out)
+    }
+    fn point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
+        self.predict_point(past)
+    }
+    fn point_head_and_scales(&self) -> (bool, [f32; 2]) {
+        (self.model.has_point_head(), self.model.radius_scales())
+    }
+}
