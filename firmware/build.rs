@@ -281,8 +281,10 @@ fn main() {
     );
     let sine = env::var("GPECNET_SINE").unwrap_or_else(|_| "libm".into());
     println!("cargo:rustc-cfg=prof_sine=\"{sine}\"");
+    println!("cargo::rustc-check-cfg=cfg(model_pack)");
     match pack_len {
         Some(n) => {
+            println!("cargo:rustc-cfg=model_pack");
             src += &format!(
                 "/// The model pack's area, filled in by `cargo xtask qemu` after linking.\n\
                  #[no_mangle]\n\

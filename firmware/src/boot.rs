@@ -46,22 +46,21 @@ pub fn executor(supervision: Supervision, spawn: impl FnOnce(Spawner)) -> ! {
 
 /// The boot line, then the injected faults of the `force-*` features.
 pub fn banner() {
+    #[cfg(not(model_pack))]
     defmt::println!(
         "boot: gpecnet firmware {=str} on {=str} (embassy executor up), {=usize} model(s) embedded",
         env!("CARGO_PKG_VERSION"),
         env!("GPECNET_CHIP"),
-        embedded()
+        crate::models::BLOBS.len()
+    );
+    // An image linked for a model pack: the replay names the pack's models.
+    #[cfg(model_pack)]
+    defmt::println!(
+        "boot: gpecnet firmware {=str} on {=str} (embassy executor up), models from the image's model pack",
+        env!("CARGO_PKG_VERSION"),
+        env!("GPECNET_CHIP")
     );
     fatal::self_tests();
-}
-
-/// The models this image holds: its model pack's (an image linked for one), else the
-/// models compiled in.
-fn embedded() -> usize {
-    match crate::models::pack() {
-        Some(pack) => crate::golden::pack::ModelPack::parse(pack).map_or(0, |p| p.len()),
-        None => crate::models::BLOBS.len(),
-    }
 }
 
 /// Stack report + exit (QEMU) / park (board).

@@ -19,7 +19,7 @@
 //! would leave them) and the golden files; the rest of the area is zero.
 //! ```
 //!
-//! [`write`] builds a pack into a caller's buffer (no allocation) and
+//! [`write()`] builds a pack into a caller's buffer (no allocation) and
 //! [`ModelPack::parse`] reads one, checking every entry, so a pack that does not
 //! hold what it says is an error, never a partial replay.
 
@@ -52,7 +52,7 @@ pub enum PackError {
     BadEntry,
     /// A model name is empty or not UTF-8.
     BadName,
-    /// [`write`]: the models do not fit the buffer.
+    /// [`write()`]: the models do not fit the buffer.
     TooLarge,
 }
 
