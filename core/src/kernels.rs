@@ -10,6 +10,10 @@
 //! - `x86` (`cfg(target_arch = "x86_64")`): the batched host path's dense
 //!   lanes compiled a second time with AVX enabled and chosen at run time
 //!   when the CPU has it (`docs/host-speed.md`).
+//! - `softfloat` (feature `softfloat`, `cfg(all(target_arch = "arm",
+//!   target_os = "none"))`, for cores without an FPU): a faster, bit-exact
+//!   `__aeabi_fmul` replacing compiler-builtins' (`docs/kernels.md`); its
+//!   arithmetic is portable and tested against the host FPU.
 
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 mod arm;
@@ -18,3 +22,9 @@ pub(crate) use arm::*;
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x86;
+
+#[cfg(any(
+    test,
+    all(feature = "softfloat", target_arch = "arm", target_os = "none")
+))]
+mod softfloat;
