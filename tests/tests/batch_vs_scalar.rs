@@ -6,10 +6,14 @@
 //! with the host's 8 lanes and with 3 lanes (every chunk boundary falls
 //! inside a track); for f32 also with 16 lanes and on the portable SSE2
 //! path where the host takes AVX2 (`gpecnet_core::batch::set_wide_vectors`).
+//! The scalar side runs once per blob, sine and set of windows (a [`Record`]
+//! of every entry point's output) and each lane width is checked against it.
 
-use gpecnet_core::batch::{set_wide_vectors, BatchPredictor};
+use gpecnet_core::batch::{set_wide_vectors, BatchPredictor, Query};
 use gpecnet_core::blob::MAX_TTS_SAMPLES;
-use gpecnet_core::{FastSine, LibmSine, Model, NumericKind, Predictor, Sine, Trajectory};
+use gpecnet_core::{
+    FastSine, LibmSine, Model, NumericKind, PredictError, Predictor, Sine, Trajectory,
+};
 use gpecnet_metrics::core_eval::queries;
 use gpecnet_tests::{card_test_set, shipped_blobs};
 
@@ -19,105 +23,268 @@ fn bits(v: &[[f32; 2]]) -> Vec<[u32; 2]> {
     v.iter().map(|p| p.map(f32::to_bits)).collect()
 }
 
-fn traj_bits(v: &[Trajectory]) -> Vec<Vec<[u32; 2]>> {
-    v.iter().map(|t| bits(t)).collect()
+fn traj_bits(v: &[Trajectory]) -> Vec<[u32; 2]> {
+    v.iter().flat_map(|t| bits(t)).collect()
 }
 
-/// One blob, sine `S`, `L` lanes: every batched entry point against the scalar one.
-fn check<S: Sine, const L: usize>(name: &str, model: &Model<'_>, pasts: &[Past]) {
-    let mut scalar = Box::new(Predictor::<S, 1024>::new(*model).unwrap());
-    let mut batch = Box::new(BatchPredictor::<S, 1024, L>::new(*model).unwrap());
-    let tts = model.extensions().tts_samples > 0;
-    let at = |what: &str, k: usize| format!("{name} L={L} {what} K={k}");
+/// One entry point's answer: the output's bits, or the error.
+type Outcome = Result<Vec<[u32; 2]>, PredictError>;
 
-    // One track, K = 1, 13, 20, 200 (plain samples; endpoint sets up to 20).
+/// Every entry point's answer, in call order, each with what was called.
+type Record = Vec<(String, Outcome)>;
+
+/// The entry points the scalar and the batched path share. On the scalar
+/// path a many-track call is one call per track (seed of track `t` = `t`).
+trait Path {
+    fn samples(&mut self, past: &Past, seed: u64, out: &mut [[f32; 2]])
+        -> Result<(), PredictError>;
+    fn endpoint_set(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError>;
+    fn trajectories(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError>;
+    fn endpoint_sets(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError>;
+    fn samples_many(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError>;
+    fn trajectories_many(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError>;
+    fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError>;
+}
+
+/// The scalar path (`Predictor`): the reference.
+struct Scalar<'m, S: Sine>(Box<Predictor<'m, S, 1024>>);
+
+impl<S: Sine> Path for Scalar<'_, S> {
+    fn samples(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.0.predict_samples(past, seed, out)
+    }
+    fn endpoint_set(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.0
+            .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, out)
+    }
+    fn trajectories(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        self.0.predict_trajectories(past, seed, out)
+    }
+    fn endpoint_sets(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        q.iter().zip(out.chunks_mut(k)).try_for_each(|(q, o)| {
+            self.0
+                .predict_endpoint_set::<MAX_TTS_SAMPLES>(q.past, q.seed, o)
+        })
+    }
+    fn samples_many(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        q.iter()
+            .zip(out.chunks_mut(k))
+            .try_for_each(|(q, o)| self.0.predict_samples(q.past, q.seed, o))
+    }
+    fn trajectories_many(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        q.iter()
+            .zip(out.chunks_mut(k))
+            .try_for_each(|(q, o)| self.0.predict_trajectories(q.past, q.seed, o))
+    }
+    fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError> {
+        for (q, o) in q.iter().zip(out) {
+            *o = self.0.predict_point(q.past)?;
+        }
+        Ok(())
+    }
+}
+
+/// The batched path (`BatchPredictor`) with `L` lanes.
+struct Batched<'m, S: Sine, const L: usize>(Box<BatchPredictor<'m, S, 1024, L>>);
+
+impl<S: Sine, const L: usize> Path for Batched<'_, S, L> {
+    fn samples(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.0.predict_samples(past, seed, out)
+    }
+    fn endpoint_set(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.0
+            .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, out)
+    }
+    fn trajectories(
+        &mut self,
+        past: &Past,
+        seed: u64,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        self.0.predict_trajectories(past, seed, out)
+    }
+    fn endpoint_sets(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.0
+            .predict_endpoint_sets::<MAX_TTS_SAMPLES>(q, k, out)
+            .map_err(|e| e.error)
+    }
+    fn samples_many(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [[f32; 2]],
+    ) -> Result<(), PredictError> {
+        self.0.predict_samples_many(q, k, out).map_err(|e| e.error)
+    }
+    fn trajectories_many(
+        &mut self,
+        q: &[Query<'_>],
+        k: usize,
+        out: &mut [Trajectory],
+    ) -> Result<(), PredictError> {
+        self.0
+            .predict_trajectories_many(q, k, out)
+            .map_err(|e| e.error)
+    }
+    fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError> {
+        self.0.predict_points(q, out).map_err(|e| e.error)
+    }
+}
+
+/// Every entry point of `path` on `pasts`: one track at K = 1, 13, 20, 200
+/// (plain samples; endpoint sets and trajectories up to 20), then many
+/// tracks side by side (seed of track `t` = `t`, as the evaluation uses).
+fn record(path: &mut impl Path, model: &Model<'_>, pasts: &[Past]) -> Record {
+    let mut r = Record::new();
+    let mut take = |what: String, out: Result<Vec<[u32; 2]>, PredictError>| r.push((what, out));
+    let tts = model.extensions().tts_samples > 0;
     for (i, past) in pasts.iter().take(3).enumerate() {
         let seed = 1000 + i as u64;
         for k in [1usize, 13, 20, 200] {
-            let (mut a, mut b) = (vec![[0.0f32; 2]; k], vec![[0.0f32; 2]; k]);
-            if model.has_proposal() && k > model.proposal_latents() {
-                // A proposal's stream ends after its K latents, on both paths.
-                let refused = Err(gpecnet_core::PredictError::BadSampleCount);
-                assert_eq!(scalar.predict_samples(past, seed, &mut a), refused);
-                assert_eq!(batch.predict_samples(past, seed, &mut b), refused);
-                continue;
-            }
-            scalar.predict_samples(past, seed, &mut a).unwrap();
-            batch.predict_samples(past, seed, &mut b).unwrap();
-            assert_eq!(bits(&a), bits(&b), "{}", at("samples", k));
+            let mut o = vec![[0.0f32; 2]; k];
+            // A proposal's stream ends after its K latents: both paths refuse.
+            let res = path.samples(past, seed, &mut o).map(|()| bits(&o));
+            take(format!("samples track {i} K={k}"), res);
             if k <= 20 {
-                let (mut a, mut b) = (vec![[0.0f32; 2]; k], vec![[0.0f32; 2]; k]);
-                scalar
-                    .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, &mut a)
-                    .unwrap();
-                batch
-                    .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, &mut b)
-                    .unwrap();
-                assert_eq!(bits(&a), bits(&b), "{}", at("endpoint set", k));
+                let mut o = vec![[0.0f32; 2]; k];
+                let res = path.endpoint_set(past, seed, &mut o).map(|()| bits(&o));
+                take(format!("endpoint set track {i} K={k}"), res);
             }
             if model.has_predictor() && k <= 20 {
-                let mut a = vec![Trajectory::new(); k];
-                let mut b = vec![Trajectory::new(); k];
-                scalar.predict_trajectories(past, seed, &mut a).unwrap();
-                batch.predict_trajectories(past, seed, &mut b).unwrap();
-                assert_eq!(traj_bits(&a), traj_bits(&b), "{}", at("trajectories", k));
+                let mut o = vec![Trajectory::new(); k];
+                let res = path
+                    .trajectories(past, seed, &mut o)
+                    .map(|()| traj_bits(&o));
+                take(format!("trajectories track {i} K={k}"), res);
             }
         }
     }
-
-    // Many tracks side by side (seed of track t = t, as the evaluation uses).
     let queries = queries(pasts, |t| t as u64);
     for k in [1usize, 13, 20] {
-        let n = queries.len() * k;
-        let mut b = vec![[0.0f32; 2]; n];
-        batch
-            .predict_endpoint_sets::<MAX_TTS_SAMPLES>(&queries, k, &mut b)
-            .unwrap();
-        let mut s = vec![[0.0f32; 2]; n];
-        for (q, o) in queries.iter().zip(s.chunks_mut(k)) {
-            scalar
-                .predict_endpoint_set::<MAX_TTS_SAMPLES>(q.past, q.seed, o)
-                .unwrap();
+        let mut o = vec![[0.0f32; 2]; queries.len() * k];
+        let res = path.endpoint_sets(&queries, k, &mut o).map(|()| bits(&o));
+        take(format!("endpoint sets, many, K={k}"), res);
+        if tts {
+            // A test-time-sampling blob: the plain samples too.
+            let mut o = vec![[0.0f32; 2]; queries.len() * k];
+            let res = path.samples_many(&queries, k, &mut o).map(|()| bits(&o));
+            take(format!("samples, many, K={k}"), res);
         }
-        assert_eq!(bits(&s), bits(&b), "{}", at("endpoint sets, many", k));
-        if !tts {
-            continue;
-        }
-        // A test-time-sampling blob: the plain samples too.
-        let mut b = vec![[0.0f32; 2]; n];
-        batch.predict_samples_many(&queries, k, &mut b).unwrap();
-        for (q, o) in queries.iter().zip(s.chunks_mut(k)) {
-            scalar.predict_samples(q.past, q.seed, o).unwrap();
-        }
-        assert_eq!(bits(&s), bits(&b), "{}", at("samples, many", k));
     }
     if model.has_predictor() {
         for k in [1usize, 20] {
-            let n = queries.len() * k;
-            let mut b = vec![Trajectory::new(); n];
-            batch
-                .predict_trajectories_many(&queries, k, &mut b)
-                .unwrap();
-            let mut s = vec![Trajectory::new(); n];
-            for (q, o) in queries.iter().zip(s.chunks_mut(k)) {
-                scalar.predict_trajectories(q.past, q.seed, o).unwrap();
-            }
-            assert_eq!(
-                traj_bits(&s),
-                traj_bits(&b),
-                "{}",
-                at("trajectories, many", k)
-            );
+            let mut o = vec![Trajectory::new(); queries.len() * k];
+            let res = path
+                .trajectories_many(&queries, k, &mut o)
+                .map(|()| traj_bits(&o));
+            take(format!("trajectories, many, K={k}"), res);
         }
     }
     if model.has_point_head() {
-        let mut b = vec![Trajectory::new(); queries.len()];
-        batch.predict_points(&queries, &mut b).unwrap();
-        let s: Vec<Trajectory> = queries
-            .iter()
-            .map(|q| scalar.predict_point(q.past).unwrap())
-            .collect();
-        assert_eq!(traj_bits(&s), traj_bits(&b), "{}", at("points, many", 1));
+        let mut o = vec![Trajectory::new(); queries.len()];
+        let res = path.points(&queries, &mut o).map(|()| traj_bits(&o));
+        take("points, many".to_string(), res);
+    }
+    r
+}
+
+/// The scalar path's record with sine `S`: the reference the lane widths
+/// are checked against. Its only refusals are a proposal's (its stream ends
+/// after its K latents), so that equal records are equal outputs.
+fn reference<S: Sine>(name: &str, model: &Model<'_>, pasts: &[Past]) -> Record {
+    let mut scalar = Scalar::<S>(Box::new(Predictor::new(*model).unwrap()));
+    let r = record(&mut scalar, model, pasts);
+    for (what, o) in &r {
+        if let Err(e) = o {
+            let proposal = model.has_proposal() && *e == PredictError::BadSampleCount;
+            assert!(proposal, "{name} {what}: {e:?}");
+        }
+    }
+    r
+}
+
+/// One blob, sine `S`, `L` lanes: every batched entry point against `reference`.
+fn check<S: Sine, const L: usize>(
+    name: &str,
+    model: &Model<'_>,
+    pasts: &[Past],
+    reference: &Record,
+) {
+    let mut batched = Batched::<S, L>(Box::new(BatchPredictor::new(*model).unwrap()));
+    let got = record(&mut batched, model, pasts);
+    assert_eq!(got.len(), reference.len(), "{name} L={L}");
+    for ((what, want), (_, got)) in reference.iter().zip(&got) {
+        assert_eq!(want, got, "{name} L={L} {what}");
     }
 }
 
@@ -140,27 +307,31 @@ fn batched_equals_scalar_on_every_shipped_blob() {
         let pasts: Vec<Past> = test.windows.iter().step_by(step).map(|w| w.obs()).collect();
         match model.numeric() {
             NumericKind::F32 => {
-                check::<LibmSine, 8>(&name, &model, &pasts);
-                check::<LibmSine, 3>(&name, &model, &pasts);
+                let libm = reference::<LibmSine>(&name, &model, &pasts);
+                check::<LibmSine, 8>(&name, &model, &pasts, &libm);
+                check::<LibmSine, 3>(&name, &model, &pasts, &libm);
                 if model.parameter_count() < 500_000 {
-                    check::<FastSine, 8>(&name, &model, &pasts);
+                    let fast = reference::<FastSine>(&name, &model, &pasts);
+                    check::<FastSine, 8>(&name, &model, &pasts, &fast);
                     // The extra lane width and path on the first 10 windows
                     // of the small models (the paper-size model's scalar
                     // side is what costs; the code is the same for all).
                     let few = &pasts[..pasts.len().min(10)];
+                    let libm_few = reference::<LibmSine>(&name, &model, few);
                     // 16 lanes: two vectors per sum (4 rows at a time on AVX2).
-                    check::<LibmSine, 16>(&name, &model, few);
+                    check::<LibmSine, 16>(&name, &model, few, &libm_few);
                     // The portable SSE2 path, which a host with AVX2 skips
                     // (process-wide switch; the bits are the same either
                     // way, so other tests running meanwhile are unaffected).
                     set_wide_vectors(false);
-                    check::<LibmSine, 8>(&name, &model, few);
+                    check::<LibmSine, 8>(&name, &model, few, &libm_few);
                     set_wide_vectors(true);
                 }
             }
             NumericKind::Int16Q15 => {
-                check::<LibmSine, 8>(&name, &model, &pasts);
-                check::<LibmSine, 3>(&name, &model, &pasts);
+                let libm = reference::<LibmSine>(&name, &model, &pasts);
+                check::<LibmSine, 8>(&name, &model, &pasts, &libm);
+                check::<LibmSine, 3>(&name, &model, &pasts, &libm);
             }
         }
     }
@@ -191,10 +362,7 @@ fn batched_refuses_what_scalar_refuses() {
     let qs = queries(&tracks, |_| 0);
     let mut o = vec![[0.0f32; 2]; qs.len() * 2];
     let e = batch.predict_samples_many(&qs, 2, &mut o).unwrap_err();
-    assert_eq!(
-        (e.index, e.error),
-        (2, gpecnet_core::PredictError::NonFiniteInput)
-    );
+    assert_eq!((e.index, e.error), (2, PredictError::NonFiniteInput));
     // Tracks before the failing one are computed.
     let mut s = [[0.0f32; 2]; 2];
     scalar.predict_samples(&good, 0, &mut s).unwrap();
@@ -204,7 +372,7 @@ fn batched_refuses_what_scalar_refuses() {
             .predict_samples_many(&qs, 2, &mut o[..3])
             .unwrap_err()
             .error,
-        gpecnet_core::PredictError::BadSampleCount
+        PredictError::BadSampleCount
     );
     assert!(batch.predict_samples(&good, 0, &mut []).is_err());
 }
