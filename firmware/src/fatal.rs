@@ -140,28 +140,61 @@ fn recurse(n: u32) -> u32 {
     }
 }
 
-/// `force-panic` / `force-hardfault` / `force-stack-overflow` / `force-hang`:
-/// prove the failure paths end in exit 1 (`force-corrupt-blob` acts in
-/// build.rs: the golden run then rejects the blob and fails).
+/// The fault a `fault-injection` image injects, by name, zero-padded: `cargo
+/// xtask fw-faults` links one such image and writes `panic`, `hardfault`,
+/// `stack-overflow` or `hang` into a copy of it per proof (all zeros: none),
+/// as the golden replay writes its model pack. A linked-in constant would
+/// need one build per fault.
+#[cfg(feature = "fault-injection")]
+#[no_mangle]
+#[used]
+pub static GPECNET_FAULT: [u8; 16] = [0; 16];
+
+/// The injected fault's name (empty: none, and always without `fault-injection`).
+fn injected_fault() -> &'static [u8] {
+    #[cfg(feature = "fault-injection")]
+    {
+        // Read through `black_box`: the area's bytes are written after linking.
+        let area: &'static [u8; 16] = core::hint::black_box(&GPECNET_FAULT);
+        let len = area.iter().position(|&b| b == 0).unwrap_or(area.len());
+        &area[..len]
+    }
+    #[cfg(not(feature = "fault-injection"))]
+    {
+        &[]
+    }
+}
+
+/// Injects the fault [`GPECNET_FAULT`] names (`fault-injection` images): each
+/// proves its failure path ends in exit 1 (a corrupted blob is proven on the
+/// same image through its model pack: the golden run rejects it).
 pub fn self_tests() {
-    if cfg!(feature = "force-stack-overflow") {
-        defmt::println!("force-stack-overflow: recursing");
-        let r = recurse(core::hint::black_box(u32::MAX));
-        defmt::error!("force-stack-overflow: returned {=u32}", r);
-    }
-    if cfg!(feature = "force-hardfault") {
-        defmt::println!("force-hardfault: executing udf");
-        // UsageFault (disabled) escalates to HardFault.
-        cortex_m::asm::udf();
-    }
-    if cfg!(feature = "force-hang") {
-        defmt::println!("force-hang: spinning without feeding the watchdog");
-        loop {
-            core::hint::spin_loop();
+    let fault = injected_fault();
+    match fault {
+        b"" => {}
+        b"stack-overflow" => {
+            defmt::println!("fault-injection stack-overflow: recursing");
+            let r = recurse(core::hint::black_box(u32::MAX));
+            defmt::error!("fault-injection stack-overflow: returned {=u32}", r);
         }
-    }
-    if cfg!(feature = "force-panic") {
-        let v = core::hint::black_box(7u32);
-        panic!("forced panic (v = {})", v);
+        b"hardfault" => {
+            defmt::println!("fault-injection hardfault: executing udf");
+            // UsageFault (disabled) escalates to HardFault.
+            cortex_m::asm::udf();
+        }
+        b"hang" => {
+            defmt::println!("fault-injection hang: spinning without feeding the watchdog");
+            loop {
+                core::hint::spin_loop();
+            }
+        }
+        b"panic" => {
+            let v = core::hint::black_box(7u32);
+            panic!("forced panic (v = {})", v);
+        }
+        other => {
+            defmt::error!("fault-injection: unknown fault {=[u8]:a}", other);
+            exit(1)
+        }
     }
 }

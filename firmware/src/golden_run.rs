@@ -23,7 +23,9 @@ pub fn run() -> bool {
             defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
             return false;
         }
-        None => crate::golden::verify_all::<{ crate::SCRATCH }>(crate::models::MODELS, true, &mut out),
+        None => {
+            crate::golden::verify_all::<{ crate::SCRATCH }>(crate::models::MODELS, true, &mut out)
+        }
     };
     crate::golden::resample_scene(&mut print);
     defmt::println!(

@@ -9,7 +9,7 @@
 //!   emulated time, and when [`QEMU_TIMEOUT_MS`] pass without a feed its
 //!   handler logs `watchdog: no feed ... a task hung` and ends the run in the
 //!   defined fatal state (exit 1). `cargo xtask fw-faults` proves it with
-//!   `--features force-hang`. The `profile` binary leaves SysTick off, so no
+//!   an injected `hang` (`fault-injection`). The `profile` binary leaves SysTick off, so no
 //!   interrupt lands in the measured instruction window.
 //!
 //! Untested on hardware (no board in CI). Per chip:

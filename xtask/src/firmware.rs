@@ -1,6 +1,6 @@
 //! The firmware's cargo: which weights it embeds, building and running it
-//! (`fw-build`, `fw-run`), the injected-failure proofs (`fw-faults`) and the
-//! host side: the golden replay's tests and the host tools (`fw-test`).
+//! (`fw-build`, `fw-run`) and the host side: the golden replay's tests and
+//! the host tools (`fw-test`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -209,116 +209,6 @@ pub(crate) fn fw_class_args(o: &Opts, c: &mut Command) {
             c.arg("--release");
         }
     }
-}
-
-pub(crate) fn fw_faults(o: &Opts) -> i32 {
-    require(true);
-    let models = require_models(&weights_dir(o));
-    let first = models[0].as_str();
-    let unitless = "sdd-tiny-v2-qe";
-    let have_unitless = models.iter().any(|m| m == unitless);
-    let out_dir = root().join("target/fw-faults");
-    // Every image is built first, one after the other (one target directory); each runs
-    // in QEMU as soon as it is built, while the next one builds. The verdicts follow in order.
-    std::thread::scope(|s| {
-        let image = |name: &str, only: &str, demo_model: Option<&str>, bin: &str, f: &[&str]| {
-            let mut c = fw_cargo(o);
-            c.env(gpecnet_mcu_models::ONLY_VAR, only);
-            if let Some(d) = demo_model {
-                c.env("GPECNET_DEMO_MODEL", d);
-            }
-            let copy = out_dir.join(format!("{name}.elf"));
-            build_and_start(s, c, &mcu::M4F, bin, f, &[], copy)
-        };
-        // Each injected failure must end the run with exit 1 and its own log line
-        // (no lockup, no silent corruption, no outer timeout). The corrupted-blob proof
-        // runs the golden mode on one model (the first).
-        let injected: Vec<_> = [
-            ("force-panic", "panic"),
-            ("force-hardfault", "HardFault"),
-            ("force-stack-overflow", "stack overflow"),
-            ("force-hang", "a task hung"),
-            ("force-corrupt-blob", "blob rejected"),
-        ]
-        .into_iter()
-        .map(|(f, want)| (f, want, image(f, first, None, "golden", &[f])))
-        .collect();
-        // A model in the wrong unit: the metric demo given a blob that does not
-        // record its unit must refuse it with the typed unit error and exit 1.
-        let unit =
-            have_unitless.then(|| image("unit-mismatch", unitless, Some(unitless), "demo", &[]));
-        // Signed weights: each attack ends in its defined state, named in the log. A forged
-        // copy (valid CRC, broken signature) is refused and the demo runs the last good model
-        // (exit 0); with only an untrusted key, or a stored minimum version above the model's,
-        // nothing is run (exit 1).
-        let attacks: Vec<_> = [
-            (
-                "force-forged-blob",
-                0,
-                &[
-                    "refused: BadSignature",
-                    "falling back to the last good model",
-                ][..],
-            ),
-            (
-                "force-untrusted-key",
-                1,
-                &["refused: UnknownKey", "no trusted model"][..],
-            ),
-            (
-                "force-rollback",
-                1,
-                &["refused: RolledBack", "no trusted model"][..],
-            ),
-        ]
-        .into_iter()
-        .map(|(f, want_rc, wants)| (f, want_rc, wants, image(f, DEMO_MODEL, None, "demo", &[f])))
-        .collect();
-
-        let mut bad = 0;
-        for (f, want, run) in injected {
-            let (rc, out, _) = finish(run);
-            let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
-            let ok = rc == 1 && !last.is_empty();
-            println!(
-                "fw-faults {f:<22} exit {rc} (want 1), log {:?} {}",
-                last.trim(),
-                if ok { "ok" } else { "FAILED" }
-            );
-            bad += (!ok) as i32;
-        }
-        if let Some(run) = unit {
-            let (rc, out, _) = finish(run);
-            let want = "refused for positions in metres";
-            let last = out.lines().rev().find(|l| l.contains(want)).unwrap_or("");
-            let ok = rc == 1 && last.contains("UnknownModelUnit");
-            println!(
-                "fw-faults {:<22} exit {rc} (want 1), log {:?} {}",
-                "unit-mismatch",
-                last.trim(),
-                if ok { "ok" } else { "FAILED" }
-            );
-            bad += (!ok) as i32;
-        } else {
-            println!("fw-faults unit-mismatch          FAILED: weights/{unitless}.gpec missing");
-            bad += 1;
-        }
-        for (f, want_rc, wants, run) in attacks {
-            let (rc, out, _) = finish(run);
-            let found: Vec<&str> = wants
-                .iter()
-                .filter_map(|w| out.lines().find(|l| l.contains(w)))
-                .collect();
-            let ok = rc == want_rc && found.len() == wants.len();
-            println!(
-                "fw-faults {f:<22} exit {rc} (want {want_rc}), log {:?} {}",
-                found.iter().map(|l| l.trim()).collect::<Vec<_>>(),
-                if ok { "ok" } else { "FAILED" }
-            );
-            bad += (!ok) as i32;
-        }
-        (bad != 0) as i32
-    })
 }
 
 pub(crate) fn fw_test(tests: bool) -> i32 {

@@ -23,6 +23,7 @@ use clap::{Args, Parser, Subcommand};
 
 mod defmt;
 mod elf;
+mod faults;
 mod ffi;
 mod firmware;
 mod fuzz;
@@ -55,7 +56,7 @@ enum Cmd {
     /// Check gpecnet-core alone for thumbv7em-none-eabihf (-Zbuild-std=core) in all feature
     /// combinations, and build and link its embassy example.
     BuildCoreThumb,
-    /// Build the firmware (release; trailing ARGS go to cargo, e.g. --features force-panic).
+    /// Build the firmware (release; trailing ARGS go to cargo, e.g. --features micromath).
     FwBuild(FwArgs),
     /// Build and run the firmware in QEMU (decoded defmt on stdout).
     FwRun(FwArgs),
@@ -214,7 +215,7 @@ fn main() {
         Cmd::FwBuild(a) => firmware::fw_build(&a.opts(), &[]),
         Cmd::FwRun(a) => firmware::fw_run(&a.opts()),
         Cmd::Qemu(a) => replay::qemu(&a.opts()),
-        Cmd::FwFaults(a) => firmware::fw_faults(&a.opts()),
+        Cmd::FwFaults(a) => faults::fw_faults(&a.opts()),
         Cmd::FwTest { no_tests } => firmware::fw_test(!no_tests),
         Cmd::Profile(a) => {
             let only_fixed = a.path.as_deref().map(|p| p == "q15");

@@ -112,18 +112,22 @@ fn pack_batches(dir: &Path, models: &[String], budget: u64) -> Vec<Vec<String>> 
     batches_by(models, size, pack::HEADER_LEN as u64, budget)
 }
 
-/// The model pack of `batch` (gpecnet_replay::pack), read from `dir`.
-fn model_pack(dir: &Path, batch: &[String], budget: u64) -> Result<Vec<u8>, String> {
+/// The model pack of `batch` (gpecnet_replay::pack), read from `dir`, each blob
+/// passed through `edit` first (the fault proofs corrupt one; the replay changes nothing).
+pub(crate) fn model_pack_with(
+    dir: &Path,
+    batch: &[String],
+    budget: u64,
+    edit: impl Fn(&mut Vec<u8>),
+) -> Result<Vec<u8>, String> {
     let read =
         |p: std::path::PathBuf| std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()));
     let files = batch
         .iter()
         .map(|m| {
-            Ok((
-                m.as_str(),
-                read(blob_path(dir, m))?,
-                read(golden_path(dir, m))?,
-            ))
+            let mut blob = read(blob_path(dir, m))?;
+            edit(&mut blob);
+            Ok((m.as_str(), blob, read(golden_path(dir, m))?))
         })
         .collect::<Result<Vec<_>, String>>()?;
     let models: Vec<(&str, &[u8], &[u8])> =
@@ -320,7 +324,7 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
             eprintln!("xtask: {} image with {}", mcu.name, batch.join(", "));
             let copy = log_dir.join(format!("golden-{i}.elf"));
             let image = built.clone().and_then(|mut image| {
-                model_pack(dir, batch, mcu.image_data_budget)
+                model_pack_with(dir, batch, mcu.image_data_budget, |_| {})
                     .and_then(|p| fill_symbol(&mut image, "GPECNET_MODEL_PACK", &p))
                     .and_then(|()| {
                         std::fs::write(&copy, &image)
