@@ -89,13 +89,23 @@
 //! the dense layers' inner loops in inline assembly (`SMLALD` for Q15,
 //! `VMLA.F32` for f32, `docs/kernels.md`); on x86-64 the CPUID check and
 //! the call into the batched f32 lanes compiled with AVX2
-//! ([`batch::set_wide_vectors`], `docs/host-speed.md`). Every target keeps
+//! ([`batch::set_wide_vectors`], `docs/host-speed.md`); with the
+//! `softfloat` feature on an Arm core without an FPU, the exported `f32`
+//! multiply, add and subtract (`__aeabi_fmul`, `__aeabi_fadd`,
+//! `__aeabi_fsub`) and their calls into compiler-builtins. Every target keeps
 //! the portable loops of [`fixed`], [`float`] and the lanes, which are the
 //! reference; both give the same bits.
 //!
 //! ## Features
 //! - `defmt`: `defmt::Format` on public types, for logging on a device.
 //! - `micromath`: `sine::MicromathSine`, micromath's approximate sine.
+//! - `signed`: Ed25519 verification of signed blobs (`Model::from_signed_blob`).
+//! - `softfloat`: on a core without an FPU (Cortex-M0/M0+, `thumbv6m`), a
+//!   faster `f32` multiply, add and subtract, bit-exact with
+//!   compiler-builtins' (which stay for zeros, subnormals, infinities and NaN):
+//!   15 % fewer instructions in the Cortex-M0's f32 golden replay
+//!   (`docs/kernels.md`). Off by default: it defines the `__aeabi_*` symbols,
+//!   which a program may define itself.
 //!
 //! ## Resource use
 //! `Model` is a ~1.5 KiB view (the weights stay in the blob).
@@ -105,7 +115,7 @@
 //! [`engine`]).
 #![no_std]
 // `unsafe` only in the private `kernels` module (Cortex-M4/M7 inline
-// assembly, the x86-64 AVX2 dispatch), allowed there alone.
+// assembly, the x86-64 AVX2 dispatch, the soft-float exports), allowed there alone.
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 // No panicking helpers in library code; slice indexing is used only where
