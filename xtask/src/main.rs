@@ -31,6 +31,7 @@ mod mcu;
 mod modules;
 mod profile;
 mod replay;
+mod snapshot;
 mod thumb;
 mod toolchain;
 
