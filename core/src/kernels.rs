@@ -12,8 +12,9 @@
 //!   when the CPU has it (`docs/host-speed.md`).
 //! - `softfloat` (feature `softfloat`, `cfg(all(target_arch = "arm",
 //!   target_os = "none"))`, for cores without an FPU): a faster, bit-exact
-//!   `__aeabi_fmul` replacing compiler-builtins' (`docs/kernels.md`); its
-//!   arithmetic is portable and tested against the host FPU.
+//!   `__aeabi_fmul`, `__aeabi_fadd` and `__aeabi_fsub` over compiler-builtins'
+//!   (`docs/kernels.md`); their arithmetic is portable and tested against the
+//!   host FPU.
 
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
 mod arm;
