@@ -71,35 +71,43 @@ trait Path {
     fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError>;
 }
 
+/// The one-track entry points, the same methods on both paths' predictors
+/// (`self.0`): written once for both `Path` impls.
+macro_rules! single_track {
+    () => {
+        fn samples(
+            &mut self,
+            past: &Past,
+            seed: u64,
+            out: &mut [[f32; 2]],
+        ) -> Result<(), PredictError> {
+            self.0.predict_samples(past, seed, out)
+        }
+        fn endpoint_set(
+            &mut self,
+            past: &Past,
+            seed: u64,
+            out: &mut [[f32; 2]],
+        ) -> Result<(), PredictError> {
+            self.0
+                .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, out)
+        }
+        fn trajectories(
+            &mut self,
+            past: &Past,
+            seed: u64,
+            out: &mut [Trajectory],
+        ) -> Result<(), PredictError> {
+            self.0.predict_trajectories(past, seed, out)
+        }
+    };
+}
+
 /// The scalar path (`Predictor`): the reference.
 struct Scalar<'m, S: Sine>(Box<Predictor<'m, S, 1024>>);
 
 impl<S: Sine> Path for Scalar<'_, S> {
-    fn samples(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.0.predict_samples(past, seed, out)
-    }
-    fn endpoint_set(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.0
-            .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, out)
-    }
-    fn trajectories(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        self.0.predict_trajectories(past, seed, out)
-    }
+    single_track!();
     fn endpoint_sets(
         &mut self,
         q: &[Query<'_>],
@@ -143,31 +151,7 @@ impl<S: Sine> Path for Scalar<'_, S> {
 struct Batched<'m, S: Sine, const L: usize>(Box<BatchPredictor<'m, S, 1024, L>>);
 
 impl<S: Sine, const L: usize> Path for Batched<'_, S, L> {
-    fn samples(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.0.predict_samples(past, seed, out)
-    }
-    fn endpoint_set(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.0
-            .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, out)
-    }
-    fn trajectories(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        self.0.predict_trajectories(past, seed, out)
-    }
+    single_track!();
     fn endpoint_sets(
         &mut self,
         q: &[Query<'_>],
