@@ -90,7 +90,9 @@ pub fn by_name(name: &str) -> Option<&'static Mcu> {
 impl Mcu {
     /// The firmware's cargo target directory for this class: firmware/target
     /// for the M4F (the firmware's default), `firmware/target/mcu-<name>` for
-    /// the others, so switching classes never rebuilds another's artefacts.
+    /// the others, so one class's build never replaces another's ELF. The
+    /// intermediate artefacts of all of them live in one build directory
+    /// ([`crate::toolchain::deb_build_dir`]).
     pub fn target_dir(&self, root: &Path) -> PathBuf {
         if self.name == M4F.name {
             root.join("firmware/target")
