@@ -66,8 +66,24 @@ pub(crate) fn require_models(dir: &Path) -> Vec<String> {
     m
 }
 
+/// The one build directory (cargo's `build.build-dir`: intermediate artefacts) of every
+/// firmware build: all MCU classes, images and features. Each class keeps its own target
+/// directory for its ELFs ([`mcu::Mcu::target_dir`]), so one class's build never replaces
+/// another's; what their builds have in common is compiled once, not once per target
+/// directory: the proc macros and build scripts (about 75 s of CPU, a third of a firmware
+/// build from empty) and, per target and flags, `core` and the crates below the firmware.
+/// Units differ by their hash (target, features, profile, RUSTFLAGS), so the M7's
+/// `-C target-cpu=cortex-m7` units never replace the M4F's. Cargo locks the directory:
+/// builds started side by side take turns. (The library's own thumb builds,
+/// `target/thumb-core`, resolve their proc macros' features in the root workspace, so they
+/// would share nothing here and keep their own directory.)
+pub(crate) fn fw_build_dir() -> PathBuf {
+    root().join("firmware/target/build")
+}
+
 pub(crate) fn fw_cargo(o: &Opts) -> Command {
     let mut c = deb_cargo(&root().join("firmware"));
+    c.env("CARGO_BUILD_BUILD_DIR", fw_build_dir());
     if let Some(w) = &o.weights {
         c.env("GPECNET_WEIGHTS_DIR", w);
     }

@@ -92,7 +92,7 @@ impl Mcu {
     /// for the M4F (the firmware's default), `firmware/target/mcu-<name>` for
     /// the others, so one class's build never replaces another's ELF. The
     /// intermediate artefacts of all of them live in one build directory
-    /// ([`crate::toolchain::deb_build_dir`]).
+    /// ([`crate::firmware::fw_build_dir`]).
     pub fn target_dir(&self, root: &Path) -> PathBuf {
         if self.name == M4F.name {
             root.join("firmware/target")

@@ -53,24 +53,8 @@ pub(crate) fn deb_cargo(dir: &Path) -> Command {
     for v in LEAKY {
         c.env_remove(v);
     }
-    c.env("RUSTC_BOOTSTRAP", "1")
-        .env("RUSTC", DEB_RUSTC)
-        .env("CARGO_BUILD_BUILD_DIR", deb_build_dir());
+    c.env("RUSTC_BOOTSTRAP", "1").env("RUSTC", DEB_RUSTC);
     c
-}
-
-/// The one build directory (cargo's `build.build-dir`: intermediate artefacts) of every
-/// Debian-cargo build xtask starts: the firmware for each MCU class and the library alone
-/// for the Cortex-M4F. Their final artefacts still go to their own target directories
-/// ([`crate::mcu::Mcu::target_dir`], `target/thumb-core`), so one class's build never
-/// replaces another's ELF; what they have in common is compiled once, not once per target
-/// directory: the host side (proc macros, build scripts: about 75 s of CPU per target
-/// directory) and, per target and flags, `core` and every crate below the firmware. Units
-/// differ by their hash (target, features, profile, RUSTFLAGS), so the M7's
-/// `-C target-cpu=cortex-m7` build never overwrites the M4F's. Cargo locks the directory:
-/// builds started side by side take turns.
-pub(crate) fn deb_build_dir() -> PathBuf {
-    root().join("target/deb-build")
 }
 
 /// `cargo build --locked --release -p <package> <what> --target thumbv7em-none-eabihf
