@@ -70,8 +70,9 @@ pub(crate) fn require_models(dir: &Path) -> Vec<String> {
 /// firmware build: all MCU classes, images and features. Each class keeps its own target
 /// directory for its ELFs ([`mcu::Mcu::target_dir`]), so one class's build never replaces
 /// another's; what their builds have in common is compiled once, not once per target
-/// directory: the proc macros and build scripts (about 75 s of CPU, a third of a firmware
-/// build from empty) and, per target and flags, `core` and the crates below the firmware.
+/// directory: the proc macros and build scripts (about 75 s of the ~170 s of CPU a firmware
+/// build from empty takes) and, per target and flags, `core` and the crates below the
+/// firmware.
 /// Units differ by their hash (target, features, profile, RUSTFLAGS), so the M7's
 /// `-C target-cpu=cortex-m7` units never replace the M4F's. Cargo locks the directory:
 /// builds started side by side take turns. (The library's own thumb builds,
