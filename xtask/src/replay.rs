@@ -47,12 +47,29 @@ struct Replay {
     models: BTreeMap<String, (bool, Option<u32>)>,
 }
 
-/// A model of `dir` on `mcu`: `Ok(width)` when it can be embedded, else why not.
-fn fit(dir: &Path, m: &str, mcu: &Mcu) -> Result<usize, String> {
+/// How an image holds a model's blob and golden file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stored {
+    /// In the model pack the golden image reads at run time: the pack's header, the
+    /// model's entry, its name and the padding before its blob take room too.
+    Pack,
+    /// Linked into the image as statics (the profile images).
+    Linked,
+}
+
+/// A model of `dir` on `mcu`, held as `stored` says: `Ok(width)` when it can be
+/// embedded, else why not.
+fn fit(dir: &Path, m: &str, mcu: &Mcu, stored: Stored) -> Result<usize, String> {
     let blob = std::fs::read(blob_path(dir, m)).unwrap_or_default();
     let golden = std::fs::metadata(golden_path(dir, m)).map_or(0, |md| md.len());
     let width = gpecnet_core::Model::from_blob(&blob).map_or(0, |m| m.scratch_width());
-    let bytes = blob.len() as u64 + golden;
+    let (bytes, what) = match stored {
+        Stored::Linked => (blob.len() as u64 + golden, "blob + golden"),
+        Stored::Pack => (
+            (pack::HEADER_LEN + pack::max_entry_len(m.len(), blob.len(), golden as usize)) as u64,
+            "its model pack",
+        ),
+    };
     if mcu.fits(width, bytes) {
         Ok(width)
     } else if width > mcu.max_width {
@@ -62,7 +79,7 @@ fn fit(dir: &Path, m: &str, mcu: &Mcu) -> Result<usize, String> {
         ))
     } else {
         Err(format!(
-            "not embedded: blob + golden {bytes} B > {} B of image data (flash)",
+            "not embedded: {what} {bytes} B > {} B of image data (flash)",
             mcu.image_data_budget
         ))
     }
@@ -277,7 +294,7 @@ fn class_report(
 fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut String) -> Replay {
     let mut models = Vec::new();
     for m in all {
-        match fit(dir, m, mcu) {
+        match fit(dir, m, mcu, Stored::Pack) {
             Ok(_) => models.push(m.clone()),
             Err(why) => {
                 outln!(log, "qemu: {m:<16} {why}");
@@ -541,7 +558,7 @@ fn profile_class(
     let mut ok = true;
     let mut by_path: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     for m in all {
-        match fit(dir, m, mcu) {
+        match fit(dir, m, mcu, Stored::Linked) {
             Ok(_) => {
                 let path = if blob_is_fixed(&blob_path(dir, m)) {
                     FIXED_PATH
@@ -668,4 +685,33 @@ fn matrix_table(rows: &[Row], exact: bool) -> String {
         mcu::M7.describe
     );
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{fit, Stored};
+    use crate::mcu;
+
+    /// A model whose blob and golden file fit the M0's image data exactly fits an image
+    /// that links them, but not the golden image's model pack, whose header, entry, name
+    /// and blob padding take room too: the replay must say so instead of failing to
+    /// write the pack.
+    #[test]
+    fn the_model_pack_counts_its_own_bytes() {
+        let dir = std::env::temp_dir().join(format!("gpecnet-xtask-fit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let budget = mcu::M0.image_data_budget as usize;
+        // Not a blob the core reads (scratch width 0): only the bytes count here.
+        std::fs::write(dir.join("m.gpec"), vec![0u8; budget - 100]).unwrap();
+        std::fs::write(dir.join("m.golden"), vec![0u8; 100]).unwrap();
+        let linked = fit(&dir, "m", &mcu::M0, Stored::Linked);
+        let packed = fit(&dir, "m", &mcu::M0, Stored::Pack);
+        std::fs::write(dir.join("m.golden"), vec![0u8; 10]).unwrap();
+        let small = fit(&dir, "m", &mcu::M0, Stored::Pack);
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(linked, Ok(0));
+        let why = packed.unwrap_err();
+        assert!(why.contains("its model pack"), "{why}");
+        assert_eq!(small, Ok(0));
+    }
 }
