@@ -140,6 +140,7 @@ mod kernels;
 mod lanes;
 #[doc(hidden)]
 pub mod math;
+pub mod online;
 pub mod output;
 pub mod planner;
 pub mod predictor;
