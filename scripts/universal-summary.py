@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""The tables of docs/generalisation.md, "One model for every scene", from the eval JSONs that
+scripts/universal-runs.sh writes (every number through gpecnet-core, fixed point, K = 20).
+
+Usage: scripts/universal-summary.py [RUNS]   (default runs/universal)
+"""
+import glob, json, os, re, statistics, sys
+
+runs = sys.argv[1] if len(sys.argv) > 1 else "runs/universal"
+ETH = ["eth", "hotel", "univ", "zara1", "zara2"]
+
+
+def load(p):
+    return json.load(open(p)) if os.path.exists(p) else None
+
+
+def ms(xs, d=3):
+    if len(xs) == 1:
+        return f"{xs[0]:.{d}f}"
+    return f"{statistics.mean(xs):.{d}f} ± {statistics.stdev(xs):.{d}f}"
+
+
+def seeds_of(sc):
+    out = {}
+    for p in glob.glob(os.path.join(runs, f"uni-{sc}-s*-eth_ucy_{sc}.json")):
+        s = int(re.search(r"-s(\d+)-eth_ucy", p).group(1))
+        sdd = load(os.path.join(runs, f"uni-{sc}-s{s}-sdd-m.json"))
+        if sdd is None:
+            continue
+        rd = os.path.join(runs, f"uni-{sc}-s{s}")
+        lines = [json.loads(l) for l in open(os.path.join(rd, "metrics.jsonl"))]
+        best = min(lines, key=lambda r: r["val"]["min_fde"])
+        prop = load(rd + "-h8/proposal.json")
+        out[s] = {"t": load(p), "sdd": sdd, "best_epoch": best["epoch"], "epochs": len(lines),
+                  "val_fde": best["val"]["min_fde"],
+                  "prop_val": prop["val"]["val_min_fde"] if prop else None,
+                  "prop_epoch": prop["epoch"] if prop else None}
+    return dict(sorted(out.items()))
+
+
+print("| target | seeds | universal on target: minADE / minFDE (m) | universal on SDD test (m; px) "
+      "| sdd-m-lp-qe on target (zero-shot) | universal point FDE | CV FDE | best epoch (val) / proposal val minFDE |")
+print("|---|---|---|---|---|---|---|---|")
+base_sdd = load(os.path.join(runs, "baseline", "sdd-m-lp-qe-sdd-m.json"))
+done = {}
+for sc in ETH:
+    r = seeds_of(sc)
+    if not r:
+        continue
+    done[sc] = r
+    b = load(os.path.join(runs, "baseline", f"sdd-m-lp-qe-eth_ucy_{sc}.json"))
+    t = [x["t"] for x in r.values()]
+    s = [x["sdd"] for x in r.values()]
+    print(f"| {sc.upper()} | {','.join(map(str, r))} | {ms([x['min_ade'] for x in t])} / "
+          f"{ms([x['min_fde'] for x in t])} | {ms([x['min_ade'] for x in s])} / "
+          f"{ms([x['min_fde'] for x in s])}; {ms([x['min_ade_px'] for x in s], 2)} / "
+          f"{ms([x['min_fde_px'] for x in s], 2)} px | {b['min_ade']:.3f} / {b['min_fde']:.3f} | "
+          f"{ms([x['point_fde'] for x in t])} (zero-shot: {b['point_fde']:.3f}) | {t[0]['cv_fde']:.3f} | "
+          + ", ".join(f"{x['best_epoch']}/{x['epochs']} {x['val_fde']:.3f} m / {x['prop_val']:.3f} m"
+                      for x in r.values()) + " |")
+print(f"| SDD, shipped `sdd-m-lp-qe` (in domain) | – | – | {base_sdd['min_ade']:.3f} / "
+      f"{base_sdd['min_fde']:.3f}; {base_sdd['min_ade_px']:.2f} / {base_sdd['min_fde_px']:.2f} px | – | – | "
+      f"{base_sdd['cv_fde']:.3f} | – |")
+
+# Leave-one-out average over the scenes finished with all seeds: per seed, then mean ± std.
+full = [sc for sc in done if len(done[sc]) >= 3]
+if full:
+    seeds = sorted(set.intersection(*(set(done[sc]) for sc in full)))
+    avg = lambda k: [statistics.mean(done[sc][s]["t"][k] for sc in full) for s in seeds]
+    bl = [load(os.path.join(runs, "baseline", f"sdd-m-lp-qe-eth_ucy_{sc}.json")) for sc in full]
+    print()
+    print(f"Average over {', '.join(x.upper() for x in full)} (seeds {seeds}): universal "
+          f"{ms(avg('min_ade'))} / {ms(avg('min_fde'))} m; sdd-m-lp-qe "
+          f"{statistics.mean(x['min_ade'] for x in bl):.3f} / {statistics.mean(x['min_fde'] for x in bl):.3f} m; "
+          f"point FDE {ms(avg('point_fde'))} vs CV {statistics.mean(x['cv_fde'] for x in bl):.3f} m")
