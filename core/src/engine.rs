@@ -395,6 +395,11 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
     /// exponent `ez`. [`PredictError::BadSampleCount`] past the model's
     /// [`Model::proposal_latents`].
     fn proposed_latent(&mut self, zdim: usize, ez: i8) -> Result<(), PredictError> {
+        // The stream has K latents; the rows after them (a format-6 model's
+        // logits) are not latents and must never be decoded as one.
+        if self.drawn >= self.model.proposal_latents() {
+            return Err(PredictError::BadSampleCount);
+        }
         let first = self
             .drawn
             .checked_mul(zdim)
@@ -558,7 +563,8 @@ impl<'a, B: Backend, const W: usize> Engine<'a, B, W> {
         out: &mut [[f32; 2]],
     ) -> Result<(), PredictError> {
         let ext = *self.model.extensions();
-        crate::sampling::endpoint_set::<N>(&ext, out, |n, buf| {
+        let most = crate::sampling::stream_bound(&self.model);
+        crate::sampling::endpoint_set::<N>(&ext, most, out, |n, buf| {
             self.start(past, seed)?;
             for _ in 0..n {
                 let e = self.next_endpoint()?;

@@ -25,14 +25,17 @@ use crate::cluster::{kmeans_reduce, Init};
 use crate::output::PredictError;
 
 /// Fills `out` (length `k`) by the protocol of `ext`, drawing samples with
-/// `draw(n, buffer)`; `N` is the most samples the buffer holds.
+/// `draw(n, buffer)`; `N` is the most samples the buffer holds. `most` is
+/// [`stream_bound`] of the model: a `k` above it is
+/// [`PredictError::BadSampleCount`] before anything is drawn.
 pub(crate) fn endpoint_set<const N: usize>(
     ext: &Extensions,
+    most: usize,
     out: &mut [[f32; 2]],
     mut draw: impl FnMut(usize, &mut heapless::Vec<[f32; 2], N>) -> Result<(), PredictError>,
 ) -> Result<(), PredictError> {
     let n = samples_needed(ext, out.len());
-    if out.is_empty() || out.len() > n {
+    if out.is_empty() || out.len() > n || out.len() > most {
         return Err(PredictError::BadSampleCount);
     }
     if n > N {
@@ -106,6 +109,14 @@ pub fn max_endpoints_of(model: &crate::Model<'_>, capacity: usize) -> usize {
     } else {
         max_endpoints(model.extensions(), capacity)
     }
+}
+
+/// The most endpoints `model` gives whatever the caller's buffer:
+/// [`max_endpoints_of`] with an unbounded capacity (K for a proposal model,
+/// `min(tts_samples, MAX_CENTERS)` with test-time sampling, no bound for
+/// plain sampling). The capacity check (`CapacityExceeded`) stays separate.
+pub(crate) fn stream_bound(model: &crate::Model<'_>) -> usize {
+    max_endpoints_of(model, usize::MAX)
 }
 
 /// Samples a prediction of `k` endpoints draws under the protocol of `ext`

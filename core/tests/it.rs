@@ -4,6 +4,7 @@
 //! `cargo xtask check-modules` fails when a file of this folder is missing below.
 mod blob_corruption;
 mod common;
+mod endpoint_bound;
 mod fixed_blob;
 mod fixed_sine;
 mod guards;

@@ -128,7 +128,9 @@
 // `past_len` differs from the model's observed steps.
 #define GPECNET_E_WRONG_PAST_LENGTH 31
 
-// The number of endpoints asked for is 0 or more than the model's test-time samples.
+// The number of endpoints asked for is 0 or more than the model gives
+// (`GpecnetModelInfo::max_endpoints`: its test-time samples, at most 64, or a
+// proposal model's K latents).
 #define GPECNET_E_BAD_SAMPLE_COUNT 32
 
 // The endpoint set needs more than [`GPECNET_MAX_SAMPLES`] samples, or a

@@ -61,7 +61,9 @@ pub const GPECNET_E_BLOB_BAD_SCALE: i32 = 21;
 pub const GPECNET_E_SCRATCH_TOO_SMALL: i32 = 30;
 /// `past_len` differs from the model's observed steps.
 pub const GPECNET_E_WRONG_PAST_LENGTH: i32 = 31;
-/// The number of endpoints asked for is 0 or more than the model's test-time samples.
+/// The number of endpoints asked for is 0 or more than the model gives
+/// (`GpecnetModelInfo::max_endpoints`: its test-time samples, at most 64, or a
+/// proposal model's K latents).
 pub const GPECNET_E_BAD_SAMPLE_COUNT: i32 = 32;
 /// The endpoint set needs more than [`GPECNET_MAX_SAMPLES`] samples, or a
 /// model output is longer than [`GPECNET_MAX_FUTURE`] points.

@@ -382,3 +382,77 @@ fn resealed_corruption_is_refused_or_predicts_safely() {
     );
     assert!(refused > 0);
 }
+
+/// `gpecnet_model_info`'s `max_endpoints` is what `gpecnet_predict_endpoints` and
+/// `gpecnet_predict_forecast` accept, for every shipped blob (formats 1 to 6, f32 and
+/// Q15): `k = max_endpoints` is answered, one more is refused. A proposal model (format 5
+/// or 6) ends its stream after its K latents: `sdd-m-lp-qe` gives 20 endpoints, and
+/// `k = 21` is `GPECNET_E_BAD_SAMPLE_COUNT` (its logit rows are not a 21st latent).
+#[test]
+fn every_shipped_blob_refuses_max_endpoints_plus_one() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".gpec"))
+        .collect();
+    names.sort();
+    let mut s = Storage::new();
+    let (mut checked, mut proposals) = (0, 0);
+    for name in &names {
+        let blob = weights(name);
+        let st = init(&mut s, &blob);
+        if st == GPECNET_E_SCRATCH_TOO_SMALL {
+            continue; // a host-only model (wider than the C ABI's scratch)
+        }
+        assert_eq!(st, GPECNET_OK, "{name}");
+        // SAFETY: test: a zeroed plain C struct, written by the call.
+        let mut info = unsafe { std::mem::zeroed::<GpecnetModelInfo>() };
+        // SAFETY: test: an initialised predictor and a valid out pointer.
+        assert_eq!(unsafe { gpecnet_model_info(s.p(), &mut info) }, GPECNET_OK);
+        let most = info.max_endpoints as usize;
+        assert!(most >= 1, "{name}");
+        assert_eq!(endpoints(&mut s, most).0, GPECNET_OK, "{name}: k = {most}");
+        let (over, out) = endpoints(&mut s, most + 1);
+        let want = if most == GPECNET_MAX_SAMPLES {
+            GPECNET_E_CAPACITY_EXCEEDED
+        } else {
+            GPECNET_E_BAD_SAMPLE_COUNT
+        };
+        assert_eq!(over, want, "{name}: k = max_endpoints + 1 = {}", most + 1);
+        assert!(out.iter().all(|&v| v == 0.0), "{name}: nothing written");
+        let core = gpecnet_core::Model::from_blob(&blob).unwrap();
+        if core.has_proposal() {
+            proposals += 1;
+            assert_eq!(most, core.proposal_latents(), "{name}: K");
+            let mut ends = vec![0.0f32; 2 * (most + 1)];
+            let mut probs = vec![0.0f32; most + 1];
+            // SAFETY: test: a zeroed plain C struct, written by the call.
+            let mut planner = unsafe { std::mem::zeroed::<GpecnetPlanner>() };
+            // SAFETY: test: PAST has 8 points, the buffers room for K + 1.
+            let st = unsafe {
+                gpecnet_predict_forecast(
+                    s.p(),
+                    PAST.as_ptr(),
+                    8,
+                    7,
+                    ends.as_mut_ptr(),
+                    probs.as_mut_ptr(),
+                    most + 1,
+                    &mut planner,
+                )
+            };
+            assert_eq!(st, GPECNET_E_BAD_SAMPLE_COUNT, "{name}: forecast K + 1");
+        }
+        checked += 1;
+    }
+    assert!(
+        checked >= 10 && proposals >= 2,
+        "{checked} blobs, {proposals} proposals"
+    );
+    // The MCU default, by name.
+    assert_eq!(init(&mut s, &weights("sdd-m-lp-qe.gpec")), GPECNET_OK);
+    assert_eq!(endpoints(&mut s, 20).0, GPECNET_OK);
+    assert_eq!(endpoints(&mut s, 21).0, GPECNET_E_BAD_SAMPLE_COUNT);
+    assert_eq!(endpoints(&mut s, 22).0, GPECNET_E_BAD_SAMPLE_COUNT);
+}

@@ -330,7 +330,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         let ext = *self.model.extensions();
         let n = crate::sampling::samples_needed(&ext, k);
         check_len(queries.len(), k, out.len())?;
-        if k == 0 || k > n {
+        if k == 0 || k > n || k > crate::sampling::stream_bound(&self.model) {
             return Err(QueryError::of_call(PredictError::BadSampleCount));
         }
         if n > N {

@@ -99,6 +99,10 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             return Err(QueryError::of_call(PredictError::NoPredictor));
         }
         if self.model.has_proposal() {
+            // The stream has K latents: more is refused before any track runs.
+            if k > crate::sampling::stream_bound(&self.model) {
+                return Err(QueryError::of_call(PredictError::BadSampleCount));
+            }
             return self.run_scalar(queries, k, trajectories, emit);
         }
         for (gi, group) in queries.chunks(L).enumerate() {
