@@ -327,7 +327,10 @@ impl ArtefactWriter {
             .map(|e| staging.join(format!("{}.{e}", self.name)))
             .collect();
         for (p, bytes) in staged.iter().zip(contents) {
-            let mut f = fs::File::create(p).map_err(io(format!("creating {}", p.display())))?;
+            // Exclusive and never through a link: the staging folder is new, so any entry
+            // in it was planted.
+            let mut f = crate::rundir::create_exclusive(p, 0o666)
+                .map_err(io(format!("creating {}", p.display())))?;
             f.write_all(bytes)
                 .and_then(|()| f.sync_all())
                 .map_err(io(format!("writing {}", p.display())))?;

@@ -14,9 +14,12 @@
 //!   the lock and stale temp files) is refused unless `--force` (then `config.toml`,
 //!   `metrics.*` and `curves.svg` are overwritten); a folder with a checkpoint is continued
 //!   with `--resume`, never restarted.
-//! * **Temp files.** Atomic writes go through `.<name>.tmp.<pid>` files in the folder
-//!   ([`write_atomic`]). Once a run holds the lock, every such file of
-//!   another pid is a leftover of a killed run and [`remove_stale_temp_files`] deletes it.
+//! * **Temp files.** Atomic writes go through `.<name>.tmp.<pid>.<nonce>` files in the
+//!   folder ([`write_atomic`], [`create_temp`]): created exclusively (`O_CREAT|O_EXCL`,
+//!   `O_NOFOLLOW`) under a name no other process can predict, so a file or symbolic link
+//!   planted at a temp name is never written through (another name is drawn), and removed
+//!   on any failure. Once a run holds the lock, every such file of another pid is a
+//!   leftover of a killed run and [`remove_stale_temp_files`] deletes it.
 
 use std::fs::{self, OpenOptions};
 use std::io::Write;
@@ -203,15 +206,17 @@ fn create_lock(path: &Path, owner: &LockOwner) -> std::io::Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
-    let _ = fs::remove_file(&tmp);
-    let written = (|| -> std::io::Result<()> {
-        let mut f = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-        f.write_all(owner.to_text().as_bytes())?;
-        f.sync_all()
-    })();
-    let linked = written.and_then(|()| fs::hard_link(&tmp, path));
-    let _ = fs::remove_file(&tmp);
+    let linked = match create_temp(dir, &name, 0o666) {
+        Ok((tmp, mut f)) => {
+            let linked = f
+                .write_all(owner.to_text().as_bytes())
+                .and_then(|()| f.sync_all())
+                .and_then(|()| fs::hard_link(&tmp, path));
+            let _ = fs::remove_file(&tmp);
+            linked
+        }
+        Err(e) => Err(e),
+    };
     match linked {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Err(e),
@@ -219,7 +224,7 @@ fn create_lock(path: &Path, owner: &LockOwner) -> std::io::Result<()> {
         Err(_) => {
             // No hard links here (or the temp file could not be made): create the lock
             // directly and remove it again if it cannot be written completely.
-            let mut f = OpenOptions::new().write(true).create_new(true).open(path)?;
+            let mut f = create_exclusive(path, 0o666)?;
             let r = f
                 .write_all(owner.to_text().as_bytes())
                 .and_then(|()| f.sync_all());
@@ -247,14 +252,90 @@ impl Drop for RunLock {
 }
 
 /// `Some((target file name, pid))` when `name` is an atomic-write temp file
-/// `.<target>.tmp.<pid>`.
+/// `.<target>.tmp.<pid>.<nonce>` ([`create_temp`]; the nonce hexadecimal) or, as
+/// earlier versions named them, `.<target>.tmp.<pid>`.
 pub fn parse_temp_name(name: &str) -> Option<(&str, u32)> {
     let rest = name.strip_prefix('.')?;
-    let (target, pid) = rest.rsplit_once(".tmp.")?;
+    let (target, tail) = rest.rsplit_once(".tmp.")?;
+    let pid = match tail.split_once('.') {
+        Some((pid, nonce)) if !nonce.is_empty() && nonce.bytes().all(|b| b.is_ascii_hexdigit()) => {
+            pid
+        }
+        Some(_) => return None,
+        None => tail,
+    };
     if target.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
         return None;
     }
     Some((target, pid.parse().ok()?))
+}
+
+/// Attempts at a fresh temp name before [`create_temp`] gives up: each name is 64 random
+/// bits, so only names planted on purpose collide, and a folder cannot hold enough of them.
+const TEMP_ATTEMPTS: u32 = 64;
+
+/// A name no other process can predict: 64 bits from the standard library's per-process
+/// random hash keys, over a counter and the clock.
+fn nonce() -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(COUNTER.fetch_add(1, Ordering::Relaxed));
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    h.write_u128(now);
+    h.write_u32(std::process::id());
+    h.finish()
+}
+
+/// Opens `path` for writing only if it does not exist yet (`O_CREAT|O_EXCL`: an existing
+/// file, or a symbolic link even to nowhere, is `AlreadyExists`), never following a link
+/// (`O_NOFOLLOW`), with permissions `mode` (before the umask).
+pub fn create_exclusive(path: &Path, mode: u32) -> std::io::Result<fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .custom_flags(libc::O_NOFOLLOW | libc::O_CLOEXEC)
+        .mode(mode)
+        .open(path)
+}
+
+/// A fresh temp file for the target file name `name` in `dir`:
+/// `.<name>.tmp.<pid>.<nonce>`, created with [`create_exclusive`] (permissions `mode`
+/// before the umask); a name that exists (planted or not) is skipped for another.
+/// Returns the path and the open file; the caller removes the path on failure.
+pub fn create_temp(dir: &Path, name: &str, mode: u32) -> std::io::Result<(PathBuf, fs::File)> {
+    let mut last = None;
+    for _ in 0..TEMP_ATTEMPTS {
+        let tmp = temp_path(dir, name);
+        match create_exclusive(&tmp, mode) {
+            Ok(f) => return Ok((tmp, f)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    let e = last.unwrap_or_else(|| std::io::Error::from(std::io::ErrorKind::AlreadyExists));
+    Err(std::io::Error::new(
+        e.kind(),
+        format!(
+            "no fresh temp name for {name} in {} after {TEMP_ATTEMPTS} attempts: {e}",
+            dir.display()
+        ),
+    ))
+}
+
+/// A fresh temp name `.<name>.tmp.<pid>.<nonce>` in `dir` (not created: for a hard link,
+/// which refuses an existing name by itself).
+pub fn temp_path(dir: &Path, name: &str) -> PathBuf {
+    dir.join(format!(
+        ".{name}.tmp.{}.{:016x}",
+        std::process::id(),
+        nonce()
+    ))
 }
 
 /// Temp files `.<name>.tmp.<pid>` in `dir` (path, size) whose pid satisfies `keep`.
@@ -311,8 +392,9 @@ pub fn existing_entries(dir: &Path) -> Result<Vec<String>> {
 }
 
 /// The one atomic, durable write (checkpoints, metrics, blobs, golden files, cards): creates
-/// `path`'s folder if needed, then writes `bytes` through the temp file `.<name>.tmp.<pid>` in the same directory,
-/// fsync, rename, fsync the directory. On failure the temp file is removed, and the error
+/// `path`'s folder if needed, then writes `bytes` through a fresh temp file in the same
+/// directory ([`create_temp`]: exclusive, never through a link), fsync, rename, fsync the
+/// directory. On failure the temp file is removed, and the error
 /// names every temp file still in the directory (leftovers of killed runs that may be what
 /// fills the disk; see [`remove_stale_temp_files`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
@@ -326,20 +408,22 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let mut f = fs::File::create(&tmp)?;
+    let mut tmp = None;
+    let mut write = || -> std::io::Result<()> {
+        let (t, mut f) = create_temp(dir, &name, 0o666)?;
+        let t = tmp.insert(t);
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
-        fs::rename(&tmp, path)
+        fs::rename(t, path)
     };
     if let Err(e) = write() {
-        let removed = fs::remove_file(&tmp).is_ok();
+        // Only a temp file this call created is removed (never a planted name).
+        let removed = tmp.as_ref().filter(|t| fs::remove_file(t).is_ok());
         let left = temp_files(dir, |_| true);
         let mut msg = format!("writing {} failed: {e}", path.display());
-        if removed {
-            msg += &format!(" (removed the partial {})", tmp.display());
+        if let Some(t) = removed {
+            msg += &format!(" (removed the partial {})", t.display());
         }
         if !left.is_empty() {
             let total: u64 = left.iter().map(|(_, n)| n).sum();
@@ -373,6 +457,17 @@ mod tests {
         );
         assert_eq!(parse_temp_name("checkpoint.bin"), None);
         assert_eq!(parse_temp_name(".x.tmp.12a"), None);
+        assert_eq!(
+            parse_temp_name(".x.svg.tmp.42.00ff12ab00ff12ab"),
+            Some(("x.svg", 42))
+        );
+        assert_eq!(parse_temp_name(".x.tmp.42.zz"), None);
+        assert_eq!(parse_temp_name(".x.tmp.42."), None);
+        let dir = std::env::temp_dir();
+        let t = temp_path(&dir, "m.gpec");
+        let name = t.file_name().unwrap().to_str().unwrap();
+        assert_eq!(parse_temp_name(name), Some(("m.gpec", std::process::id())));
+        assert_ne!(t, temp_path(&dir, "m.gpec"), "a fresh name per call");
         let o = LockOwner {
             pid: 7,
             host: "h".into(),
@@ -381,5 +476,80 @@ mod tests {
         assert_eq!(LockOwner::parse(&o.to_text()), Some(o));
         assert_eq!(LockOwner::parse("garbage"), None);
         assert!(!pid_is_dead(std::process::id()));
+    }
+
+    /// Links planted at the predictable temp name of earlier versions and at many other
+    /// temp names of this process, all pointing at a victim file.
+    fn plant(dir: &Path, name: &str, victim: &Path) -> Vec<PathBuf> {
+        let pid = std::process::id();
+        let mut links = vec![dir.join(format!(".{name}.tmp.{pid}"))];
+        for i in 0..200u64 {
+            links.push(dir.join(format!(".{name}.tmp.{pid}.{i:016x}")));
+            links.push(dir.join(format!(".{name}.tmp.{}", pid.wrapping_add(1 + i as u32))));
+        }
+        for l in &links {
+            std::os::unix::fs::symlink(victim, l).unwrap();
+        }
+        links
+    }
+
+    #[test]
+    fn an_atomic_write_never_follows_a_planted_link() {
+        let d = tempfile::tempdir().unwrap();
+        let victim = d.path().join("victim");
+        fs::write(&victim, b"precious").unwrap();
+        let links = plant(d.path(), "d.svg", &victim);
+        let out = d.path().join("d.svg");
+        write_atomic(&out, b"<svg/>").unwrap();
+        assert_eq!(fs::read(&out).unwrap(), b"<svg/>");
+        assert_eq!(
+            fs::read(&victim).unwrap(),
+            b"precious",
+            "the victim is untouched"
+        );
+        for l in &links {
+            assert!(fs::symlink_metadata(l).unwrap().file_type().is_symlink());
+        }
+        // Nothing of ours is left: every temp-named entry is a planted link.
+        let ours = temp_files(d.path(), |_| true);
+        assert!(ours.is_empty(), "{ours:?}");
+        // A lock is written the same way.
+        plant(d.path(), ".gpecnet.lock", &victim);
+        let lock = RunLock::acquire(d.path()).unwrap();
+        assert!(lock.path().is_file());
+        assert_eq!(fs::read(&victim).unwrap(), b"precious");
+    }
+
+    #[test]
+    fn create_exclusive_refuses_a_link_even_to_nowhere() {
+        let d = tempfile::tempdir().unwrap();
+        let victim = d.path().join("victim");
+        fs::write(&victim, b"precious").unwrap();
+        let link = d.path().join("l");
+        std::os::unix::fs::symlink(&victim, &link).unwrap();
+        let e = create_exclusive(&link, 0o600).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::AlreadyExists);
+        let dangling = d.path().join("nowhere");
+        std::os::unix::fs::symlink(d.path().join("missing"), &dangling).unwrap();
+        assert!(create_exclusive(&dangling, 0o600).is_err());
+        assert!(
+            !d.path().join("missing").exists(),
+            "no file made through the link"
+        );
+        assert_eq!(fs::read(&victim).unwrap(), b"precious");
+    }
+
+    #[test]
+    fn a_failed_atomic_write_removes_its_temp_file() {
+        let d = tempfile::tempdir().unwrap();
+        // The rename fails: the destination is a non-empty folder.
+        let out = d.path().join("busy");
+        fs::create_dir(&out).unwrap();
+        fs::write(out.join("inside"), b"x").unwrap();
+        let e = write_atomic(&out, b"data").unwrap_err();
+        assert!(e.to_string().contains("removed the partial"), "{e}");
+        assert!(temp_files(d.path(), |_| true).is_empty());
+        let names: Vec<_> = fs::read_dir(d.path()).unwrap().collect();
+        assert_eq!(names.len(), 1, "only the folder is left");
     }
 }

@@ -13,7 +13,7 @@
 //! previous or the new checkpoint, never a torn one. The replaced checkpoint is kept as
 //! `checkpoint.prev.bin`; `--resume` falls back to it, with a warning, when `checkpoint.bin`
 //! is unusable ([`load_for_resume`]). A kill during a write can leave the temp file
-//! `.checkpoint.bin.tmp.<pid>`; the next run into the folder deletes it
+//! `.checkpoint.bin.tmp.<pid>.<nonce>`; the next run into the folder deletes it
 //! ([`crate::rundir::remove_stale_temp_files`]) and a failed write names any that remain. Truncated or corrupted files are reported
 //! as [`CheckpointError`]s, never panics.
 
@@ -246,21 +246,41 @@ pub fn save(run_dir: &Path, ckpt: &Checkpoint) -> Result<(), CheckpointError> {
         // checkpoint.bin stays in place throughout: a second name for it (hard link, else a
         // copy) is renamed over the previous fallback.
         let prev = run_dir.join(PREV_FILE);
-        let prev_tmp = run_dir.join(format!(".{PREV_FILE}.tmp.{}", std::process::id()));
-        let _ = fs::remove_file(&prev_tmp);
-        fs::hard_link(&path, &prev_tmp)
-            .or_else(|_| fs::copy(&path, &prev_tmp).map(|_| ()))
-            .and_then(|()| fs::rename(&prev_tmp, &prev))
-            .map_err(|source| {
-                let _ = fs::remove_file(&prev_tmp);
-                CheckpointError::Io {
-                    path: prev.clone(),
-                    source,
-                }
+        // Fresh temp names only (a hard link and an exclusive create both refuse an
+        // existing name), so nothing planted in the folder is written through.
+        let linked = crate::rundir::temp_path(run_dir, PREV_FILE);
+        let staged = fs::hard_link(&path, &linked)
+            .map(|()| linked)
+            .or_else(|_| copy_to_temp(&path, run_dir));
+        staged
+            .and_then(|tmp| {
+                fs::rename(&tmp, &prev).inspect_err(|_| {
+                    let _ = fs::remove_file(&tmp);
+                })
+            })
+            .map_err(|source| CheckpointError::Io {
+                path: prev.clone(),
+                source,
             })?;
     }
     crate::rundir::write_atomic(&path, &bytes)
         .map_err(|source| CheckpointError::Io { path, source })
+}
+
+/// A copy of `src` in a fresh temp file of `dir` ([`crate::rundir::create_temp`]), removed
+/// again if the copy fails.
+fn copy_to_temp(src: &Path, dir: &Path) -> std::io::Result<PathBuf> {
+    let (tmp, mut f) = crate::rundir::create_temp(dir, PREV_FILE, 0o666)?;
+    let copied = fs::File::open(src)
+        .and_then(|mut from| std::io::copy(&mut from, &mut f))
+        .and_then(|_| f.sync_all());
+    match copied {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
 }
 
 /// Load the checkpoint of a run directory for `--resume`: `checkpoint.bin`, or, when that is

@@ -19,7 +19,8 @@ use super::Stats;
 fn write(out: &Path, name: &str, text: &str) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     let p = out.join(name);
-    std::fs::write(&p, text).with_context(|| format!("{}: cannot write", p.display()))
+    crate::rundir::write_atomic(&p, text.as_bytes())
+        .with_context(|| format!("{}: cannot write", p.display()))
 }
 
 /// `gpecnet abscore`: statistics table, per-trajectory CSV, distribution plot (tail thresholded
@@ -346,7 +347,7 @@ pub fn run_synth(
         .unwrap_or(Path::new("."));
     let (_, policy) = run_rl_train(rl_episodes, 16, 3e-3, seed, &dir.join("rl"))?;
     let pool = sample::build_pool(n, &sample::shares(&ct), &policy, seed)?;
-    std::fs::write(out_csv, sample::pool_csv(&pool)?)
+    crate::rundir::write_atomic(out_csv, sample::pool_csv(&pool)?.as_bytes())
         .with_context(|| format!("{}: cannot write", out_csv.display()))?;
     let mut cp = [0usize; 10];
     for it in &pool {

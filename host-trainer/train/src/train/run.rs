@@ -82,7 +82,10 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
     // Nothing is written before the data load: a run that fails there (wrong --data, a bad
     // file) leaves the folder as it was, so the corrected command needs no --force.
     let data = prepare_data(&cfg, &opts.data_root)?;
-    std::fs::write(opts.run_dir.join("config.toml"), cfg.to_toml_string()?)?;
+    rundir::write_atomic(
+        &opts.run_dir.join("config.toml"),
+        cfg.to_toml_string()?.as_bytes(),
+    )?;
     data.fingerprint.save(&opts.run_dir)?;
     let trainer = Trainer::new(cfg, data)?;
     run_loop(trainer, opts)
