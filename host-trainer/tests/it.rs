@@ -3,6 +3,7 @@
 //! per file. Run one file's tests with `cargo test -p gpecnet-trainer --test it <file>::`;
 //! `cargo xtask check-modules` fails when a file of this folder is missing below.
 mod cli_safety;
+mod cli_safety_surfaces;
 mod cli_snapshots;
 mod common;
 mod config_validation;

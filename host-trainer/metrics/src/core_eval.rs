@@ -29,6 +29,36 @@ pub const HOST_WIDTH: usize = 1024;
 /// Most samples per window on the host.
 pub const HOST_MAX_K: usize = 64;
 
+/// The most endpoints per window the host evaluation gets from `model`: the
+/// core's own bound ([`gpecnet_core::sampling::max_endpoints_of`]: K for a
+/// proposal model, `min(tts_samples, 64)` with test-time sampling) with the
+/// host's buffers, and at most [`HOST_MAX_K`].
+pub fn host_max_endpoints(model: &Model<'_>) -> usize {
+    let capacity = if model.extensions().tts_samples > 0 {
+        MAX_TTS_SAMPLES
+    } else {
+        HOST_MAX_K
+    };
+    gpecnet_core::sampling::max_endpoints_of(model, capacity).min(HOST_MAX_K)
+}
+
+/// Refuses an endpoint count `k` (given as option `name`, e.g. `--k`) that
+/// `model` cannot give, before any work, naming the limit.
+pub fn check_k(name: &str, model: &Model<'_>, k: usize) -> Result<()> {
+    let most = host_max_endpoints(model);
+    if k == 0 || k > most {
+        let why = if model.has_proposal() {
+            " (its proposal has K latents)"
+        } else {
+            ""
+        };
+        return Err(anyhow!(
+            "{name} {k}: this model gives 1..={most} endpoints per prediction{why}"
+        ));
+    }
+    Ok(())
+}
+
 pub fn to_fixed(t: &[[f32; 2]]) -> [[f32; 2]; FUTURE] {
     let mut out = [[0.0; 2]; FUTURE];
     for (o, p) in out.iter_mut().zip(t) {
@@ -125,9 +155,7 @@ fn predict_block(
     seeds: impl Fn(usize) -> u64,
     k: usize,
 ) -> Result<Vec<Prediction>> {
-    if k == 0 || k > HOST_MAX_K {
-        return Err(anyhow!("k must be 1..={HOST_MAX_K}"));
-    }
+    check_k("k", model, k)?;
     match sine {
         SineKind::Libm => predict_block_with::<LibmSine>(model, windows, seeds, k),
         SineKind::Fast => predict_block_with::<FastSine>(model, windows, seeds, k),

@@ -138,6 +138,8 @@ pub fn eval_blob(
     let blob = crate::inpath::read_limited(blob_path, crate::inpath::FileKind::Blob)?;
     let model = gpecnet_core::Model::from_blob(&blob)
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
+    crate::core_eval::check_k("--k", &model, k)
+        .with_context(|| format!("evaluating {}", blob_path.display()))?;
     let spec = &target.dataset;
     let meta = gpecnet_core::blob::Meta::of_blob(&blob)
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;

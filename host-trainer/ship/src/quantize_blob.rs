@@ -128,6 +128,8 @@ pub fn quantize_blob_with(
     if src_model.numeric() != NumericKind::F32 {
         bail!("{} is not an f32 blob", src.display());
     }
+    crate::core_eval::check_k("--k", &src_model, k)
+        .with_context(|| format!("quantizing {}", src.display()))?;
     let spec = match dataset {
         Some(d) => d.clone(),
         None => match crate::inpath::read_limited(
