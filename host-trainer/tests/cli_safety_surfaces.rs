@@ -118,3 +118,155 @@ fn k_above_a_proposal_models_latents_is_refused_up_front() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&empty);
 }
+
+/// The bytes of every file of `dir`'s set `name`.
+fn set_bytes(dir: &Path, name: &str) -> Vec<Vec<u8>> {
+    ["gpec", "golden", "json", "md"]
+        .iter()
+        .map(|e| std::fs::read(dir.join(format!("{name}.{e}"))).unwrap_or_default())
+        .collect()
+}
+
+/// A fresh key pair in `dir/keys`: (private, public).
+fn keygen(dir: &Path) -> (PathBuf, PathBuf) {
+    let keys = dir.join("keys");
+    let (ok, text) = run(&["keygen", "--out", s(&keys)]);
+    assert!(ok, "{text}");
+    (
+        keys.join("gpecnet-signing.key"),
+        keys.join("gpecnet-signing.pub"),
+    )
+}
+
+fn sign(blob: &Path, key: &Path, out: &Path) -> (bool, String) {
+    run(&[
+        "sign",
+        "--blob",
+        s(blob),
+        "--key",
+        s(key),
+        "--version",
+        "3",
+        "--out",
+        s(out),
+    ])
+}
+
+/// `sign --out` never names the blob's own golden file or cards (nor the blob or the key).
+#[test]
+fn sign_never_writes_over_the_blobs_golden_file_or_cards() {
+    let dir = temp_dir("sign-sidecars");
+    let blob = copy_set(&dir, "sdd-tiny-qe");
+    let (sk, _) = keygen(&dir);
+    let before = set_bytes(&dir, "sdd-tiny-qe");
+    for ext in ["golden", "json", "md", "gpec"] {
+        let (ok, text) = sign(&blob, &sk, &dir.join(format!("sdd-tiny-qe.{ext}")));
+        assert!(
+            !ok && text.contains("same file as the input"),
+            "{ext}: {text}"
+        );
+    }
+    let (ok, text) = sign(&blob, &sk, &sk);
+    assert!(!ok && text.contains("same file as the input"), "{text}");
+    assert_eq!(set_bytes(&dir, "sdd-tiny-qe"), before, "an input changed");
+    let (ok, text) = sign(&blob, &sk, &dir.join("signed.gpec"));
+    assert!(ok, "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A public key file is refused as the signing key (by `sign`, `export` and `quantize`),
+/// a private key as the verifying key, and a private key others may read is not used;
+/// an untagged private key (written before keys said what they are) still signs.
+#[test]
+fn key_files_are_refused_in_the_wrong_role() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp_dir("key-roles");
+    let blob = copy_set(&dir, "sdd-tiny-qe");
+    let (sk, pk) = keygen(&dir);
+    let out = dir.join("signed.gpec");
+    let (ok, text) = sign(&blob, &pk, &out);
+    assert!(!ok && text.contains("public key file"), "{text}");
+    // A copy of the public key under another name, beside it.
+    let disguised = pk.with_file_name("release.key");
+    std::fs::copy(&pk, &disguised).unwrap();
+    std::fs::set_permissions(&disguised, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let (ok, text) = sign(&blob, &disguised, &out);
+    assert!(!ok && text.contains("holds the public key"), "{text}");
+    let (ok, text) = run(&[
+        "quantize",
+        "--blob",
+        s(&weights().join("sdd-tiny.gpec")),
+        "--out",
+        s(&dir.join("q.gpec")),
+        "--sign-key",
+        s(&pk),
+        "--sign-version",
+        "2",
+    ]);
+    assert!(!ok && text.contains("public key file"), "{text}");
+    assert!(!out.exists() && !dir.join("q.gpec").exists());
+    // The private key is not a public key.
+    let (ok, text) = sign(&blob, &sk, &out);
+    assert!(ok, "{text}");
+    let verify = |key: &Path| {
+        run(&[
+            "verify",
+            "--blob",
+            s(&out),
+            "--pubkey",
+            s(key),
+            "--min-version",
+            "3",
+        ])
+    };
+    let (ok, text) = verify(&sk);
+    assert!(!ok && text.contains("private key"), "{text}");
+    let secret = std::fs::read_to_string(&sk).unwrap();
+    let hex = secret.lines().last().unwrap();
+    assert!(!text.contains(hex), "the private key was printed");
+    assert!(verify(&pk).0);
+    // Readable by others: refused, naming the fix.
+    std::fs::set_permissions(&sk, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let (ok, text) = sign(&blob, &sk, &dir.join("other.gpec"));
+    assert!(!ok && text.contains("chmod 600"), "{text}");
+    std::fs::set_permissions(&sk, std::fs::Permissions::from_mode(0o600)).unwrap();
+    // An untagged private key (64 hex digits alone) still signs, and still is no public key.
+    let legacy = sk.with_file_name("gpecnet-signing-old.key");
+    std::fs::write(&legacy, format!("{hex}\n")).unwrap();
+    std::fs::set_permissions(&legacy, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let (ok, text) = sign(&blob, &legacy, &dir.join("legacy.gpec"));
+    assert!(ok, "{text}");
+    let (ok, text) = run(&[
+        "verify",
+        "--blob",
+        s(&dir.join("legacy.gpec")),
+        "--pubkey",
+        s(&legacy),
+    ]);
+    assert!(!ok && text.contains("private key of"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A keygen that cannot write its files (here: a file-size limit of 0) leaves no key
+/// behind, so the retry succeeds.
+#[test]
+fn a_failed_keygen_leaves_nothing_behind() {
+    let dir = temp_dir("keygen-fail");
+    let keys = dir.join("keys");
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 0; exec \"$0\" keygen --out \"$1\"")
+        .arg(env!("CARGO_BIN_EXE_gpecnet"))
+        .arg(&keys)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{text}");
+    let left: Vec<_> = std::fs::read_dir(&keys)
+        .map(|r| r.map(|e| e.unwrap().file_name()).collect())
+        .unwrap_or_default();
+    assert!(left.is_empty(), "left behind: {left:?} ({text})");
+    let (ok, text) = run(&["keygen", "--out", s(&keys)]);
+    assert!(ok, "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,10 +3,17 @@
 //! `weights/FORMAT.md`).
 //!
 //! Key files are hex text: the private key file holds the 32-byte Ed25519
-//! seed (created with mode 0600, never printed, never overwritten), the
-//! public key file the 32-byte public key. `sign` writes a new file, never
-//! over its input, and checks its own output with the verifier before it
-//! is in place.
+//! seed after the line [`PRIVATE_KEY_TAG`] (created with mode 0600, never
+//! printed, never overwritten, nothing left behind if keygen fails), the
+//! public key file the 32-byte public key alone (64 hex digits, what the
+//! firmware build and the C examples read). Each key is refused in the other
+//! role: a tagged private key as a public key; as a private key, a `.pub`
+//! file, a file that holds a public key next to it (`<stem>.pub` or
+//! [`PUBLIC_KEY_FILE`] in its folder), and a private key that the group or
+//! others may read (`chmod 600`). A private key file written before the tag
+//! (64 hex digits alone) is still accepted under those checks. `sign` writes
+//! a new file, never over its input, its sidecars or the key, and checks
+//! its own output with the verifier before it is in place.
 
 use std::fs;
 use std::io::Write;
@@ -23,6 +30,27 @@ use crate::outpath::{check_output, OutputError};
 pub const PRIVATE_KEY_FILE: &str = "gpecnet-signing.key";
 /// The public half.
 pub const PUBLIC_KEY_FILE: &str = "gpecnet-signing.pub";
+/// The first line of a private key file: what it is, so it is never taken for a public key
+/// (nor a public key for it).
+pub const PRIVATE_KEY_TAG: &str = "gpecnet-ed25519-private-key";
+
+/// The role a key file is read in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeyRole {
+    /// The private key that signs (`sign --key`, `--sign-key`).
+    Private,
+    /// The public key that verifies (`verify --pubkey`).
+    Public,
+}
+
+impl std::fmt::Display for KeyRole {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            KeyRole::Private => "private (signing)",
+            KeyRole::Public => "public (verifying)",
+        })
+    }
+}
 
 /// Why a signing command failed.
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +66,25 @@ pub enum SigningError {
     BadKeyFile {
         /// The file.
         path: PathBuf,
+    },
+    /// A key file given in the wrong role (a public key to sign with, a private key to
+    /// verify with).
+    #[error("{path}: {why}; a {role} key was expected (gpecnet keygen writes {PRIVATE_KEY_FILE} and {PUBLIC_KEY_FILE})")]
+    WrongRole {
+        /// The file.
+        path: PathBuf,
+        /// The role it was given in.
+        role: KeyRole,
+        /// What it is instead.
+        why: String,
+    },
+    /// A private key file that the group or others may read.
+    #[error("{path}: a private key readable by others (mode {mode:04o}); refusing to sign with it. Make it private: chmod 600 {path}")]
+    KeyNotPrivate {
+        /// The file.
+        path: PathBuf,
+        /// Its permission bits.
+        mode: u32,
     },
     /// keygen would overwrite a key.
     #[error("{path} exists: keygen never overwrites a key (choose another --out folder)")]
@@ -86,12 +133,15 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// A 32-byte key from a hex key file.
-fn read_key(path: &Path) -> Result<[u8; 32], SigningError> {
-    let text = read_text_limited(path, FileKind::Text)?;
-    let t = text.trim();
+/// A key file's text: whether it carries [`PRIVATE_KEY_TAG`], and its 32-byte key.
+fn parse_key(path: &Path, text: &str) -> Result<(bool, [u8; 32]), SigningError> {
     let bad = || SigningError::BadKeyFile {
         path: path.to_path_buf(),
+    };
+    let t = text.trim();
+    let (tagged, t) = match t.strip_prefix(PRIVATE_KEY_TAG) {
+        Some(rest) => (true, rest.trim()),
+        None => (false, t),
     };
     if t.len() != 64 || !t.bytes().all(|b| b.is_ascii_hexdigit()) {
         return Err(bad());
@@ -100,12 +150,99 @@ fn read_key(path: &Path) -> Result<[u8; 32], SigningError> {
     for (i, k) in key.iter_mut().enumerate() {
         *k = u8::from_str_radix(&t[2 * i..2 * i + 2], 16).map_err(|_| bad())?;
     }
+    Ok((tagged, key))
+}
+
+/// The public keys next to `path` (its `<stem>.pub` and [`PUBLIC_KEY_FILE`] in its folder)
+/// that parse as key files, with their paths.
+fn public_keys_beside(path: &Path) -> Vec<(PathBuf, [u8; 32])> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut out: Vec<(PathBuf, [u8; 32])> = Vec::new();
+    for p in [path.with_extension("pub"), dir.join(PUBLIC_KEY_FILE)] {
+        if out.iter().any(|(q, _)| *q == p) {
+            continue;
+        }
+        let Ok(text) = read_text_limited(&p, FileKind::Text) else {
+            continue;
+        };
+        if let Ok((false, key)) = parse_key(&p, &text) {
+            out.push((p, key));
+        }
+    }
+    out
+}
+
+/// The 32-byte key of the key file `path`, read in `role` (see the module documentation:
+/// a key in the other role, or a private key others may read, is refused).
+fn read_key(path: &Path, role: KeyRole) -> Result<[u8; 32], SigningError> {
+    let text = read_text_limited(path, FileKind::Text)?;
+    let (tagged, key) = parse_key(path, &text)?;
+    let wrong = |why: String| SigningError::WrongRole {
+        path: path.to_path_buf(),
+        role,
+        why,
+    };
+    match role {
+        KeyRole::Public => {
+            if tagged {
+                return Err(wrong(format!(
+                    "this is a private key (its first line is {PRIVATE_KEY_TAG})"
+                )));
+            }
+            // An untagged (older) private key: its public half is the key file beside it.
+            let public = SigningKey::from_bytes(&key).verifying_key().to_bytes();
+            for (p, beside) in public_keys_beside(path) {
+                if beside == public && p != path {
+                    return Err(wrong(format!("this is the private key of {}", p.display())));
+                }
+            }
+        }
+        KeyRole::Private => {
+            if !tagged {
+                if path.extension().is_some_and(|e| e == "pub") {
+                    return Err(wrong("this is a public key file (.pub)".into()));
+                }
+                for (p, public) in public_keys_beside(path) {
+                    if public == key {
+                        return Err(wrong(format!(
+                            "this holds the public key of {}",
+                            p.display()
+                        )));
+                    }
+                }
+            }
+            check_private_mode(path)?;
+        }
+    }
     Ok(key)
 }
 
-/// The public key in a public key file, as a trusted key.
+/// Refuses a private key file that the group or others may read or write.
+fn check_private_mode(path: &Path) -> Result<(), SigningError> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = fs::metadata(path)
+        .map_err(|source| SigningError::Io {
+            what: format!("reading the permissions of {}", path.display()),
+            source,
+        })?
+        .permissions()
+        .mode()
+        & 0o7777;
+    if mode & 0o077 != 0 {
+        return Err(SigningError::KeyNotPrivate {
+            path: path.to_path_buf(),
+            mode,
+        });
+    }
+    Ok(())
+}
+
+/// The public key in a public key file, as a trusted key (a private key file is refused).
 pub fn read_public_key(path: &Path) -> Result<TrustedKey, SigningError> {
-    Ok(TrustedKey::new(read_key(path)?))
+    Ok(TrustedKey::new(read_key(path, KeyRole::Public)?))
 }
 
 /// Creates `path` with `text`, failing if it exists; `private`: mode 0600.
@@ -128,12 +265,17 @@ fn create_new(path: &Path, text: &str, private: bool) -> Result<(), SigningError
             }
         }
     })?;
-    f.write_all(text.as_bytes())
-        .and_then(|()| f.sync_all())
-        .map_err(|source| SigningError::Io {
+    let written = f.write_all(text.as_bytes()).and_then(|()| f.sync_all());
+    if let Err(source) = written {
+        // Nothing half-written is left to block the next keygen.
+        drop(f);
+        let _ = fs::remove_file(path);
+        return Err(SigningError::Io {
             what: format!("writing {}", path.display()),
             source,
-        })
+        });
+    }
+    Ok(())
 }
 
 /// `gpecnet keygen --out DIR`: a new key pair; returns (private, public) paths
@@ -153,8 +295,16 @@ pub fn keygen(dir: &Path) -> Result<(PathBuf, PathBuf, [u8; 8]), SigningError> {
     getrandom::fill(&mut seed).map_err(|e| SigningError::Random(e.to_string()))?;
     let sk = SigningKey::from_bytes(&seed);
     let pk = sk.verifying_key().to_bytes();
-    create_new(&sk_path, &format!("{}\n", hex(&seed)), true)?;
-    create_new(&pk_path, &format!("{}\n", hex(&pk)), false)?;
+    create_new(
+        &sk_path,
+        &format!("{PRIVATE_KEY_TAG}\n{}\n", hex(&seed)),
+        true,
+    )?;
+    if let Err(e) = create_new(&pk_path, &format!("{}\n", hex(&pk)), false) {
+        // A private key without its public half is no use: keygen leaves both or neither.
+        let _ = fs::remove_file(&sk_path);
+        return Err(e);
+    }
     Ok((sk_path, pk_path, TrustedKey::new(pk).id()))
 }
 
@@ -186,10 +336,10 @@ impl std::fmt::Debug for SignSpec {
 }
 
 impl SignSpec {
-    /// The private key in `key` (a keygen file) and `version`.
+    /// The private key in `key` (a keygen file, refused in the wrong role) and `version`.
     pub fn load(key: &Path, version: u32) -> Result<Self, SigningError> {
         Ok(SignSpec {
-            seed: read_key(key)?,
+            seed: read_key(key, KeyRole::Private)?,
             version,
         })
     }
@@ -213,7 +363,7 @@ impl SignSpec {
 }
 
 /// `gpecnet sign --blob B --key K --version V --out O`: writes the signed
-/// blob to `out` (never over `blob` or the key), verified before it is in
+/// blob to `out` (never over `blob`, its sidecars or the key), verified before it is in
 /// place; returns the key id.
 pub fn sign_file(
     blob: &Path,
@@ -221,7 +371,11 @@ pub fn sign_file(
     version: u32,
     out: &Path,
 ) -> Result<[u8; 8], SigningError> {
-    check_output("--out", out, &[blob, key], &[])?;
+    // Never over the blob, its golden file or cards, nor the key.
+    let sidecars = crate::outpath::blob_and_sidecars(blob);
+    let mut inputs: Vec<&Path> = sidecars.iter().map(PathBuf::as_path).collect();
+    inputs.extend([blob, key]);
+    check_output("--out", out, &inputs, &[])?;
     let bytes = read_limited(blob, FileKind::Blob)?;
     if let Some((inner, _, _)) = signed::split(&bytes) {
         if Model::from_blob(inner).is_ok() {
@@ -235,7 +389,7 @@ pub fn sign_file(
         path: blob.to_path_buf(),
         source,
     })?;
-    let seed = read_key(key)?;
+    let seed = read_key(key, KeyRole::Private)?;
     let signed_bytes = sign_bytes(&bytes, &seed, version);
     let trusted = TrustedKey::new(SigningKey::from_bytes(&seed).verifying_key().to_bytes());
     Model::from_signed_blob(&signed_bytes, &[trusted], version).map_err(|source| {
