@@ -10,12 +10,12 @@ pub use gpecnet_data::units;
 pub use gpecnet_files::{csvfile, inpath, outpath, rundir};
 pub use gpecnet_metrics::{
     baseline, card, core_eval, dist, draw, eval, fixed_eval, planner_metrics, proposal_file,
-    score_file,
+    score_file, stream,
 };
 pub use gpecnet_nn::{mlp, ops, optim, pool, rng};
 pub use gpecnet_onnx as onnx;
 pub use gpecnet_reference::{export, frame, network, quantize, reference, signing, tts};
-pub use gpecnet_ship::{blob_eval, quantize_blob, score};
+pub use gpecnet_ship::{blob_eval, quantize_blob, score, stream_eval};
 pub use gpecnet_train::{
     checkpoint, config, model, propose, run_export, select, social, synth, train,
 };

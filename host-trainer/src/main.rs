@@ -10,6 +10,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 mod cmd_blob;
 mod cmd_sign;
+mod cmd_stream;
 mod cmd_synth;
 mod cmd_train;
 
@@ -17,6 +18,7 @@ use cmd_blob::{
     cmd_eval, cmd_export, cmd_onnx, cmd_quantize, EvalArgs, ExportArgs, OnnxArgs, QuantizeArgs,
 };
 use cmd_sign::{cmd_keygen, cmd_sign, cmd_verify, KeygenArgs, SignArgs, VerifyArgs};
+use cmd_stream::{cmd_stream, StreamArgs};
 use cmd_synth::{
     cmd_abscore, cmd_classify, cmd_rl_train, cmd_sweep, cmd_synth, AbscoreArgs, ClassifyArgs,
     RlTrainArgs, SweepArgs, SynthArgs,
@@ -144,6 +146,18 @@ enum Command {
     /// The shipped metric MCU model's (under a minute on one core):
     /// gpecnet score --blob weights/sdd-m-lp.gpec --out runs/score/lp
     Score(gpecnet_trainer::score::ScoreArgs),
+    /// Stream a data set's recordings frame by frame through the timed track table, the
+    /// predictor and the online loop, as a drone runs them, with the loop off and on.
+    ///
+    /// Every file of the split is one recording (all its pedestrians, in time order). Each
+    /// forecast is scored against the track's grid positions 0.4 s … 4.8 s later: r50 / r90
+    /// coverage at the endpoint and per horizon, by motion state and for starters (standing
+    /// when forecast, > 1 m away at the endpoint), the mean r90 against an oracle multiplier
+    /// fitted on the recording itself, the endpoint error of the point head, of constant
+    /// velocity over 1, 2 and 4 steps and of the issued point, and the burn-in. Distances in
+    /// metres. docs/online.md explains every number; for example:
+    /// gpecnet stream --blob weights/sdd-m-lp-qe.gpec --dataset eth_ucy:hotel --plot hotel.svg
+    Stream(StreamArgs),
 }
 
 fn main() -> Result<()> {
@@ -162,6 +176,7 @@ fn main() -> Result<()> {
         Command::Keygen(a) => cmd_keygen(a),
         Command::Sign(a) => cmd_sign(a),
         Command::Verify(a) => cmd_verify(a),
+        Command::Stream(a) => cmd_stream(a),
         Command::Propose(a) => {
             let p = a.run()?;
             println!(

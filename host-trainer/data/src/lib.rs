@@ -19,7 +19,8 @@
 //! `error.rs` ([`DataError`]), `rows.rs` (the shared `frame ped_id x y` row reader and file
 //! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark), `scales.rs` (SDD's
 //! metres-per-pixel table), `folder.rs` (a user's own data-set folder), `spec.rs` (dataset names and their train/val/test splits: the one
-//! entry point the commands use, [`load`]), `units.rs` (checks that a model's unit matches a
+//! entry point the commands use, [`load`]), `recording.rs` (a split's files frame by frame in time
+//! order, for the streaming evaluation: [`recordings`]), `units.rs` (checks that a model's unit matches a
 //! data set's).
 
 pub mod units;
@@ -29,6 +30,7 @@ use gpecnet_files::{csvfile, inpath};
 mod error;
 mod eth_ucy;
 mod folder;
+mod recording;
 mod rows;
 mod scales;
 mod sdd;
@@ -38,6 +40,7 @@ mod window;
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};
 pub use folder::{load_folder, parse_folder_file, FolderError, FolderInfo, DATASET_TOML};
+pub use recording::{read_recording, recordings, RecordedFrame, Recording};
 pub use rows::{default_data_root, read_rows, Row};
 pub use scales::sdd_metres_per_pixel;
 pub use sdd::{load_sdd, parse_sdd_file, SddSplit};

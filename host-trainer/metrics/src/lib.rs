@@ -15,6 +15,7 @@ pub mod fixed_eval;
 pub mod planner_metrics;
 pub mod proposal_file;
 pub mod score_file;
+pub mod stream;
 
 // The lower crates' modules under the names the code uses (`crate::data::Window`).
 use gpecnet_data as data;
