@@ -8,6 +8,7 @@ mod endpoint_bound;
 mod fixed_blob;
 mod fixed_sine;
 mod guards;
+mod online;
 mod planner;
 mod predictor;
 mod proposal;

@@ -11,12 +11,12 @@
 use super::{Config, MotionState, OnlineError, BINS, EXPERTS, HORIZONS, LEVELS};
 use crate::blob::CRC32;
 
-/// Bytes of [`Calibration::state`]: an 8-byte header (magic `GPOL`, version,
-/// bins, horizons, levels, experts, reserved 0), the multipliers
+/// Bytes of [`Calibration::state`]: a 12-byte header (magic `GPOL`, then one
+/// byte each: version, bins, horizons, levels, experts, three reserved zeros), the multipliers
 /// `[bin][horizon][level]` and the losses `[bin][horizon][expert]` as f32
 /// little endian, the feedback counts `[bin]` as u32 little endian, and a
 /// CRC-32/ISO-HDLC of everything before it (little endian).
-pub const STATE_LEN: usize = 8 + 4 * (BINS * HORIZONS * (LEVELS + EXPERTS)) + 4 * BINS + 4;
+pub const STATE_LEN: usize = 12 + 4 * (BINS * HORIZONS * (LEVELS + EXPERTS)) + 4 * BINS + 4;
 
 /// The magic of a calibration state.
 const STATE_MAGIC: [u8; 4] = *b"GPOL";
@@ -261,13 +261,16 @@ impl Calibration {
             return Err(OnlineError::StateVersion);
         }
         let shape = [BINS as u8, HORIZONS as u8, LEVELS as u8, EXPERTS as u8];
-        if body.get(5..9) != Some(&shape[..]) {
+        if body.get(5..9) != Some(&shape[..]) || body.get(9..12) != Some(&[0, 0, 0][..]) {
             return Err(OnlineError::StateShape);
         }
         if u32::from_le_bytes(le4(crc)) != CRC32.checksum(body) {
             return Err(OnlineError::StateCrc);
         }
-        let mut r = Reader { bytes: body, at: 8 };
+        let mut r = Reader {
+            bytes: body,
+            at: 12,
+        };
         let mut next = self.clone();
         let [lo, hi] = self.config.multiplier_bounds;
         for cell in next.mult.iter_mut().flatten() {
