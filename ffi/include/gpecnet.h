@@ -56,6 +56,48 @@
 // Most endpoints per case a golden file may hold for [`gpecnet_golden_case`].
 #define GPECNET_GOLDEN_MAX_K 64
 
+// Tracks one forecaster follows at once (the core's `Forecaster<N, P>`'s
+// `N`): a 17th new id in a frame is refused and counted, as in the track table.
+#define GPECNET_ONLINE_TRACKS 16
+
+// Forecasts per track a forecaster keeps waiting for their truth (the
+// core's `P`): with 2, one forecast every 6 grid steps (2.4 s) per track is
+// scored, at every horizon.
+#define GPECNET_ONLINE_PENDING 2
+
+// Most endpoints of one track's forecast (the core's `K`: the shipped
+// models' 20; a model that gives more is cut to 20).
+#define GPECNET_ONLINE_ENDPOINTS 20
+
+// Steps of one forecast the online loop scores and calibrates (0.4 s each:
+// 4.8 s ahead).
+#define GPECNET_ONLINE_HORIZONS 12
+
+// Experts of the online point forecast: the model's point head, then
+// constant velocity over the last 1, 2 and 4 steps.
+#define GPECNET_ONLINE_EXPERTS 4
+
+// Motion states with calibrations of their own (`GPECNET_MOTION_*`).
+#define GPECNET_ONLINE_MOTION_STATES 4
+
+// Bytes of a forecaster's calibration state (`gpecnet_forecaster_state`):
+// a header, the multipliers and losses, the feedback counts and a CRC-32.
+#define GPECNET_ONLINE_STATE_LEN 1184
+
+// Most detections one `gpecnet_forecaster_frame` call applies in one
+// piece (more are applied in pieces of this many, each a continuation of
+// the frame at the same time).
+#define GPECNET_ONLINE_MAX_DETECTIONS 64
+
+// Bytes of caller storage `gpecnet_forecaster_init` needs: an upper bound
+// on every target (x86-64: 11,056 B used today; 32-bit targets need less,
+// and a build where it does not fit fails to compile);
+// `gpecnet_forecaster_size` gives the exact size.
+#define GPECNET_FORECASTER_SIZE 11264
+
+// Alignment of that storage, in bytes.
+#define GPECNET_FORECASTER_ALIGN 8
+
 // [`GpecnetModelInfo::numeric`] of an f32 blob.
 #define GPECNET_NUMERIC_F32 0
 
@@ -195,6 +237,49 @@
 // The blob's model version is below the caller's minimum.
 #define GPECNET_E_SIGN_ROLLED_BACK 74
 
+// Online loop: a `GpecnetOnlineConfig` field (or the blob's radius
+// multipliers as the starting point) is out of range
+// (`gpecnet_core::online::Config::validate`).
+#define GPECNET_E_ONLINE_BAD_CONFIG 80
+
+// Online loop: the model does not forecast 12 steps from 8 on a period of
+// whole milliseconds.
+#define GPECNET_E_ONLINE_MODEL_SHAPE 81
+
+// Online loop: a calibration state of the wrong length (not
+// `GPECNET_ONLINE_STATE_LEN` bytes).
+#define GPECNET_E_ONLINE_STATE_LENGTH 82
+
+// Online loop: a calibration state without the magic `GPOL`.
+#define GPECNET_E_ONLINE_STATE_MAGIC 83
+
+// Online loop: a calibration state of another layout version.
+#define GPECNET_E_ONLINE_STATE_VERSION 84
+
+// Online loop: a calibration state of another shape (motion states,
+// horizons, radius levels, experts).
+#define GPECNET_E_ONLINE_STATE_SHAPE 85
+
+// Online loop: a calibration state whose CRC-32 does not match (damaged).
+#define GPECNET_E_ONLINE_STATE_CRC 86
+
+// Online loop: a calibration state with a value outside the bounds of the
+// forecaster's config.
+#define GPECNET_E_ONLINE_STATE_VALUE 87
+
+// Online loop: an output buffer is too small (a state buffer shorter than
+// `GPECNET_ONLINE_STATE_LEN`).
+#define GPECNET_E_ONLINE_BUFFER_TOO_SMALL 88
+
+// Online loop: the frame was applied (tracks, feedback, calibration), but
+// it made more forecasts than the output array holds: the first `out_cap`
+// were written, `*n_out` says how many there were.
+#define GPECNET_E_ONLINE_FORECASTS_DROPPED 89
+
+// Online loop: the predictor holds another blob or converts another unit
+// than the one the forecaster was initialised with.
+#define GPECNET_E_ONLINE_OTHER_MODEL 90
+
 // Most trusted keys one `gpecnet_init_signed` call takes.
 #define GPECNET_MAX_TRUSTED_KEYS 8
 
@@ -232,6 +317,22 @@
 
 // Points of one history (the shipped models' observed steps).
 #define GPECNET_HISTORY 8
+
+// [`GpecnetTrackForecast::motion`]: below the first speed threshold (0.3 m/s).
+#define GPECNET_MOTION_STANDING 0
+
+// [`GpecnetTrackForecast::motion`]: below the second (0.9 m/s).
+#define GPECNET_MOTION_SLOW 1
+
+// [`GpecnetTrackForecast::motion`]: below the third (1.8 m/s).
+#define GPECNET_MOTION_WALKING 2
+
+// [`GpecnetTrackForecast::motion`]: at or above the third.
+#define GPECNET_MOTION_FAST 3
+
+// An initialised forecaster in caller-owned storage:
+// `(GpecnetForecaster *)storage` after [`gpecnet_forecaster_init`]. Opaque to C.
+typedef struct GpecnetForecaster GpecnetForecaster;
 
 // An initialised predictor in caller-owned storage: `(GpecnetPredictor *)storage`
 // after [`gpecnet_init`] returned [`GPECNET_OK`]. Opaque to C.
@@ -377,6 +478,110 @@ typedef struct GpecnetHistory {
   // The history, oldest first, (x, y) per point.
   float past_xy[GPECNET_HISTORY][2];
 } GpecnetHistory;
+
+// The loop's settings, `gpecnet_core::online::Config` field for field.
+// Distances are in the caller's unit (the one the predictor was
+// initialised with, [`gpecnet_init_units`]): start from
+// [`gpecnet_online_config_default`] (metres) or
+// [`gpecnet_online_config_scaled`] (another unit).
+typedef struct GpecnetOnlineConfig {
+  // 1: learn from feedback; 0: the blob's static multipliers and the
+  // head's point forecast, as without the loop.
+  uint8_t adapt;
+  // Target miss rates of `r50` and `r90`: `{0.5, 0.1}`.
+  float alpha[2];
+  // Step of the multipliers' logarithm per update: 0.05.
+  float gamma;
+  // Learning rate of the expert weights per caller unit of discounted
+  // error at the endpoint horizon: 2 per metre.
+  float eta;
+  // Forgetting factor of the expert losses per update: 0.99.
+  float forgetting;
+  // The constant-velocity experts' initial loss at the endpoint horizon
+  // (caller unit): 2 m, so the point head starts with about 95 % of the weight.
+  float expert_prior;
+  // Observed speeds (caller units per second) separating standing, slow,
+  // walking and fast: `{0.3, 0.9, 1.8}` m/s.
+  float speed_thresholds[3];
+  // 1: one calibration per motion state; 0: one for all.
+  uint8_t motion_bins;
+  // The smallest scale of the radii (caller unit): 0.05 m.
+  float min_scale;
+  // The largest error one update counts (caller unit): 10 m.
+  float loss_cap;
+  // `{c_min, c_max}`, the range of every radius multiplier: `{0.02, 50}`.
+  float multiplier_bounds[2];
+} GpecnetOnlineConfig;
+
+// One track's forecast from [`gpecnet_forecaster_frame`], in the caller's
+// unit: the model's endpoints and their probabilities, the point head,
+// and what the loop issues, the aggregate point forecast with its radii
+// per horizon (`gpecnet_core::online::TrackForecast`).
+typedef struct GpecnetTrackForecast {
+  // The track id (the detections' id).
+  uint32_t id;
+  // The time of the history's newest point (caller's milliseconds):
+  // horizon index `h` (0-based) is at `end_ms + (h + 1) · period`.
+  uint32_t end_ms;
+  // The observed speed over the history (caller units per second).
+  float speed;
+  // Its motion state (`GPECNET_MOTION_*`): the calibration it used.
+  uint8_t motion;
+  // 1 when `probabilities` are the model's learned ones (else `1/n` each).
+  uint8_t learned;
+  // 1 when `head` holds the model's point head, else 0 (and `head` is 0).
+  uint8_t has_head;
+  // Endpoints in `endpoints` and `probabilities` (the model's, at most
+  // [`GPECNET_ONLINE_ENDPOINTS`]; the rest of both arrays is 0).
+  uint32_t n_endpoints;
+  // The model's endpoint set 4.8 s ahead, (x, y) each.
+  float endpoints[GPECNET_ONLINE_ENDPOINTS][2];
+  // One probability per endpoint (summing to 1).
+  float probabilities[GPECNET_ONLINE_ENDPOINTS];
+  // The model's point head, step 1 first (the first expert).
+  float head[GPECNET_ONLINE_HORIZONS][2];
+  // The point forecast the loop issues (the experts' aggregate; the head
+  // itself with `adapt` = 0), step 1 first.
+  float point[GPECNET_ONLINE_HORIZONS][2];
+  // The median radius around `point` at each step.
+  float r50[GPECNET_ONLINE_HORIZONS];
+  // The 90 % radius around `point` at each step.
+  float r90[GPECNET_ONLINE_HORIZONS];
+  // The scale of the radii at the endpoint horizon.
+  float scale;
+  // The experts' weights at the endpoint horizon (head, constant velocity
+  // over 1, 2 and 4 steps).
+  float weights[GPECNET_ONLINE_EXPERTS];
+  // The planner's static radii around the head's endpoint (the blob's
+  // multipliers, as `gpecnet_predict_forecast` gives them): `r50`, then
+  // `r90`; 0 for a model without learned radii.
+  float static_radii[2];
+} GpecnetTrackForecast;
+
+// What one [`gpecnet_forecaster_frame`] did, counted.
+typedef struct GpecnetOnlineReport {
+  // Tracks that entered.
+  uint32_t entered;
+  // Tracks that left (their last detection more than `max_gap_ms` ago).
+  uint32_t left;
+  // Detections of new ids refused because the table was full.
+  uint32_t rejected;
+  // Detections refused because their id already had one at this time.
+  uint32_t duplicates;
+  // Detections refused because a coordinate was not finite.
+  uint32_t non_finite;
+  // Forecasts the frame made (written, or dropped when `out` was full).
+  uint32_t forecasts;
+  // Forecasts dropped because `out` was full (`forecasts − out_cap`).
+  uint32_t dropped;
+  // Tracks whose forecast was refused (their input out of range, say):
+  // no forecast for them in this frame, the other tracks went on.
+  uint32_t failed;
+  // The status code of the first refusal ([`GPECNET_OK`] when none).
+  int32_t first_error;
+  // Feedback updates applied to the calibration.
+  uint32_t feedback;
+} GpecnetOnlineReport;
 
 #ifdef __cplusplus
 extern "C" {
@@ -578,6 +783,144 @@ int32_t gpecnet_tracks_fresh(struct GpecnetTracks *t,
                              struct GpecnetHistory *out,
                              size_t cap,
                              size_t *out_len);
+
+// The size the forecaster storage actually needs on this target (at most
+// [`GPECNET_FORECASTER_SIZE`]).
+size_t gpecnet_forecaster_size(void);
+
+// Fills `*out` with the loop's defaults for a caller in metres (each
+// field's doc gives its value).
+//
+// # Safety
+// `out` is NULL or valid for a write.
+int32_t gpecnet_online_config_default(struct GpecnetOnlineConfig *out);
+
+// Writes to `*out` the config `*cfg` for a caller whose unit is
+// `units_per_metre` of its unit per metre (pixels per metre for a
+// camera): every distance and speed multiplied by it, `eta` divided by it.
+// The result is checked when a forecaster is built from it
+// ([`GPECNET_E_ONLINE_BAD_CONFIG`]). `cfg` and `out` may be the same.
+//
+// # Safety
+// `cfg` is NULL or valid for a read; `out` is NULL or valid for a write.
+int32_t gpecnet_online_config_scaled(const struct GpecnetOnlineConfig *cfg,
+                                     float units_per_metre,
+                                     struct GpecnetOnlineConfig *out);
+
+// Builds a forecaster in `storage` (`storage_len >=
+// GPECNET_FORECASTER_SIZE` bytes aligned to [`GPECNET_FORECASTER_ALIGN`])
+// for the model of the initialised predictor `p` (its period, and its
+// radius multipliers as the starting calibration), under `*cfg` (in the
+// predictor's caller unit), bridging gaps of at most `max_gap_ms` between
+// a track's detections. [`GPECNET_E_ONLINE_MODEL_SHAPE`] for a model that
+// does not forecast 12 steps from 8 on a whole-millisecond period,
+// [`GPECNET_E_ONLINE_BAD_CONFIG`] for a config out of range. On failure the
+// storage is marked not initialised (when it is usable at all). Only `p`'s
+// blob and unit are kept: every [`gpecnet_forecaster_frame`] must pass a
+// predictor of the same blob and unit.
+//
+// # Safety
+// `storage` is NULL or valid for writes of `storage_len` bytes; `p` is NULL
+// or a storage passed to `gpecnet_init*`, not in use by another call; `cfg`
+// is NULL or valid for a read.
+int32_t gpecnet_forecaster_init(void *storage,
+                                size_t storage_len,
+                                const struct GpecnetPredictor *p,
+                                const struct GpecnetOnlineConfig *cfg,
+                                uint32_t max_gap_ms);
+
+// Applies one camera frame: `n` detections at `dets` (caller's unit, the
+// predictor's), all at timestamp `t_ms` (milliseconds, wrapping `u32`),
+// through the core's `Forecaster::frame`: the detections go into the
+// forecaster's track table (the rules of `gpecnet_tracks_update`), each
+// track's new grid points are fed back to its pending forecasts, and every
+// track that gained a grid point with a full history is forecast (seed
+// `id << 32 | end_ms`) with `p`, which must hold the blob and unit the
+// forecaster was built for ([`GPECNET_E_ONLINE_OTHER_MODEL`] otherwise).
+//
+// The forecasts go to `out` (room for `out_cap`) in table order, and
+// `*n_out` receives how many the frame made. When there are more than
+// `out_cap`, the first `out_cap` are written, the rest are dropped and the
+// status is [`GPECNET_E_ONLINE_FORECASTS_DROPPED`]: the frame was applied
+// all the same (a 16-entry array never drops: one forecast per track).
+// A timestamp before the last one refuses the whole call
+// ([`GPECNET_E_TRACKS_STALE_TIME`], nothing changes). A track whose
+// forecast is refused (its input out of range, say) gets none this frame;
+// it is counted in `*report` (when `report` is not NULL) and the status
+// stays [`GPECNET_OK`]. Up to [`GPECNET_ONLINE_MAX_DETECTIONS`] detections
+// are applied in one piece, the same bits as the core's `frame` with the
+// same slice; more are applied in pieces of that many, each a continuation
+// of the frame at the same `t_ms`.
+//
+// # Safety
+// `f` is NULL or a storage passed to [`gpecnet_forecaster_init`] and `p`
+// NULL or one passed to `gpecnet_init*`, neither in use by another call;
+// `dets` is NULL (only with `n` = 0) or valid for reads of `n` detections;
+// `out` is NULL (only with `out_cap` = 0) or valid for writes of `out_cap`
+// forecasts; `n_out` is NULL or valid for a write; `report` is NULL or
+// valid for a write.
+int32_t gpecnet_forecaster_frame(struct GpecnetForecaster *f,
+                                 struct GpecnetPredictor *p,
+                                 uint32_t t_ms,
+                                 const struct GpecnetDetection *dets,
+                                 size_t n,
+                                 struct GpecnetTrackForecast *out,
+                                 size_t out_cap,
+                                 size_t *n_out,
+                                 struct GpecnetOnlineReport *report);
+
+// Writes the forecaster's calibration (what the loop has learned: every
+// multiplier, loss and feedback count, with a CRC-32) into `out`, which has
+// room for `cap` bytes, at least [`GPECNET_ONLINE_STATE_LEN`]
+// ([`GPECNET_E_ONLINE_BUFFER_TOO_SMALL`] otherwise, nothing written);
+// `*written` receives the bytes written. Keep it across flights and give
+// it back with [`gpecnet_forecaster_restore`].
+//
+// # Safety
+// `f` as in [`gpecnet_forecaster_frame`]; `out` is NULL or valid for
+// writes of `cap` bytes; `written` is NULL or valid for a write.
+int32_t gpecnet_forecaster_state(const struct GpecnetForecaster *f,
+                                 uint8_t *out,
+                                 size_t cap,
+                                 size_t *written);
+
+// Replaces the forecaster's calibration by `len` bytes from
+// [`gpecnet_forecaster_state`], after checking all of it: length
+// ([`GPECNET_E_ONLINE_STATE_LENGTH`]), magic, version, shape, CRC
+// ([`GPECNET_E_ONLINE_STATE_CRC`] for a damaged state) and every value
+// within this forecaster's config bounds. On any error nothing changes.
+// Tracks and pending forecasts are kept.
+//
+// # Safety
+// `f` as in [`gpecnet_forecaster_frame`]; `bytes` is NULL or valid for
+// reads of `len` bytes.
+int32_t gpecnet_forecaster_restore(struct GpecnetForecaster *f, const uint8_t *bytes, size_t len);
+
+// Forgets what the loop has learned: every multiplier back to the blob's,
+// every expert loss back to its prior, the feedback counts to 0. Tracks
+// and pending forecasts are kept.
+//
+// # Safety
+// `f` as in [`gpecnet_forecaster_frame`].
+int32_t gpecnet_forecaster_reset(struct GpecnetForecaster *f);
+
+// Forgets every track and pending forecast (a new sequence, a clock that
+// restarted); the calibration stays.
+//
+// # Safety
+// `f` as in [`gpecnet_forecaster_frame`].
+int32_t gpecnet_forecaster_clear(struct GpecnetForecaster *f);
+
+// Writes the feedback updates applied so far to each motion state's
+// calibration (saturating) to `out[GPECNET_MOTION_*]`, which has room for
+// `cap` counts, at least [`GPECNET_ONLINE_MOTION_STATES`]
+// ([`GPECNET_E_BAD_LENGTH`] otherwise). With `motion_bins` = 0 every state
+// shares one calibration and reports its count.
+//
+// # Safety
+// `f` as in [`gpecnet_forecaster_state`]; `out` is NULL or valid for
+// writes of `cap` counts.
+int32_t gpecnet_forecaster_feedback(const struct GpecnetForecaster *f, uint32_t *out, size_t cap);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -97,6 +97,8 @@ mod golden;
 pub use golden::*;
 pub mod tracks;
 pub use tracks::*;
+mod online;
+pub use online::*;
 
 // ---------------------------------------------------------------- bare metal
 

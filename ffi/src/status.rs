@@ -5,6 +5,7 @@ use core::ffi::c_char;
 
 use gpecnet_core::blob::signed::SignError;
 use gpecnet_core::blob::NetworkId;
+use gpecnet_core::online::OnlineError;
 use gpecnet_core::units::UnitError;
 use gpecnet_core::{BlobError, Error, PredictError};
 
@@ -111,6 +112,39 @@ pub const GPECNET_E_SIGN_BAD_SIGNATURE: i32 = 73;
 /// The blob's model version is below the caller's minimum.
 pub const GPECNET_E_SIGN_ROLLED_BACK: i32 = 74;
 
+/// Online loop: a `GpecnetOnlineConfig` field (or the blob's radius
+/// multipliers as the starting point) is out of range
+/// (`gpecnet_core::online::Config::validate`).
+pub const GPECNET_E_ONLINE_BAD_CONFIG: i32 = 80;
+/// Online loop: the model does not forecast 12 steps from 8 on a period of
+/// whole milliseconds.
+pub const GPECNET_E_ONLINE_MODEL_SHAPE: i32 = 81;
+/// Online loop: a calibration state of the wrong length (not
+/// `GPECNET_ONLINE_STATE_LEN` bytes).
+pub const GPECNET_E_ONLINE_STATE_LENGTH: i32 = 82;
+/// Online loop: a calibration state without the magic `GPOL`.
+pub const GPECNET_E_ONLINE_STATE_MAGIC: i32 = 83;
+/// Online loop: a calibration state of another layout version.
+pub const GPECNET_E_ONLINE_STATE_VERSION: i32 = 84;
+/// Online loop: a calibration state of another shape (motion states,
+/// horizons, radius levels, experts).
+pub const GPECNET_E_ONLINE_STATE_SHAPE: i32 = 85;
+/// Online loop: a calibration state whose CRC-32 does not match (damaged).
+pub const GPECNET_E_ONLINE_STATE_CRC: i32 = 86;
+/// Online loop: a calibration state with a value outside the bounds of the
+/// forecaster's config.
+pub const GPECNET_E_ONLINE_STATE_VALUE: i32 = 87;
+/// Online loop: an output buffer is too small (a state buffer shorter than
+/// `GPECNET_ONLINE_STATE_LEN`).
+pub const GPECNET_E_ONLINE_BUFFER_TOO_SMALL: i32 = 88;
+/// Online loop: the frame was applied (tracks, feedback, calibration), but
+/// it made more forecasts than the output array holds: the first `out_cap`
+/// were written, `*n_out` says how many there were.
+pub const GPECNET_E_ONLINE_FORECASTS_DROPPED: i32 = 89;
+/// Online loop: the predictor holds another blob or converts another unit
+/// than the one the forecaster was initialised with.
+pub const GPECNET_E_ONLINE_OTHER_MODEL: i32 = 90;
+
 /// The status code of a blob error (exhaustive: a new core variant fails to compile here).
 pub fn blob_status(e: BlobError) -> i32 {
     match e {
@@ -175,6 +209,24 @@ pub fn sign_status(e: SignError) -> i32 {
         SignError::BadSignature => GPECNET_E_SIGN_BAD_SIGNATURE,
         SignError::RolledBack { .. } => GPECNET_E_SIGN_ROLLED_BACK,
         SignError::Blob(b) => blob_status(b),
+        _ => GPECNET_E_UNKNOWN_ERROR,
+    }
+}
+
+/// The status code of an online-loop error (exhaustive, like
+/// [`blob_status`]; a refused prediction keeps its own code).
+pub fn online_status(e: OnlineError) -> i32 {
+    match e {
+        OnlineError::BadConfig => GPECNET_E_ONLINE_BAD_CONFIG,
+        OnlineError::ModelShape => GPECNET_E_ONLINE_MODEL_SHAPE,
+        OnlineError::StateLength => GPECNET_E_ONLINE_STATE_LENGTH,
+        OnlineError::StateMagic => GPECNET_E_ONLINE_STATE_MAGIC,
+        OnlineError::StateVersion => GPECNET_E_ONLINE_STATE_VERSION,
+        OnlineError::StateShape => GPECNET_E_ONLINE_STATE_SHAPE,
+        OnlineError::StateCrc => GPECNET_E_ONLINE_STATE_CRC,
+        OnlineError::StateValue => GPECNET_E_ONLINE_STATE_VALUE,
+        OnlineError::BufferTooSmall => GPECNET_E_ONLINE_BUFFER_TOO_SMALL,
+        OnlineError::Predict(p) => predict_status(p),
         _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
@@ -245,6 +297,23 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_SIGN_UNKNOWN_KEY => c"signed by a key that is not trusted",
         GPECNET_E_SIGN_BAD_SIGNATURE => c"the signature does not verify",
         GPECNET_E_SIGN_ROLLED_BACK => c"model version older than the minimum accepted",
+        GPECNET_E_ONLINE_BAD_CONFIG => c"online loop config out of range",
+        GPECNET_E_ONLINE_MODEL_SHAPE => {
+            c"the online loop needs a model forecasting 12 steps from 8 on a whole-millisecond period"
+        }
+        GPECNET_E_ONLINE_STATE_LENGTH => c"calibration state has the wrong length",
+        GPECNET_E_ONLINE_STATE_MAGIC => c"not a calibration state (bad magic)",
+        GPECNET_E_ONLINE_STATE_VERSION => c"calibration state of another layout version",
+        GPECNET_E_ONLINE_STATE_SHAPE => c"calibration state of another shape",
+        GPECNET_E_ONLINE_STATE_CRC => c"calibration state checksum mismatch (damaged)",
+        GPECNET_E_ONLINE_STATE_VALUE => c"calibration state value outside the config's bounds",
+        GPECNET_E_ONLINE_BUFFER_TOO_SMALL => c"output buffer too small for the calibration state",
+        GPECNET_E_ONLINE_FORECASTS_DROPPED => {
+            c"frame applied, but more forecasts than the output array holds (the rest dropped)"
+        }
+        GPECNET_E_ONLINE_OTHER_MODEL => {
+            c"the predictor's blob or unit is not the one the forecaster was initialised with"
+        }
         GPECNET_E_UNKNOWN_ERROR => c"an error this build of the C ABI has no code for",
         _ => c"unknown status code",
     };

@@ -40,6 +40,12 @@ fn header_has_every_entry_point_and_cpp_guards() {
         "gpecnet_predictor_size",
         "gpecnet_golden_info",
         "gpecnet_golden_case",
+        "gpecnet_online_config_default",
+        "gpecnet_forecaster_init",
+        "gpecnet_forecaster_frame",
+        "gpecnet_forecaster_state",
+        "gpecnet_forecaster_restore",
+        "gpecnet_forecaster_reset",
     ] {
         assert!(h.contains(&format!("{f}(")), "{f} missing from the header");
     }

@@ -4,6 +4,7 @@
 //! `cargo xtask check-modules` fails when a file of this folder is missing below.
 mod c_abi;
 mod c_examples;
+mod c_online;
 mod c_signed;
 mod c_units_tracks;
 mod header;
