@@ -277,3 +277,135 @@ fn c_metric_tracker_matches_the_core() {
     let (ok, text) = run("sdd-tiny-qe.gpec");
     assert!(!ok && text.contains("the blob is not signed"), "{text}");
 }
+
+/// The scene of `online_tracker.c` at frame `f` (10 Hz): a walker (id 7), a
+/// pedestrian who stands until 12 s and then walks (id 3), and one who crosses
+/// from 3 s to 15 s (id 11), in metres; the same f32 operations as the C code.
+fn online_scene(f: u32) -> Vec<gpecnet_core::tracks::Observation> {
+    use gpecnet_core::tracks::Observation;
+    let t = (f * 100) as f32 / 1000.0;
+    let mut obs = vec![Observation {
+        id: 7,
+        pos: [-4.0 + 1.3 * t, 2.0 + 0.1 * t],
+    }];
+    let jitter = 0.02 * ((f * 7) % 5) as f32 - 0.04;
+    let walk = if t < 12.0 { 0.0 } else { 1.1 * (t - 12.0) };
+    obs.push(Observation {
+        id: 3,
+        pos: [5.0 + jitter, -1.0 + walk],
+    });
+    if (30..150).contains(&f) {
+        obs.push(Observation {
+            id: 11,
+            pos: [8.0 - 0.8 * t, 4.0],
+        });
+    }
+    obs
+}
+
+/// Runs `online_tracker.c` on `sdd-m-lp-qe`: (exit status, stdout + stderr).
+fn run_online_tracker() -> (bool, String) {
+    let bin = build(
+        "cc",
+        "c11",
+        "ffi/examples/c/online_tracker.c",
+        "online_tracker_c",
+    );
+    let r = Command::new(&bin)
+        .arg(root().join("weights/sdd-m-lp-qe.gpec"))
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&r.stdout),
+        String::from_utf8_lossy(&r.stderr)
+    );
+    (r.status.success(), text)
+}
+
+/// The scene of `online_tracker.c` through the core's `online::Forecaster<16,
+/// 2>` on `sdd-m-lp-qe` in metres: the bits the C program prints per forecast
+/// (id, end time, endpoint-horizon point, its r90, the first step's r90) and
+/// the forecaster at the end.
+fn online_core() -> (Vec<String>, gpecnet_core::online::Forecaster<16, 2>) {
+    use gpecnet_core::online::{Config, Forecaster, MotionState};
+    use gpecnet_core::units::CallerUnit;
+    use gpecnet_core::{LibmSine, Model, Predictor};
+
+    let bytes = std::fs::read(root().join("weights/sdd-m-lp-qe.gpec")).unwrap();
+    let model = Model::from_blob(&bytes).unwrap();
+    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    let mut f: Forecaster<16, 2> = Forecaster::new(&model, Config::metres(), 1_000).unwrap();
+    let mut want = Vec::new();
+    let mut motions = std::collections::BTreeSet::new();
+    for frame in 0..300u32 {
+        let report = f.frame::<_, 128, 20>(&mut p, frame * 100, &online_scene(frame), |fc| {
+            let end = fc.point[11];
+            motions.insert(fc.motion);
+            want.push(format!(
+                "{:08x} {:08x} {:08x} {:08x} {:08x} {:08x}",
+                fc.id,
+                fc.end_ms,
+                end[0].to_bits(),
+                end[1].to_bits(),
+                fc.radii[11].r90.to_bits(),
+                fc.radii[0].r90.to_bits()
+            ));
+        });
+        assert_eq!(report.failed, 0, "{report:?}");
+    }
+    // Three pedestrians for 30 s: a forecast per track and grid step once its
+    // history is full, standing and walking among them.
+    assert!(want.len() > 150, "{}", want.len());
+    assert!(motions.contains(&MotionState::Standing) && motions.contains(&MotionState::Walking));
+    (want, f)
+}
+
+/// The C online tracker (`online_tracker.c`: the forecaster through the C
+/// ABI, 30 s at 10 Hz) prints, bit for bit, what the core's
+/// `online::Forecaster<16, 2>` computes for the same scene, forecast by
+/// forecast, and the same feedback counts.
+#[test]
+fn c_online_tracker_forecasts_match_the_core() {
+    use gpecnet_core::online::MotionState;
+    let (_, text) = run_online_tracker();
+    let (want, f) = online_core();
+    let got: Vec<String> = text
+        .lines()
+        .filter(|l| l.starts_with("t="))
+        .map(|l| {
+            l.rsplit('[')
+                .next()
+                .unwrap()
+                .trim_end_matches(']')
+                .to_owned()
+        })
+        .collect();
+    assert_eq!(got, want, "{text}");
+    let counts = MotionState::ALL.map(|s| f.calibration().feedback_count(s));
+    assert!(counts.iter().sum::<u32>() > 100, "{counts:?}");
+    let line = format!(
+        "feedback: standing {}, slow {}, walking {}, fast {}\n",
+        counts[0], counts[1], counts[2], counts[3]
+    );
+    assert!(text.contains(&line), "{text}");
+}
+
+/// The C online tracker ends with the calibration state the core writes (its
+/// length and CRC), restores it into a second forecaster, refuses a damaged
+/// copy with the CRC status, and exits 0.
+#[test]
+fn c_online_tracker_state_matches_the_core() {
+    use gpecnet_core::online::STATE_LEN;
+    let (ok, text) = run_online_tracker();
+    let (_, f) = online_core();
+    let mut state = [0u8; STATE_LEN];
+    let len = f.calibration().state(&mut state).unwrap();
+    assert_eq!(len, STATE_LEN);
+    let crc = u32::from_le_bytes(state[len - 4..].try_into().unwrap());
+    let tail = format!(
+        "state: {len} bytes, crc {crc:08x}\n\
+         restored; a damaged copy: calibration state checksum mismatch (damaged)\n",
+    );
+    assert!(ok && text.ends_with(&tail), "{text}");
+}
