@@ -227,20 +227,38 @@ fn stale_temp_files_are_removed_and_named_when_a_write_fails() {
     assert!(text.contains("removed stale temp file"), "{text}");
     assert!(!stale.exists() && !stale_csv.exists());
 
-    // A failing checkpoint write (the temp path is taken by a directory) names the temp files
-    // still in the folder and leaves none of its own.
+    // A failing checkpoint write (the destination is taken by a non-empty directory, so the
+    // rename fails) names the temp files still in the folder and leaves none of its own. A
+    // directory at this process's old temp name is no obstacle: temp names are fresh.
     let leftover = out.join(".checkpoint.bin.tmp.999999999");
     std::fs::write(&leftover, vec![0u8; 100]).unwrap();
-    let blocker = out.join(format!(".checkpoint.bin.tmp.{}", std::process::id()));
-    std::fs::create_dir(&blocker).unwrap();
+    let planted = out.join(format!(".checkpoint.bin.tmp.{}", std::process::id()));
+    std::fs::create_dir(&planted).unwrap();
     let ckpt = checkpoint::load(out).unwrap();
+    let path = out.join(checkpoint::CHECKPOINT_FILE);
+    let aside = out.join("aside.bin");
+    std::fs::rename(&path, &aside).unwrap();
+    std::fs::create_dir(&path).unwrap();
+    std::fs::write(path.join("x"), b"x").unwrap();
     let e = checkpoint::save(out, &ckpt).unwrap_err().to_string();
     assert!(
         e.contains(".checkpoint.bin.tmp.999999999 (100 bytes)"),
         "{e}"
     );
-    assert!(e.contains("interrupted writes"), "{e}");
-    std::fs::remove_dir(&blocker).unwrap();
+    assert!(
+        e.contains("interrupted writes") && e.contains("removed the partial"),
+        "{e}"
+    );
+    let mine = format!(".checkpoint.bin.tmp.{}.", std::process::id());
+    let left: Vec<String> = std::fs::read_dir(out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&mine))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    std::fs::remove_dir_all(&path).unwrap();
+    std::fs::rename(&aside, &path).unwrap();
+    std::fs::remove_dir(&planted).unwrap();
 }
 
 #[test]
