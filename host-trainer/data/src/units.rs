@@ -24,6 +24,22 @@ pub enum UnitError {
         /// The data set's unit.
         data: Unit,
     },
+    /// The blob's clock (seconds between positions, format version 4) is not the data's.
+    #[error(
+        "model {model:?} steps {blob_s} s between positions but the {dataset} data set is \
+         windowed at {data_s} s: refusing (its forecast horizon and every velocity would be \
+         wrong); use a model trained at {data_s} s"
+    )]
+    Clock {
+        /// The blob's model name.
+        model: String,
+        /// The blob's period.
+        blob_s: f32,
+        /// The data set.
+        dataset: String,
+        /// The data's period ([`crate::PERIOD_S`]).
+        data_s: f32,
+    },
     /// A blob before format version 4 (no unit recorded) on a metre data set.
     #[error(
         "model {model:?} does not state its unit (blob format before version 4; every such \
@@ -40,13 +56,15 @@ pub enum UnitError {
 
 /// The unit `model` (whose blob says `meta`) works in, checked against `spec`'s: a stated unit must match; an
 /// unstated one (blobs before format version 4) is taken from `assume`, else as pixels on a
-/// pixel data set (what every such shipped blob is) and refused on a metre one.
+/// pixel data set (what every such shipped blob is) and refused on a metre one. A stated
+/// clock must be the data's too ([`check_clock`]).
 pub fn check_unit(
     model: &gpecnet_core::Model<'_>,
     meta: &Meta<'_>,
     spec: &DatasetSpec,
     assume: Option<Unit>,
 ) -> std::result::Result<Unit, UnitError> {
+    check_clock(model, meta, spec)?;
     let data = spec.unit();
     let stated = match meta.unit {
         PositionUnit::Metre => Some(Unit::Metres),
@@ -77,6 +95,29 @@ pub fn check_unit(
         });
     }
     Ok(unit)
+}
+
+/// Every data set is windowed at [`crate::PERIOD_S`] (a folder's own clock must divide it):
+/// a blob that states another period (format version 4) is refused. A blob that states none
+/// (before version 4) was trained at that period, as every such shipped blob was.
+pub fn check_clock(
+    model: &gpecnet_core::Model<'_>,
+    meta: &Meta<'_>,
+    spec: &DatasetSpec,
+) -> std::result::Result<(), UnitError> {
+    let data_s = crate::PERIOD_S;
+    let stated = meta.period_s;
+    // The blob stores the period as f32: equal to the data's up to rounding, or refused.
+    let differs = stated.is_nan() || (stated != 0.0 && (stated - data_s).abs() > 1e-6 * data_s);
+    if differs {
+        return Err(UnitError::Clock {
+            model: model.name().to_string(),
+            blob_s: stated,
+            dataset: spec.to_string(),
+            data_s,
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
