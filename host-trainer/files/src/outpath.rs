@@ -175,7 +175,9 @@ pub fn check_output(
             .parent()
             .filter(|d| !d.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
-        if let Ok(parent) = fs::canonicalize(parent) {
+        // Folders the write would create count too: the nearest existing ancestor is
+        // resolved and the rest appended.
+        if let Some(parent) = resolve_lenient(parent) {
             for dir in input_dirs {
                 if let Ok(d) = fs::canonicalize(dir) {
                     if parent.starts_with(&d) {
@@ -190,6 +192,24 @@ pub fn check_output(
         }
     }
     Ok(())
+}
+
+/// `p` with its nearest existing ancestor resolved (links followed) and the components
+/// below it appended as written; `None` when a missing component is `..` or the like.
+fn resolve_lenient(p: &Path) -> Option<PathBuf> {
+    let mut rest = Vec::new();
+    let mut cur = p;
+    loop {
+        if let Ok(mut c) = fs::canonicalize(cur) {
+            c.extend(rest.iter().rev());
+            return Some(c);
+        }
+        rest.push(cur.file_name()?.to_owned());
+        cur = match cur.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+    }
 }
 
 /// The folders of a data root that the loaders read (`sdd/`, `eth_ucy/`): outputs are
@@ -440,6 +460,13 @@ mod tests {
             Err(OutputError::InsideInput { .. })
         ));
         assert!(check_output("--out", &dir.path().join("new.gpec"), &[&input], &[]).is_ok());
+        // A folder the write would create inside an input folder is inside it too.
+        let deep = dir.path().join("sub/train/run.txt/config.toml");
+        assert!(matches!(
+            check_output("--out", &deep, &[], &[&dir.path().join("sub")]),
+            Err(OutputError::InsideInput { .. })
+        ));
+        assert!(!dir.path().join("sub/train").exists(), "nothing created");
     }
 
     #[test]

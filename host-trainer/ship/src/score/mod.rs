@@ -36,6 +36,11 @@ use crate::reference::RefModel;
 use crate::score_file::{scored_fingerprint, GridRow, ScoreFile};
 pub use fit::{fit, inverse_temperature, metrics, radius_scales, scored, Logits, Table};
 
+/// Most L2 weights `--l2` may try (each is one full fit).
+pub const MAX_L2: usize = 64;
+/// Most Adam iterations of one fit (`--iters`).
+pub const MAX_ITERS: usize = 1_000_000;
+
 /// `gpecnet score`'s options.
 #[derive(clap::Args, Debug)]
 pub struct ScoreArgs {
@@ -74,22 +79,65 @@ pub struct ScoreArgs {
 impl ScoreArgs {
     /// Runs the command: fits, writes `score.json`, returns it.
     pub fn run(&self) -> Result<ScoreFile> {
+        if self.l2.is_empty()
+            || self.l2.len() > MAX_L2
+            || self.l2.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+        {
+            bail!("--l2 needs 1..={MAX_L2} finite values >= 0");
+        }
+        if self.iters == 0 || self.iters > MAX_ITERS {
+            bail!(
+                "--iters {} is out of range: allowed 1..={MAX_ITERS}",
+                self.iters
+            );
+        }
+        if !(self.lr.is_finite() && self.lr > 0.0 && self.lr <= 1.0) {
+            bail!(
+                "--lr {} is out of range: allowed a finite number in (0, 1]",
+                self.lr
+            );
+        }
         let target = self.out.join("score.json");
-        if target.exists() {
+        // Never over the blob, its sidecars or the proposal, never among the data.
+        let sidecars = crate::outpath::blob_and_sidecars(&self.blob);
+        let mut inputs: Vec<&Path> = sidecars.iter().map(PathBuf::as_path).collect();
+        inputs.push(&self.blob);
+        inputs.extend(self.proposal.as_deref());
+        let data_dirs = crate::outpath::data_input_dirs(&self.data);
+        let dirs: Vec<&Path> = data_dirs.iter().map(PathBuf::as_path).collect();
+        crate::outpath::check_output("--out", &target, &inputs, &dirs)?;
+        // One writer per folder: the lock is held until score.json is in place, and the
+        // existence check runs under it (a second run into the folder is refused at once).
+        std::fs::create_dir_all(&self.out)
+            .with_context(|| format!("creating {}", self.out.display()))?;
+        let _lock =
+            crate::rundir::RunLock::acquire_file(&self.out.join(".score.lock"), |other, path| {
+                format!(
+                    "another gpecnet score is writing into {} ({other}; lock file {}); a fit is \
+                     never written over. If no such command is running, delete the lock file",
+                    self.out.display(),
+                    path.display()
+                )
+            })?;
+        if std::fs::symlink_metadata(&target).is_ok() {
             bail!(
                 "{} exists: choose another --out (a fit is never written over)",
                 target.display()
             );
         }
-        if self.l2.is_empty() || self.l2.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            bail!("--l2 needs one or more finite values >= 0");
-        }
-        if self.iters == 0 || !(self.lr.is_finite() && self.lr > 0.0) {
-            bail!("--iters must be at least 1 and --lr finite and > 0");
-        }
         let bytes = crate::inpath::read_limited(&self.blob, crate::inpath::FileKind::Blob)?;
         let mut model = crate::export::read_blob(&bytes)
             .with_context(|| format!("reading {}", self.blob.display()))?;
+        let spec = DatasetSpec::parse(&self.dataset).map_err(anyhow::Error::msg)?;
+        {
+            // The data must be in the blob's unit and at its clock.
+            let core = gpecnet_core::Model::from_blob(&bytes)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?;
+            let meta = gpecnet_core::blob::Meta::of_blob(&bytes)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?;
+            crate::units::check_unit(&core, &meta, &spec, None)
+                .with_context(|| format!("scoring {}", self.blob.display()))?;
+        }
         if let Some(path) = &self.proposal {
             let p = crate::proposal_file::ProposalFile::read(path)?;
             if p.frozen != crate::proposal_file::frozen_fingerprint(&model) {
@@ -114,7 +162,6 @@ impl ScoreArgs {
             bail!("the radii are around the point forecast: the model needs a point head");
         }
         let k = model.proposal_latents();
-        let spec = DatasetSpec::parse(&self.dataset).map_err(anyhow::Error::msg)?;
         let val_scenes = data::default_sdd_val_scenes();
         let mut train = data::load(&self.data, &spec, data::Split::Train, &val_scenes)?.windows;
         if !self.no_mirror {
@@ -182,8 +229,12 @@ impl ScoreArgs {
             radius_scales: scales,
             val: val_metrics,
         };
-        std::fs::create_dir_all(&self.out)
-            .with_context(|| format!("creating {}", self.out.display()))?;
+        if std::fs::symlink_metadata(&target).is_ok() {
+            bail!(
+                "{} exists: choose another --out (a fit is never written over)",
+                target.display()
+            );
+        }
         crate::rundir::write_atomic(&target, serde_json::to_string_pretty(&file)?.as_bytes())?;
         Ok(file)
     }

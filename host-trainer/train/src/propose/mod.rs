@@ -23,7 +23,7 @@ mod run;
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 
 use crate::data;
 use crate::network::Act;
@@ -103,9 +103,112 @@ pub enum ActArg {
     Sine,
 }
 
+/// The most latents a proposal may give: the core's limit
+/// (`gpecnet_core::blob::MAX_PROPOSAL_LATENTS`).
+pub const MAX_PROPOSAL_K: usize = gpecnet_core::blob::MAX_PROPOSAL_LATENTS;
+
 impl ProposeArgs {
+    /// Every numeric option in its range, before anything is read or allocated; each error
+    /// names the option and the range (the training config's bounds where they apply).
+    pub fn check_options(&self) -> Result<()> {
+        use crate::config::{MAX_BATCH, MAX_HIDDEN_LAYERS, MAX_THREADS, MAX_WIDTH};
+        let in_range = |name: &str, v: usize, lo: usize, hi: usize, why: &str| -> Result<()> {
+            if v < lo || v > hi {
+                bail!("{name} {v} is out of range: allowed {lo}..={hi}{why}");
+            }
+            Ok(())
+        };
+        in_range(
+            "--k",
+            self.k,
+            1,
+            MAX_PROPOSAL_K,
+            " (the most latents a proposal model gives, gpecnet-core's limit)",
+        )?;
+        in_range("--epochs", self.epochs, 1, usize::MAX, "")?;
+        in_range("--batch", self.batch, 1, MAX_BATCH, "")?;
+        in_range(
+            "--threads",
+            self.threads,
+            0,
+            MAX_THREADS,
+            " (0 = all cores)",
+        )?;
+        if !self.codebook {
+            if self.hidden.is_empty() || self.hidden.len() > MAX_HIDDEN_LAYERS {
+                bail!(
+                    "--hidden has {} layers: allowed 1..={MAX_HIDDEN_LAYERS} (a blob holds at most {} layers per network; --codebook for none)",
+                    self.hidden.len(),
+                    MAX_HIDDEN_LAYERS + 1
+                );
+            }
+            if let Some(&w) = self.hidden.iter().find(|&&w| w == 0 || w > MAX_WIDTH) {
+                bail!("--hidden has a layer of width {w}: allowed widths 1..={MAX_WIDTH}");
+            }
+        }
+        if !(self.lr.is_finite() && self.lr > 0.0 && self.lr <= 1.0) {
+            bail!(
+                "--lr {} is out of range: allowed a finite number in (0, 1]",
+                self.lr
+            );
+        }
+        for (name, v) in [("--temperature", self.temperature), ("--bound", self.bound)] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{name} {v} is out of range: allowed a finite number > 0");
+            }
+        }
+        if !(self.prior_weight.is_finite() && self.prior_weight >= 0.0) {
+            bail!(
+                "--prior-weight {} is out of range: allowed a finite number >= 0",
+                self.prior_weight
+            );
+        }
+        Ok(())
+    }
+
+    /// The proposal's size for the frozen `model`, before any allocation: at most the
+    /// training config's parameter limit, and one batch's decoder activations (`batch · k`
+    /// decodes) within its activation limit.
+    fn check_size(&self, model: &crate::reference::RefModel) -> Result<()> {
+        use crate::config::{MAX_PARAMETERS, MAX_TRAIN_ACTIVATION_BYTES};
+        let c = &model.config;
+        let hidden: &[usize] = if self.codebook { &[] } else { &self.hidden };
+        let widths: Vec<u128> = std::iter::once(c.fdim)
+            .chain(hidden.iter().copied())
+            .chain(std::iter::once(self.k * c.zdim))
+            .map(|w| w as u128)
+            .collect();
+        let params: u128 = widths.windows(2).map(|w| w[0] * w[1] + w[1]).sum();
+        if params > u128::from(MAX_PARAMETERS) {
+            bail!(
+                "the proposal ({} -> {hidden:?} -> K·zdim = {}) has {params} parameters, over the limit of {MAX_PARAMETERS}: make --hidden or --k smaller",
+                c.fdim,
+                self.k * c.zdim
+            );
+        }
+        let widest = model
+            .nets
+            .decoder
+            .iter()
+            .map(|l| l.out_dim.max(l.in_dim))
+            .chain(widths.iter().map(|&w| w as usize))
+            .max()
+            .unwrap_or(0) as u128;
+        let bytes = (self.batch as u128) * (self.k as u128) * widest * 4;
+        if bytes > u128::from(MAX_TRAIN_ACTIVATION_BYTES) {
+            bail!(
+                "--batch {} with --k {}: one batch decodes {} endpoints through layers up to {widest} wide ({bytes} bytes of activations), over the limit of {MAX_TRAIN_ACTIVATION_BYTES} bytes: make --batch smaller",
+                self.batch,
+                self.k,
+                (self.batch as u128) * (self.k as u128)
+            );
+        }
+        Ok(())
+    }
+
     /// Runs the command.
     pub fn run(&self) -> Result<ProposalFile> {
+        self.check_options()?;
         crate::train::set_num_threads(if self.threads == 0 {
             std::thread::available_parallelism().map_or(1, |n| n.get())
         } else {
@@ -114,9 +217,25 @@ impl ProposeArgs {
         let bytes = crate::inpath::read_limited(&self.blob, crate::inpath::FileKind::Blob)?;
         let model = crate::export::read_blob(&bytes)
             .with_context(|| format!("reading {}", self.blob.display()))?;
-        let crc = gpecnet_core::Model::from_blob(&bytes)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?
-            .crc();
+        let core = gpecnet_core::Model::from_blob(&bytes)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?;
+        let crc = core.crc();
+        self.check_size(&model)?;
+        // The blob's unit and clock must be the data's, and the run folder outside the
+        // data and apart from the blob's files.
+        let spec = data::DatasetSpec::parse(&self.dataset).map_err(anyhow::Error::msg)?;
+        let meta = gpecnet_core::blob::Meta::of_blob(&bytes)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?;
+        data::units::check_unit(&core, &meta, &spec, None)
+            .with_context(|| format!("proposing latents for {}", self.blob.display()))?;
+        let sidecars = crate::outpath::blob_and_sidecars(&self.blob);
+        let mut inputs: Vec<&std::path::Path> = sidecars.iter().map(PathBuf::as_path).collect();
+        inputs.push(&self.blob);
+        let data_dirs = crate::outpath::data_input_dirs(&self.data);
+        let dirs: Vec<&std::path::Path> = data_dirs.iter().map(PathBuf::as_path).collect();
+        for file in ["proposal.json", "checkpoint.json", "metrics.csv"] {
+            crate::outpath::check_output("--out", &self.out.join(file), &inputs, &dirs)?;
+        }
         let settings = ProposeSettings {
             blob_crc: crc,
             dataset: self.dataset.clone(),

@@ -47,6 +47,33 @@ pub struct TrainSummary {
     pub unit: Unit,
 }
 
+/// The folders the run reads data from (the data root's `sdd/` and `eth_ucy/`, and an own
+/// data folder, as written and under the data root), where a run folder is refused: the
+/// loaders would read its files (a folder named `*.txt` breaks every later load).
+fn check_run_dir_outside_data(cfg: &TrainConfig, opts: &TrainOptions) -> Result<()> {
+    fn folders(spec: &crate::data::DatasetSpec, root: &std::path::Path, out: &mut Vec<PathBuf>) {
+        match spec {
+            crate::data::DatasetSpec::Folder { dir, .. } => {
+                out.push(PathBuf::from(dir));
+                out.push(root.join(dir));
+            }
+            crate::data::DatasetSpec::Combined(parts) => {
+                for p in parts {
+                    folders(p, root, out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut dirs: Vec<PathBuf> = crate::outpath::data_input_dirs(&opts.data_root).into();
+    if let Ok(spec) = cfg.dataset_spec() {
+        folders(&spec, &opts.data_root, &mut dirs);
+    }
+    let dirs: Vec<&std::path::Path> = dirs.iter().map(PathBuf::as_path).collect();
+    crate::outpath::check_output("--out", &opts.run_dir.join("config.toml"), &[], &dirs)?;
+    Ok(())
+}
+
 /// Start a new run in `opts.run_dir`: takes the run lock ([`crate::rundir`]), refuses a
 /// folder with a checkpoint (continue it with `--resume`) and, unless `opts.force`, a folder
 /// that holds any other file; writes `config.toml` and the data fingerprint, then trains.
@@ -56,6 +83,7 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
         cfg.num_epochs = n;
     }
     cfg.validate()?;
+    check_run_dir_outside_data(&cfg, opts)?;
     std::fs::create_dir_all(&opts.run_dir)
         .with_context(|| format!("cannot create {}", opts.run_dir.display()))?;
     let _lock = RunLock::acquire(&opts.run_dir)?;
