@@ -142,13 +142,17 @@ impl FolderInfo {
                 "metres_per_pixel converts pixel data: set unit = \"px\"".into(),
             ));
         }
-        if let Some((k, v)) = info
-            .metres_per_pixel
-            .iter()
-            .find(|(_, v)| !(v.is_finite() && **v > 0.0))
-        {
+        // Positions are scaled in f32: the factor must survive the conversion (1e-300 is a
+        // positive f64 and 0 as f32; 1e300 is infinite), as a normal number.
+        if let Some((k, v)) = info.metres_per_pixel.iter().find(|(_, v)| {
+            let f = **v as f32;
+            !(v.is_finite() && **v > 0.0 && f.is_finite() && f.is_normal())
+        }) {
             return Err(bad(format!(
-                "metres_per_pixel.{k} = {v}: expected a positive number"
+                "metres_per_pixel.{k} = {v}: expected a positive number that is a normal f32 \
+                 (between {:e} and {:e})",
+                f32::MIN_POSITIVE,
+                f32::MAX
             )));
         }
         info.step(&path)?;

@@ -46,9 +46,10 @@ pub fn sdd_metres_per_pixel(root: &Path) -> Result<HashMap<String, f64>, DataErr
         let v: f64 = cols[1]
             .parse()
             .map_err(|_| bad(format!("cannot parse {:?} as a number", cols[1])))?;
-        if !(v.is_finite() && v > 0.0) {
+        // Positions are scaled in f32: the factor must be a normal f32 too.
+        if !(v.is_finite() && v > 0.0 && (v as f32).is_normal()) {
             return Err(bad(format!(
-                "factor {:?} is not a positive finite number",
+                "factor {:?} is not a positive finite number that is a normal f32",
                 cols[1]
             )));
         }

@@ -103,6 +103,9 @@ pub fn quantize_blob_with(
     sign: Option<&crate::signing::SignSpec>,
 ) -> Result<QuantCard> {
     use crate::data::{DatasetSpec, Split};
+    if cal_stride == 0 {
+        bail!("--cal-stride 0 is out of range: allowed 1 or more (calibrate on every N-th training window)");
+    }
     let name = out
         .file_stem()
         .and_then(|s| s.to_str())

@@ -54,6 +54,10 @@ pub fn select(
     k: usize,
     sine: SineKind,
 ) -> Result<(Vec<SelectRow>, Option<Metrics>)> {
+    // The training config's rule for sigma: finite and >= 0.
+    if let Some(s) = sigmas.iter().find(|s| !(s.is_finite() && **s >= 0.0)) {
+        bail!("--sigmas {s} is out of range: allowed finite numbers >= 0");
+    }
     for &n in tts {
         if n != 0 && (n < k || n > gpecnet_core::blob::MAX_TTS_SAMPLES) {
             bail!(
