@@ -270,3 +270,206 @@ fn a_failed_keygen_leaves_nothing_behind() {
     assert!(ok, "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Two `score` runs into one `--out`: the folder's lock is held from the start until
+/// `score.json` is in place, so the second is refused at once and writes nothing.
+#[test]
+fn a_second_score_into_the_same_folder_is_refused_at_once() {
+    let dir = temp_dir("score-lock");
+    let out = dir.join("fit");
+    std::fs::create_dir_all(&out).unwrap();
+    // A running score (this process) holds the folder.
+    let held = gpecnet_trainer::rundir::RunLock::acquire_file(&out.join(".score.lock"), |_, _| {
+        String::from("busy")
+    })
+    .unwrap();
+    let blob = weights().join("sdd-m-lp-host.gpec");
+    let (ok, text) = run(&["score", "--blob", s(&blob), "--out", s(&out)]);
+    assert!(!ok && text.contains("another gpecnet score"), "{text}");
+    assert!(!out.join("score.json").exists());
+    drop(held);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `propose`'s numeric options are bounded before any work, each error naming the option
+/// and its limit; nothing is created.
+#[test]
+fn propose_options_are_bounded_before_any_work() {
+    let dir = temp_dir("propose-bounds");
+    let out = dir.join("run");
+    let blob = weights().join("sdd-m-tiny.gpec");
+    for (args, want) in [
+        (
+            &["--k", "1000000"][..],
+            "--k 1000000 is out of range: allowed 1..=64",
+        ),
+        (&["--k", "65"][..], "allowed 1..=64"),
+        (&["--k", "0"][..], "allowed 1..=64"),
+        (&["--hidden", "100000000"][..], "allowed widths 1..=4096"),
+        (&["--hidden", "0"][..], "allowed widths 1..=4096"),
+        (
+            &["--threads", "100000"][..],
+            "--threads 100000 is out of range: allowed 0..=1024",
+        ),
+        (&["--lr", "nan"][..], "--lr NaN is out of range"),
+        (&["--lr=-1"][..], "--lr -1 is out of range"),
+        (&["--lr", "inf"][..], "--lr inf is out of range"),
+        (&["--batch", "0"][..], "--batch 0 is out of range"),
+        (&["--epochs", "0"][..], "--epochs 0 is out of range"),
+        (&["--bound", "nan"][..], "--bound NaN is out of range"),
+        (
+            &["--temperature", "0"][..],
+            "--temperature 0 is out of range",
+        ),
+        (
+            &["--prior-weight=-1"][..],
+            "--prior-weight -1 is out of range",
+        ),
+        (
+            &["--hidden", "4096,4096,4096"][..],
+            "parameters, over the limit",
+        ),
+        (
+            &["--batch", "1000000", "--k", "64"][..],
+            "over the limit of",
+        ),
+    ] {
+        let start = std::time::Instant::now();
+        let (ok, text) =
+            run(&[&["propose", "--blob", s(&blob), "--out", s(&out)][..], args].concat());
+        assert!(!ok && text.contains(want), "{args:?}: {text}");
+        assert!(start.elapsed().as_secs() < 20, "{args:?} took long");
+        assert!(!out.exists(), "{args:?} created the run folder");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A blob whose stated clock is not the data's 0.4 s is refused by every command that
+/// pairs a blob with data, before anything is written; and a metre model is refused on
+/// pixel data by `score` and `propose` as by `eval` and `quantize`.
+#[test]
+fn unit_and_clock_are_checked_wherever_a_blob_meets_data() {
+    let dir = temp_dir("clock");
+    let retimed = |name: &str, period: f32| {
+        let bytes = std::fs::read(weights().join(format!("{name}.gpec"))).unwrap();
+        let mut m = gpecnet_trainer::export::read_blob(&bytes).unwrap();
+        m.config.meta.as_mut().unwrap().period_s = period;
+        let p = dir.join(format!("{name}-{period}.gpec"));
+        std::fs::write(&p, gpecnet_trainer::export::blob_bytes(&m).unwrap()).unwrap();
+        p
+    };
+    let tiny = retimed("sdd-m-tiny", 0.5);
+    let lp = retimed("sdd-m-lp-host", 60.0);
+    let out = dir.join("out");
+    let q = dir.join("q.gpec");
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["eval", "--blob", s(&tiny), "--dataset", "eth_ucy:zara1"],
+        vec!["quantize", "--blob", s(&tiny), "--out", s(&q)],
+        vec!["propose", "--blob", s(&tiny), "--out", s(&out)],
+        vec!["score", "--blob", s(&lp), "--out", s(&out)],
+    ];
+    for args in &commands {
+        let (ok, text) = run(args);
+        assert!(
+            !ok && text.contains("between positions") && text.contains("0.4 s"),
+            "{args:?}: {text}"
+        );
+    }
+    assert!(!q.exists() && !out.join("score.json").exists());
+    assert!(!out.join("proposal.json").exists());
+    // The shipped clock is accepted (a pixel model at 0.4 s on SDD pixels gets further).
+    let metric = weights().join("sdd-m-tiny.gpec");
+    let host = weights().join("sdd-m-lp-host.gpec");
+    for args in [
+        vec![
+            "propose",
+            "--blob",
+            s(&metric),
+            "--dataset",
+            "sdd",
+            "--out",
+            s(&out),
+        ],
+        vec![
+            "score",
+            "--blob",
+            s(&host),
+            "--dataset",
+            "sdd",
+            "--out",
+            s(&out),
+        ],
+    ] {
+        let (ok, text) = run(&args);
+        assert!(
+            !ok && text.contains("takes and returns metres"),
+            "{args:?}: {text}"
+        );
+    }
+    assert!(!out.join("score.json").exists() && !out.join("proposal.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `train --out` and `score --out` (and `propose --out`) inside the data folders are
+/// refused, also when the folder does not exist yet; nothing is created there.
+#[test]
+fn run_and_fit_folders_are_never_among_the_data() {
+    let r = common::TinyRun::new("out-in-data");
+    let inside = r.dir.join("sdd/train/run.txt");
+    let (ok, text) = common::train(&r.dir, &inside, &["--config", s(&r.cfg)]);
+    assert!(!ok && text.contains("inside the input folder"), "{text}");
+    assert!(
+        !inside.exists(),
+        "the run folder was created among the data"
+    );
+    let blob = weights().join("sdd-m-lp-host.gpec");
+    let fit = r.dir.join("sdd/fit");
+    let (ok, text) = run(&[
+        "score",
+        "--blob",
+        s(&blob),
+        "--data",
+        s(&r.dir),
+        "--out",
+        s(&fit),
+    ]);
+    assert!(!ok && text.contains("inside the input folder"), "{text}");
+    assert!(!fit.exists());
+    let (ok, text) = run(&[
+        "propose",
+        "--blob",
+        s(&weights().join("sdd-m-tiny.gpec")),
+        "--data",
+        s(&r.dir),
+        "--out",
+        s(&fit),
+    ]);
+    assert!(!ok && text.contains("inside the input folder"), "{text}");
+    assert!(!fit.exists());
+}
+
+/// An own data folder's metres per pixel must survive the conversion to f32: 1e-300 (0 as
+/// f32) and 1e300 (infinite) are refused, naming the key.
+#[test]
+fn own_data_scales_are_checked_as_f32() {
+    for bad in ["1e-300", "1e-40", "1e300"] {
+        let dir = temp_dir("scale-f32");
+        std::fs::write(
+            dir.join("dataset.toml"),
+            format!(
+                "unit = \"px\"\nseconds_per_frame = 0.4\n[metres_per_pixel]\nflight_01 = {bad}\n"
+            ),
+        )
+        .unwrap();
+        for split in ["train", "val", "test"] {
+            std::fs::create_dir_all(dir.join(split)).unwrap();
+        }
+        let e =
+            gpecnet_trainer::data::DatasetSpec::parse(&format!("{}/", dir.display())).unwrap_err();
+        assert!(
+            e.contains("metres_per_pixel.flight_01") && e.contains("normal f32"),
+            "{bad}: {e}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
