@@ -473,3 +473,36 @@ fn own_data_scales_are_checked_as_f32() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// A second fallback to `checkpoint.prev.bin` keeps the new unusable checkpoint beside the
+/// first one (`checkpoint.corrupt.1.bin`), never over it.
+#[test]
+fn a_second_checkpoint_fallback_keeps_the_first_corrupt_file() {
+    let r = common::TinyRun::trained("corrupt-twice", 2);
+    let path = r.out.join("checkpoint.bin");
+    let flip = || {
+        let mut bytes = std::fs::read(&path).unwrap();
+        let n = bytes.len();
+        bytes[n / 2] ^= 0x10;
+        std::fs::write(&path, &bytes).unwrap();
+        bytes
+    };
+    let first = flip();
+    let (ok, text) = r.resume(&["--epochs", "2"]);
+    assert!(ok, "{text}");
+    assert_eq!(
+        std::fs::read(r.out.join("checkpoint.corrupt.bin")).unwrap(),
+        first
+    );
+    let second = flip();
+    let (ok, text) = r.resume(&["--epochs", "2"]);
+    assert!(ok && text.contains("checkpoint.corrupt.1.bin"), "{text}");
+    assert_eq!(
+        std::fs::read(r.out.join("checkpoint.corrupt.bin")).unwrap(),
+        first
+    );
+    assert_eq!(
+        std::fs::read(r.out.join("checkpoint.corrupt.1.bin")).unwrap(),
+        second
+    );
+}

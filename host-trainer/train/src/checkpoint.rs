@@ -301,16 +301,19 @@ pub fn load_for_resume(run_dir: &Path) -> anyhow::Result<Checkpoint> {
     }
     match load(&prev_path) {
         Ok(c) => {
-            let corrupt = run_dir.join(CORRUPT_FILE);
-            let kept = path.exists() && fs::rename(&path, &corrupt).is_ok();
+            let kept = if path.exists() {
+                keep_corrupt(run_dir, &path)
+            } else {
+                None
+            };
             eprintln!(
                 "warning: {err}; resuming from the previous checkpoint {} (epoch {}){}",
                 prev_path.display(),
                 c.epochs_done,
-                if kept {
-                    format!("; the unusable file is kept as {}", corrupt.display())
-                } else {
-                    String::new()
+                match kept {
+                    Some(corrupt) =>
+                        format!("; the unusable file is kept as {}", corrupt.display()),
+                    None => String::new(),
                 }
             );
             Ok(c)
@@ -320,6 +323,32 @@ pub fn load_for_resume(run_dir: &Path) -> anyhow::Result<Checkpoint> {
             run_dir.display()
         )),
     }
+}
+
+/// Moves the unusable `path` to [`CORRUPT_FILE`], or `checkpoint.corrupt.<n>.bin` when an
+/// earlier fallback kept one already: never over an existing file (a hard link refuses an
+/// existing name; the original is removed only once linked). `None` when it stays put.
+fn keep_corrupt(run_dir: &Path, path: &Path) -> Option<PathBuf> {
+    const MOST_KEPT: u32 = 1000;
+    for n in 0..MOST_KEPT {
+        let corrupt = if n == 0 {
+            run_dir.join(CORRUPT_FILE)
+        } else {
+            run_dir.join(format!("checkpoint.corrupt.{n}.bin"))
+        };
+        match fs::hard_link(path, &corrupt) {
+            Ok(()) => {
+                return fs::remove_file(path).is_ok().then_some(corrupt);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            // No hard links here: a rename, to a name that is free.
+            Err(_) if fs::symlink_metadata(&corrupt).is_err() => {
+                return fs::rename(path, &corrupt).is_ok().then_some(corrupt);
+            }
+            Err(_) => continue,
+        }
+    }
+    None
 }
 
 /// Load a checkpoint from a run directory or a checkpoint file.
