@@ -318,13 +318,13 @@
 // Points of one history (the shipped models' observed steps).
 #define GPECNET_HISTORY 8
 
-// [`GpecnetTrackForecast::motion`]: below the first speed threshold (0.3 m/s).
+// [`GpecnetTrackForecast::motion`]: below the first speed threshold.
 #define GPECNET_MOTION_STANDING 0
 
-// [`GpecnetTrackForecast::motion`]: below the second (0.9 m/s).
+// [`GpecnetTrackForecast::motion`]: below the second.
 #define GPECNET_MOTION_SLOW 1
 
-// [`GpecnetTrackForecast::motion`]: below the third (1.8 m/s).
+// [`GpecnetTrackForecast::motion`]: below the third.
 #define GPECNET_MOTION_WALKING 2
 
 // [`GpecnetTrackForecast::motion`]: at or above the third.
@@ -479,37 +479,37 @@ typedef struct GpecnetHistory {
   float past_xy[GPECNET_HISTORY][2];
 } GpecnetHistory;
 
-// The loop's settings, `gpecnet_core::online::Config` field for field.
-// Distances are in the caller's unit (the one the predictor was
-// initialised with, [`gpecnet_init_units`]): start from
-// [`gpecnet_online_config_default`] (metres) or
-// [`gpecnet_online_config_scaled`] (another unit).
+// The loop's settings, `gpecnet_core::online::Config` field for field (its
+// docs give each default value and the rule it enters). Distances are in
+// the caller's unit (the one the predictor was initialised with,
+// [`gpecnet_init_units`]): start from [`gpecnet_online_config_default`]
+// (metres) or [`gpecnet_online_config_scaled`] (another unit).
 typedef struct GpecnetOnlineConfig {
   // 1: learn from feedback; 0: the blob's static multipliers and the
   // head's point forecast, as without the loop.
   uint8_t adapt;
-  // Target miss rates of `r50` and `r90`: `{0.5, 0.1}`.
+  // Target miss rates of `r50` and `r90` (`0 < alpha[1] < alpha[0] < 1`).
   float alpha[2];
-  // Step of the multipliers' logarithm per update: 0.05.
+  // Step of the multipliers' logarithm per update, `γ` (`0 < γ ≤ 1`).
   float gamma;
   // Learning rate of the expert weights per caller unit of discounted
-  // error at the endpoint horizon: 2 per metre.
+  // error at the endpoint horizon, `η` (`> 0`).
   float eta;
-  // Forgetting factor of the expert losses per update: 0.99.
+  // Forgetting factor of the expert losses per update, `λ` (`0 < λ < 1`).
   float forgetting;
   // The constant-velocity experts' initial loss at the endpoint horizon
-  // (caller unit): 2 m, so the point head starts with about 95 % of the weight.
+  // (caller unit; `h/12` of it at horizon `h`, the point head's is 0).
   float expert_prior;
-  // Observed speeds (caller units per second) separating standing, slow,
-  // walking and fast: `{0.3, 0.9, 1.8}` m/s.
+  // Observed speeds (caller units per second, ascending) separating
+  // standing, slow, walking and fast.
   float speed_thresholds[3];
   // 1: one calibration per motion state; 0: one for all.
   uint8_t motion_bins;
-  // The smallest scale of the radii (caller unit): 0.05 m.
+  // The smallest scale of the radii (caller unit).
   float min_scale;
-  // The largest error one update counts (caller unit): 10 m.
+  // The largest error one update counts (caller unit).
   float loss_cap;
-  // `{c_min, c_max}`, the range of every radius multiplier: `{0.02, 50}`.
+  // `{c_min, c_max}`, the range of every radius multiplier.
   float multiplier_bounds[2];
 } GpecnetOnlineConfig;
 
@@ -788,8 +788,8 @@ int32_t gpecnet_tracks_fresh(struct GpecnetTracks *t,
 // [`GPECNET_FORECASTER_SIZE`]).
 size_t gpecnet_forecaster_size(void);
 
-// Fills `*out` with the loop's defaults for a caller in metres (each
-// field's doc gives its value).
+// Fills `*out` with the loop's defaults for a caller in metres
+// (`gpecnet_core::online::Config::metres`).
 //
 // # Safety
 // `out` is NULL or valid for a write.
@@ -857,8 +857,10 @@ int32_t gpecnet_forecaster_init(void *storage,
 // NULL or one passed to `gpecnet_init*`, neither in use by another call;
 // `dets` is NULL (only with `n` = 0) or valid for reads of `n` detections;
 // `out` is NULL (only with `out_cap` = 0) or valid for writes of `out_cap`
-// forecasts; `n_out` is NULL or valid for a write; `report` is NULL or
-// valid for a write.
+// forecasts, not overlapping `dets` (later pieces of a frame of more than
+// [`GPECNET_ONLINE_MAX_DETECTIONS`] are read after forecasts are written);
+// `n_out` is NULL or valid for a write; `report` is NULL or valid for a
+// write. The same storage as both `f` and `p` is refused by their tags.
 int32_t gpecnet_forecaster_frame(struct GpecnetForecaster *f,
                                  struct GpecnetPredictor *p,
                                  uint32_t t_ms,

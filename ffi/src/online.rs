@@ -45,11 +45,11 @@ use crate::{
     GPECNET_E_ONLINE_STATE_CRC,
 };
 
-/// [`GpecnetTrackForecast::motion`]: below the first speed threshold (0.3 m/s).
+/// [`GpecnetTrackForecast::motion`]: below the first speed threshold.
 pub const GPECNET_MOTION_STANDING: u8 = 0;
-/// [`GpecnetTrackForecast::motion`]: below the second (0.9 m/s).
+/// [`GpecnetTrackForecast::motion`]: below the second.
 pub const GPECNET_MOTION_SLOW: u8 = 1;
-/// [`GpecnetTrackForecast::motion`]: below the third (1.8 m/s).
+/// [`GpecnetTrackForecast::motion`]: below the third.
 pub const GPECNET_MOTION_WALKING: u8 = 2;
 /// [`GpecnetTrackForecast::motion`]: at or above the third.
 pub const GPECNET_MOTION_FAST: u8 = 3;
@@ -62,39 +62,39 @@ const _: () = {
     assert!(GPECNET_MOTION_FAST == MotionState::Fast as u8);
 };
 
-/// The loop's settings, `gpecnet_core::online::Config` field for field.
-/// Distances are in the caller's unit (the one the predictor was
-/// initialised with, [`gpecnet_init_units`]): start from
-/// [`gpecnet_online_config_default`] (metres) or
-/// [`gpecnet_online_config_scaled`] (another unit).
+/// The loop's settings, `gpecnet_core::online::Config` field for field (its
+/// docs give each default value and the rule it enters). Distances are in
+/// the caller's unit (the one the predictor was initialised with,
+/// [`gpecnet_init_units`]): start from [`gpecnet_online_config_default`]
+/// (metres) or [`gpecnet_online_config_scaled`] (another unit).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GpecnetOnlineConfig {
     /// 1: learn from feedback; 0: the blob's static multipliers and the
     /// head's point forecast, as without the loop.
     pub adapt: u8,
-    /// Target miss rates of `r50` and `r90`: `{0.5, 0.1}`.
+    /// Target miss rates of `r50` and `r90` (`0 < alpha[1] < alpha[0] < 1`).
     pub alpha: [f32; 2],
-    /// Step of the multipliers' logarithm per update: 0.05.
+    /// Step of the multipliers' logarithm per update, `γ` (`0 < γ ≤ 1`).
     pub gamma: f32,
     /// Learning rate of the expert weights per caller unit of discounted
-    /// error at the endpoint horizon: 2 per metre.
+    /// error at the endpoint horizon, `η` (`> 0`).
     pub eta: f32,
-    /// Forgetting factor of the expert losses per update: 0.99.
+    /// Forgetting factor of the expert losses per update, `λ` (`0 < λ < 1`).
     pub forgetting: f32,
     /// The constant-velocity experts' initial loss at the endpoint horizon
-    /// (caller unit): 2 m, so the point head starts with about 95 % of the weight.
+    /// (caller unit; `h/12` of it at horizon `h`, the point head's is 0).
     pub expert_prior: f32,
-    /// Observed speeds (caller units per second) separating standing, slow,
-    /// walking and fast: `{0.3, 0.9, 1.8}` m/s.
+    /// Observed speeds (caller units per second, ascending) separating
+    /// standing, slow, walking and fast.
     pub speed_thresholds: [f32; 3],
     /// 1: one calibration per motion state; 0: one for all.
     pub motion_bins: u8,
-    /// The smallest scale of the radii (caller unit): 0.05 m.
+    /// The smallest scale of the radii (caller unit).
     pub min_scale: f32,
-    /// The largest error one update counts (caller unit): 10 m.
+    /// The largest error one update counts (caller unit).
     pub loss_cap: f32,
-    /// `{c_min, c_max}`, the range of every radius multiplier: `{0.02, 50}`.
+    /// `{c_min, c_max}`, the range of every radius multiplier.
     pub multiplier_bounds: [f32; 2],
 }
 
@@ -339,8 +339,8 @@ unsafe fn forecaster<'a>(f: *mut GpecnetForecaster) -> Result<&'a mut Forecaster
     Ok(unsafe { &mut *s })
 }
 
-/// Fills `*out` with the loop's defaults for a caller in metres (each
-/// field's doc gives its value).
+/// Fills `*out` with the loop's defaults for a caller in metres
+/// (`gpecnet_core::online::Config::metres`).
 ///
 /// # Safety
 /// `out` is NULL or valid for a write.
@@ -463,8 +463,10 @@ pub unsafe extern "C" fn gpecnet_forecaster_init(
 /// NULL or one passed to `gpecnet_init*`, neither in use by another call;
 /// `dets` is NULL (only with `n` = 0) or valid for reads of `n` detections;
 /// `out` is NULL (only with `out_cap` = 0) or valid for writes of `out_cap`
-/// forecasts; `n_out` is NULL or valid for a write; `report` is NULL or
-/// valid for a write.
+/// forecasts, not overlapping `dets` (later pieces of a frame of more than
+/// [`GPECNET_ONLINE_MAX_DETECTIONS`] are read after forecasts are written);
+/// `n_out` is NULL or valid for a write; `report` is NULL or valid for a
+/// write. The same storage as both `f` and `p` is refused by their tags.
 #[no_mangle]
 pub unsafe extern "C" fn gpecnet_forecaster_frame(
     f: *mut GpecnetForecaster,

@@ -173,8 +173,8 @@ fn storage_constants_hold_the_forecaster() {
 fn config_default_and_scaled_are_the_cores() {
     let c = default_config();
     assert_eq!(Config::from(c), Config::metres());
-    assert_eq!(c.adapt, 1);
-    assert_eq!(c.motion_bins, 1);
+    assert_eq!(c.adapt, u8::from(Config::metres().adapt));
+    assert_eq!(c.motion_bins, u8::from(Config::metres().motion_bins));
     let mut px = c;
     // SAFETY: test: the same struct in and out is allowed.
     let st = unsafe { gpecnet_online_config_scaled(&px, 25.0, &mut px) };
