@@ -506,3 +506,22 @@ fn a_second_checkpoint_fallback_keeps_the_first_corrupt_file() {
         second
     );
 }
+
+/// An own data folder's licence longer than a blob holds is refused when the folder is
+/// read, naming the key and the limit, not at export.
+#[test]
+fn an_own_data_licence_too_long_for_a_blob_is_refused_up_front() {
+    let dir = temp_dir("licence");
+    let licence = "x".repeat(600);
+    std::fs::write(
+        dir.join("dataset.toml"),
+        format!("unit = \"m\"\nseconds_per_frame = 0.4\nlicence = \"{licence}\"\n"),
+    )
+    .unwrap();
+    let e = gpecnet_trainer::data::DatasetSpec::parse(&format!("{}/", dir.display())).unwrap_err();
+    assert!(
+        e.contains("licence is 600 bytes") && e.contains("at most 512"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -155,6 +155,15 @@ impl FolderInfo {
                 f32::MAX
             )));
         }
+        // The licence is stored in every blob trained on the folder: refused here, naming the
+        // key, rather than at export.
+        let most = gpecnet_core::blob::MAX_META_TEXT;
+        if let Some(l) = info.licence.as_ref().filter(|l| l.len() > most) {
+            return Err(bad(format!(
+                "licence is {} bytes: allowed at most {most} (a blob stores it)",
+                l.len()
+            )));
+        }
         info.step(&path)?;
         Ok(info)
     }
