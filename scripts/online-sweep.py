@@ -51,15 +51,20 @@ def main():
     ap.add_argument("--bin", default="target/debug/gpecnet")
     ap.add_argument("--blob", default="weights/sdd-m-lp-qe.gpec")
     ap.add_argument("--out", default=None, help="write every row as JSON lines")
+    ap.add_argument("--grid", default=None, help="a JSON object replacing the grid below")
     a = ap.parse_args()
+    # The second grid of docs/online.md (the first: gamma 0.05-0.3, eta 2 and 8, forgetting
+    # 0.95 and 0.99, expert_prior 0.5 and 2, with and without bins, pending 2 and 12).
     grid = {
         "pending": [2, 12],
-        "gamma": [0.05, 0.1, 0.2, 0.3],
-        "eta": [2.0, 8.0],
-        "forgetting": [0.99, 0.95],
-        "expert_prior": [0.5, 2.0],
+        "gamma": [0.05, 0.1, 0.2],
+        "eta": [2.0, 8.0, 20.0],
+        "forgetting": [0.99, 0.999],
+        "expert_prior": [0.5],
         "bins": [True, False],
     }
+    if a.grid:
+        grid = json.loads(a.grid)
     rows = []
     for vals in itertools.product(*grid.values()):
         s = dict(zip(grid.keys(), vals))
@@ -68,8 +73,8 @@ def main():
             cmd = [a.bin, "stream", "--blob", a.blob, "--dataset", ds, "--split", "val", "--json",
                    "--pending", str(s["pending"]), "--gamma", str(s["gamma"]), "--eta", str(s["eta"]),
                    "--forgetting", str(s["forgetting"]), "--expert-prior", str(s["expert_prior"])]
-            if not s["bins"]:
-                cmd.append("--no-motion-bins")
+            if s["bins"]:
+                cmd.append("--motion-bins")
             out = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
             for pair in out["recordings"]:
                 on = pair[1]

@@ -46,21 +46,22 @@ pub(crate) struct StreamArgs {
     #[arg(long, default_value_t = 2, value_parser = parse_pending)]
     pending: usize,
     /// Step of the radius multipliers' logarithm per update (0 < γ <= 1).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.2)]
     gamma: f32,
     /// Learning rate of the expert weights, per metre of discounted endpoint error.
     #[arg(long, default_value_t = 2.0)]
     eta: f32,
     /// Forgetting factor of the expert losses per update (0 < λ < 1).
-    #[arg(long, default_value_t = 0.99)]
+    #[arg(long, default_value_t = 0.999)]
     forgetting: f32,
     /// The constant-velocity experts' initial discounted loss at the endpoint horizon, in
     /// metres (the point head's is 0): how much evidence it takes to move weight off the head.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 0.5)]
     expert_prior: f32,
-    /// One calibration for every motion state instead of one per state.
+    /// One calibration per motion state (standing, slow, walking, fast) instead of one for
+    /// all (did worse on validation: docs/online.md).
     #[arg(long)]
-    no_motion_bins: bool,
+    motion_bins: bool,
     /// Longest gap between two detections of a track that is bridged (milliseconds).
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(1..=60_000))]
     max_gap_ms: u32,
@@ -89,7 +90,7 @@ pub(crate) fn cmd_stream(a: StreamArgs) -> Result<()> {
     config.eta = a.eta;
     config.forgetting = a.forgetting;
     config.expert_prior = a.expert_prior;
-    config.motion_bins = !a.no_motion_bins;
+    config.motion_bins = a.motion_bins;
     if config.validate().is_err() {
         anyhow::bail!(
             "--gamma {} / --eta {} / --forgetting {} / --expert-prior {}: expected 0 < gamma <= 1, \

@@ -11,10 +11,10 @@
 //! * **per-horizon radii** `r50(h)`, `r90(h)` for `h = 1 … 12` steps (a tube a
 //!   planner checks a time-indexed path against), each `c(h) · scale(h)` with
 //!   its own multiplier `c(h)` learned by quantile tracking (adaptive
-//!   conformal inference, Gibbs & Candès 2021), per motion state;
+//!   conformal inference, Gibbs & Candès 2021), optionally per motion state;
 //! * the **point forecast** as an online aggregate of the model's point head
 //!   and three constant-velocity experts (over the last 1, 2 and 4 steps),
-//!   weighted per horizon and motion state by exponentially discounted
+//!   weighted per horizon (and motion state) by exponentially discounted
 //!   losses, so a scene where constant velocity wins is followed.
 //!
 //! [`Forecaster`] is the one call per camera frame: detections in (the
@@ -199,21 +199,23 @@ pub struct Config {
     pub adapt: bool,
     /// Target miss rates of `r50` and `r90`: `[0.5, 0.1]`.
     pub alpha: [f32; LEVELS],
-    /// Step of the multipliers' logarithm per update, `γ`: 0.05.
+    /// Step of the multipliers' logarithm per update, `γ`: 0.2.
     pub gamma: f32,
     /// Learning rate of the expert weights per caller unit of discounted
     /// error at the endpoint horizon, `η`: 2 per metre.
     pub eta: f32,
-    /// Forgetting factor of the expert losses per update, `λ`: 0.99.
+    /// Forgetting factor of the expert losses per update, `λ`: 0.999.
     pub forgetting: f32,
     /// The constant-velocity experts' initial loss at the endpoint horizon
-    /// (caller unit; `h/12` of it at horizon `h`): 2 m, so the point head
-    /// starts with about 95 % of the weight.
+    /// (caller unit; `h/12` of it at horizon `h`): 0.5 m, so the point head
+    /// starts with about 57 % of the weight (each constant-velocity expert
+    /// with `e^{-1}` of the head's).
     pub expert_prior: f32,
     /// Observed speeds (caller units per second) separating standing, slow,
     /// walking and fast: `[0.3, 0.9, 1.8]` m/s.
     pub speed_thresholds: [f32; 3],
-    /// One calibration per motion state (`false`: one for all).
+    /// One calibration per motion state (`false`, the default: one for
+    /// all; per-state calibrations did worse on validation, `docs/online.md`).
     pub motion_bins: bool,
     /// The smallest scale (caller unit): 0.05 m.
     pub min_scale: f32,
@@ -229,12 +231,12 @@ impl Config {
         Config {
             adapt: true,
             alpha: [0.5, 0.1],
-            gamma: 0.05,
+            gamma: 0.2,
             eta: 2.0,
-            forgetting: 0.99,
-            expert_prior: 2.0,
+            forgetting: 0.999,
+            expert_prior: 0.5,
             speed_thresholds: [0.3, 0.9, 1.8],
-            motion_bins: true,
+            motion_bins: false,
             min_scale: 0.05,
             loss_cap: 10.0,
             multiplier_bounds: [0.02, 50.0],
