@@ -15,6 +15,7 @@ mod propose;
 mod run_folder;
 mod score;
 mod signing;
+mod stream;
 mod social;
 mod synth_abscore;
 mod synth_agent;

@@ -1,0 +1,121 @@
+//! The streaming evaluation (`gpecnet stream`) on real recordings: every pedestrian of a
+//! recording reaches the track table (the data's manifest counts), every full 20-step window is
+//! scored, the loop off reproduces the static forecast, the loop on calibrates a scene the
+//! static radii over-cover, and the command's output and refusals.
+use crate::common::{run, s, temp_dir};
+
+use gpecnet_trainer::data::{default_data_root, recordings, DatasetSpec, Split};
+use gpecnet_trainer::stream::StreamSettings;
+use gpecnet_trainer::stream_eval::{stream_blob, StreamTarget};
+
+const BLOB: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../weights/sdd-m-lp-qe.gpec");
+
+fn hotel() -> StreamTarget {
+    StreamTarget {
+        blob: BLOB.into(),
+        data_root: default_data_root(),
+        dataset: DatasetSpec::parse("eth_ucy:hotel").unwrap(),
+        split: Split::Test,
+        assume_unit: None,
+    }
+}
+
+#[test]
+fn a_recording_holds_every_pedestrian_in_time_order() {
+    let recs = recordings(
+        &default_data_root(),
+        &DatasetSpec::parse("eth_ucy:hotel").unwrap(),
+        Split::Test,
+        &[],
+    )
+    .unwrap();
+    assert_eq!(recs.len(), 1);
+    let r = &recs[0];
+    // shared/data/MANIFEST.tsv: biwi_hotel.txt, 6,543 rows, 389 pedestrians.
+    assert_eq!((r.detections(), r.pedestrians()), (6_543, 389));
+    assert!(r.frames.windows(2).all(|w| w[0].t_ms < w[1].t_ms));
+    // 10 frames of 25 fps are one 0.4 s step.
+    assert!(r
+        .frames
+        .windows(2)
+        .all(|w| (w[1].t_ms - w[0].t_ms) % 400 == 0));
+}
+
+#[test]
+fn hotel_streamed_scores_every_window_and_the_loop_calibrates_it() {
+    let settings = StreamSettings {
+        pending: 12,
+        ..StreamSettings::default()
+    };
+    let set = stream_blob(&hotel(), &settings, None).unwrap();
+    let [off, on] = &set.recordings[0];
+    // MANIFEST.tsv: 1,197 twenty-step windows, lone walkers included.
+    assert_eq!((off.scored, on.scored), (1_197, 1_197));
+    // The loop off issues the head's point forecast and the blob's radii.
+    assert_eq!(off.fde.point, off.fde.head.unwrap());
+    assert!(off.per_horizon.len() == 12 && off.endpoint == off.per_horizon[11]);
+    // The static radii over-cover HOTEL; the loop brings them to about 90 % and narrower.
+    assert!(off.endpoint.r90 > 0.95, "{:?}", off.endpoint);
+    assert!(
+        (0.85..=0.95).contains(&on.endpoint.r90),
+        "{:?}",
+        on.endpoint
+    );
+    assert!(on.mean_r90 < 0.8 * off.mean_r90);
+    for c in &on.per_horizon {
+        assert!((0.85..=0.96).contains(&c.r90), "{c:?}");
+    }
+    // And its point forecast is closer to the best expert than the head alone.
+    let best = on
+        .fde
+        .cv
+        .iter()
+        .copied()
+        .fold(on.fde.head.unwrap(), f64::min);
+    assert!(on.fde.point < off.fde.point && on.fde.point < 1.02 * best);
+}
+
+#[test]
+fn the_command_prints_json_and_refuses_to_draw_over_its_inputs() {
+    let (ok, out) = run(&[
+        "stream",
+        "--blob",
+        BLOB,
+        "--dataset",
+        "eth_ucy:eth",
+        "--json",
+    ]);
+    assert!(ok, "{out}");
+    let j: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(j["model"], "sdd-m-lp-qe");
+    assert_eq!(j["pooled"][1]["adapt"], true);
+    assert_eq!(j["recordings"][0][0]["scored"], 364);
+
+    let golden = BLOB.replace(".gpec", ".golden");
+    let (ok, out) = run(&["stream", "--blob", BLOB, "--plot", &golden]);
+    assert!(!ok && out.contains("--plot"), "{out}");
+    let (ok, out) = run(&["stream", "--blob", BLOB, "--pending", "3"]);
+    assert!(!ok && out.contains("expected 2 or 12"), "{out}");
+    let (ok, out) = run(&["stream", "--blob", BLOB, "--gamma", "0"]);
+    assert!(!ok && out.contains("--gamma"), "{out}");
+    // A pixel model on metre data is refused before anything runs.
+    let px = BLOB.replace("sdd-m-lp-qe", "sdd-tiny-v2-qe");
+    let (ok, out) = run(&["stream", "--blob", &px, "--dataset", "eth_ucy:eth"]);
+    assert!(!ok && out.contains("pixel"), "{out}");
+
+    let dir = temp_dir("stream-plot");
+    let svg = dir.join("cov.svg");
+    let (ok, out) = run(&[
+        "stream",
+        "--blob",
+        BLOB,
+        "--dataset",
+        "eth_ucy:hotel",
+        "--plot",
+        s(&svg),
+    ]);
+    assert!(ok, "{out}");
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.contains("biwi_hotel"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
