@@ -56,8 +56,11 @@
 //! motion state, over any sequence of feedback (no assumption on the scene),
 //! the fraction of misses converges to `α` as long as the multiplier stays
 //! inside its bounds (`|miss rate − α| ≤ (log c_max − log c_min + γ)/(γ·T)`
-//! after `T` updates of the cell). It says nothing about one window or one
-//! pedestrian. The aggregate point forecast is, by the exponential-weights
+//! after `T` updates of the cell). A miss is judged with the multiplier
+//! current when the truth arrives (at most 4.8 s after the one issued with
+//! the forecast), so the issued radii's coverage is this up to the drift of
+//! the multiplier in that time: measured, not guaranteed. It says nothing
+//! about one window or one pedestrian. The aggregate point forecast is, by the exponential-weights
 //! bound, within `O(log(experts)/η)` of the best expert's discounted loss at
 //! each horizon. `docs/online.md` has the measured coverage, per scene and per
 //! horizon, with the loop off and on.
