@@ -142,12 +142,12 @@ fn a_million_hostile_updates_never_leave_the_bounds() {
     for i in 0..1_000_000u32 {
         let pick = |k: u32| hostile[(k % hostile.len() as u32) as usize];
         let x = r();
-        let d = if x % 3 == 0 {
+        let d = if x.is_multiple_of(3) {
             pick(x >> 4)
         } else {
             (x >> 8) as f32 / 1e6
         };
-        let scale = if x % 5 == 0 { pick(x >> 6) } else { 0.3 };
+        let scale = if x.is_multiple_of(5) { pick(x >> 6) } else { 0.3 };
         let e = [d, pick(x >> 9), 0.2, (x % 100) as f32];
         let state = MotionState::ALL[(i % 4) as usize];
         cal.update(state, 1 + (x as usize % 14), d, scale, e, [true; EXPERTS]);
@@ -340,7 +340,7 @@ fn the_forecaster_survives_hostile_detections_and_keeps_its_radii_sane() {
             // A long pause: everything leaves, then comes back.
             t = t.wrapping_add(10_000);
         }
-        let stale = x % 173 == 0;
+        let stale = x.is_multiple_of(173);
         let at = if stale { t.wrapping_sub(5_000) } else { t };
         let rep = f.frame::<LibmSine, 64, 20>(&mut p, at, &obs, |fc| {
             count += 1;
