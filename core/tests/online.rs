@@ -147,7 +147,11 @@ fn a_million_hostile_updates_never_leave_the_bounds() {
         } else {
             (x >> 8) as f32 / 1e6
         };
-        let scale = if x.is_multiple_of(5) { pick(x >> 6) } else { 0.3 };
+        let scale = if x.is_multiple_of(5) {
+            pick(x >> 6)
+        } else {
+            0.3
+        };
         let e = [d, pick(x >> 9), 0.2, (x % 100) as f32];
         let state = MotionState::ALL[(i % 4) as usize];
         cal.update(state, 1 + (x as usize % 14), d, scale, e, [true; EXPERTS]);
