@@ -65,6 +65,7 @@
 //!
 //! ## Modules
 //! - [`blob`]: the weight-blob reader (format: `weights/FORMAT.md`) and [`Model`].
+//! - [`camera`]: image detections of a moving, gimballed camera → ground points (NED metres) and back.
 //! - [`predictor`]: [`Predictor`], run-time dispatch over the one engine.
 //! - [`engine`]: the computation, step by step, generic over a numeric backend.
 //! - [`batch`]: the same computation for `L` samples (of one or many tracks)
@@ -127,6 +128,7 @@
 
 pub mod batch;
 pub mod blob;
+pub mod camera;
 #[doc(hidden)]
 pub mod cluster;
 pub mod engine;

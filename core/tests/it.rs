@@ -3,6 +3,7 @@
 //! per file. Run one file's tests with `cargo test -p gpecnet-core --test it <file>::`;
 //! `cargo xtask check-modules` fails when a file of this folder is missing below.
 mod blob_corruption;
+mod camera;
 mod common;
 mod endpoint_bound;
 mod fixed_blob;
