@@ -315,13 +315,25 @@ fn own_data_folder_is_windowed_on_the_model_clock() {
     assert_eq!(w.frames[19], 4 + 19 * 4);
     // Position at frame f is 1.2 * f / 10 m.
     assert!((w.pos[19][0] - 1.2 * 8.0).abs() < 1e-4, "{:?}", w.pos[19]);
-    // A dropped row breaks the windows that need it, and only those.
+    // A dropped row within max_gap_s (default 1 s) is interpolated: the walker is straight,
+    // so the windows are the same.
     let mut gappy = rows.clone();
     gappy.remove(40);
     let dir = folder("unit = \"m\"\nseconds_per_frame = 0.1\n", &gappy);
     let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
     let ds = load(&r_none(), &spec, Split::Test, &[]).unwrap();
+    assert_eq!(ds.len(), 31);
+    assert!((ds.windows[10].pos[0][0] - 1.2 * 4.0).abs() < 1e-4);
+    // With max_gap_s of one frame it ends the track: the windows that need frame 40 are
+    // gone, and only those (the track resumes on its grid at frame 44).
+    let dir = folder(
+        "unit = \"m\"\nseconds_per_frame = 0.1\nmax_gap_s = 0.1\n",
+        &gappy,
+    );
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    let ds = load(&r_none(), &spec, Split::Test, &[]).unwrap();
     assert_eq!(ds.len(), 31 - 11);
+    assert_eq!(ds.windows[0].frames[0], 44);
     // A pixel folder with per-file scales is converted to metres.
     let dir = folder(
         "unit = \"px\"\nseconds_per_frame = 0.4\n[metres_per_pixel]\nflight_01 = 0.05\n",
@@ -341,10 +353,12 @@ fn own_data_folder_errors_are_clear() {
         let dir = folder(toml, &rows);
         DatasetSpec::parse(&format!("{}/", dir.path().display())).map(|_| ())
     };
-    // 0.3 s per frame does not divide 0.4 s.
-    let e = parse("unit = \"m\"\nseconds_per_frame = 0.3\n").unwrap_err();
+    // Any clock up to 3.2 s per frame is resampled; a slower one is refused, naming the key
+    // and its line.
+    assert!(parse("unit = \"m\"\nseconds_per_frame = 0.3\n").is_ok());
+    let e = parse("unit = \"m\"\nseconds_per_frame = 5\n").unwrap_err();
     assert!(
-        e.contains("does not divide") && e.contains("resample"),
+        e.contains("dataset.toml:2: seconds_per_frame") && e.contains("3.2"),
         "{e}"
     );
     assert!(parse("unit = \"ft\"\nseconds_per_frame = 0.1\n")

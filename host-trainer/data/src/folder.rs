@@ -1,38 +1,53 @@
 //! A user's own data set: a folder with `dataset.toml` and `train/`, `val/`, `test/` folders
-//! of `frame id x y` text files (the layout `docs/own-data.md` documents).
+//! of detection files (the layout `docs/own-data.md` documents).
 //!
 //! ```text
 //! mydrone/
-//!   dataset.toml          unit, seconds per frame, name, licence (below)
-//!   train/*.txt           one file per scene or flight: `frame id x y` rows, any order
-//!   val/*.txt             model selection only
+//!   dataset.toml          unit, clock, name, licence, file layout (below)
+//!   train/*.txt           one file per scene or flight: `time id x y` rows, any order
+//!   val/*.txt             model selection only (optional for `gpecnet eval`)
 //!   test/*.txt            touched once per shipped model
 //! ```
 //!
 //! ```toml
 //! name = "mydrone"              # optional, default the folder name
 //! unit = "m"                    # "m" (metres) or "px" (pixels)
-//! seconds_per_frame = 0.1       # time between consecutive frame numbers (10 Hz here)
+//! seconds_per_frame = 0.1       # the clock: the time column holds frame numbers this far apart
+//! # time_unit = "s"             # ... or it holds timestamps in seconds ("s") or milliseconds ("ms")
+//! max_gap_s = 1.0               # optional: longest gap between two detections of a track that
+//!                               # is interpolated (default below); a longer one ends the track
 //! licence = "CC BY 4.0"         # optional: the data's licence, copied into every model card
+//! [columns]                     # optional: files with a header row, columns mapped by name
+//! time = "timestamp"            # or frame = "frame_no" (with seconds_per_frame)
+//! id = "track_id"               # numbers or any text
+//! x = "x_m"
+//! y = "y_m"
+//! delimiter = ","               # optional: default by extension (.csv ",", .tsv tab, .txt spaces)
 //! [metres_per_pixel]            # optional, pixel data only: file stem -> factor; with it the
 //! flight_01 = 0.041             # whole set is converted to metres (every file must be listed)
 //! ```
 //!
-//! **Windows.** The models predict 12 steps of [`PERIOD_S`] (0.4 s) from 8. A folder's clock
-//! must divide that period: `step = PERIOD_S / seconds_per_frame` must be a whole number of
-//! frames (within 1e-4; 30 fps gives 12, 25 fps 10, 10 Hz 4, 2.5 Hz 1), else the loader refuses
-//! with [`FolderError::Clock`] (resample first). Per file and per id, the rows are sorted by
-//! frame (a duplicate frame for one id is [`DataError::DuplicateRow`]); a window is 20
-//! positions of one id at frames `f, f + step, …, f + 19·step`, all present, for every frame
-//! `f` of that id with `f ≡ f_first (mod step)`, so consecutive windows of a track overlap by
-//! 19 of the 2.5 Hz steps and rows between the 2.5 Hz grid are skipped. Gaps break windows;
-//! nothing else is dropped (no neighbour rule). Files are read in sorted name order, ids in
-//! first-appearance order, windows by start frame.
+//! Without `[columns]` a split's files are its `*.txt` files of whitespace-separated `time id x
+//! y` rows; with it, its `*.csv`, `*.tsv` and `*.txt` files (`super::detections`).
+//!
+//! **Clock.** Any clock: the tracks are resampled onto the models' [`PERIOD_S`] (0.4 s) grid
+//! by the core's timed track table (`super::resample`): linear interpolation between
+//! consecutive detections of a track, never across a gap longer than `max_gap_s`. A frame
+//! clock takes `seconds_per_frame` in [0.001, 3.2] s (frames must be whole numbers);
+//! `max_gap_s` is in [0.001, 3.2] s (at most 8 periods, so the table computes every grid point
+//! of a bridged gap), at least `seconds_per_frame`, and by default the larger of 1 s and
+//! 1.5 frames (1 s for timestamps). On a clock that divides 0.4 s (30 fps, 25, 10, 2.5 Hz …)
+//! with a detection at every grid time the windows are the detections at the grid frames,
+//! exactly the windows of a frame-step rule. Files are read in sorted name order,
+//! pedestrians in first-appearance order, windows by start time. Nothing else is dropped (no
+//! neighbour rule, no speed rule).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::rows::{id_key, sorted_txt_files};
+use super::detections::read_detections;
+use super::resample::{track_windows, TrackClock};
+use super::rows::{scene_name, sorted_files};
 use super::*;
 
 /// The name of a folder data set's description file.
@@ -41,29 +56,101 @@ pub const DATASET_TOML: &str = "dataset.toml";
 /// Largest `dataset.toml` read (bytes).
 const MAX_TOML_BYTES: u64 = 64 * 1024;
 
-/// `dataset.toml`, parsed.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Longest `max_gap_s` (and slowest frame clock): 8 periods, so a bridged gap never completes
+/// more grid points than the track table computes.
+pub const MAX_GAP_S: f64 = 3.2;
+
+/// Shortest frame period: the track table's millisecond.
+pub const MIN_SECONDS_PER_FRAME: f64 = 0.001;
+
+/// What the time column of a folder's files holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeColumn {
+    /// Whole frame numbers, `seconds_per_frame` apart.
+    Frame,
+    /// Timestamps in seconds (`time_unit = "s"`).
+    Seconds,
+    /// Timestamps in milliseconds (`time_unit = "ms"`).
+    Milliseconds,
+}
+
+/// `[columns]` of `dataset.toml`: files with a header row, columns by name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Columns {
+    /// The time column (`frame = …` or `time = …`).
+    pub time: String,
+    /// The id column.
+    pub id: String,
+    /// The x column.
+    pub x: String,
+    /// The y column.
+    pub y: String,
+    /// The separator (`None`: by extension; `b' '`: runs of whitespace).
+    pub delimiter: Option<u8>,
+}
+
+/// `dataset.toml`, parsed and checked.
+#[derive(Debug, Clone, PartialEq)]
 pub struct FolderInfo {
     /// The set's name (default: the folder's name).
-    #[serde(default)]
     pub name: Option<String>,
     /// `"m"` or `"px"`.
     pub unit: String,
-    /// Seconds between consecutive frame numbers.
+    /// Seconds per unit of the time column: the frame period of a frame clock, 1 for
+    /// timestamps in seconds, 0.001 for milliseconds.
     pub seconds_per_frame: f64,
+    /// What the time column holds.
+    pub time: TimeColumn,
+    /// The longest gap between two detections of a track that is interpolated (seconds).
+    pub max_gap_s: f64,
     /// The data's licence, copied into model cards.
-    #[serde(default)]
     pub licence: Option<String>,
     /// Pixel data only: metres per pixel of each file (by stem); converts the set to metres.
-    #[serde(default)]
     pub metres_per_pixel: BTreeMap<String, f64>,
+    /// Files with a header row, when set.
+    pub columns: Option<Columns>,
 }
 
-/// A problem with a data-set folder's description or clock.
+/// `dataset.toml` as written.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInfo {
+    #[serde(default)]
+    name: Option<String>,
+    unit: String,
+    #[serde(default)]
+    seconds_per_frame: Option<f64>,
+    #[serde(default)]
+    time_unit: Option<String>,
+    #[serde(default)]
+    max_gap_s: Option<f64>,
+    #[serde(default)]
+    licence: Option<String>,
+    #[serde(default)]
+    metres_per_pixel: BTreeMap<String, f64>,
+    #[serde(default)]
+    columns: Option<RawColumns>,
+}
+
+/// `[columns]` as written.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawColumns {
+    #[serde(default)]
+    frame: Option<String>,
+    #[serde(default)]
+    time: Option<String>,
+    id: String,
+    x: String,
+    y: String,
+    #[serde(default)]
+    delimiter: Option<String>,
+}
+
+/// A problem with a data-set folder: its description, its layout or a file's content.
 #[derive(Debug, thiserror::Error)]
 pub enum FolderError {
-    /// `dataset.toml` is missing, unreadable or invalid.
+    /// `dataset.toml` is missing, unreadable or not valid TOML.
     #[error("{path}: {msg}", path = .path.display())]
     Toml {
         /// The file.
@@ -71,20 +158,33 @@ pub enum FolderError {
         /// What is wrong.
         msg: String,
     },
-    /// The folder's clock does not divide the models' period.
+    /// A key of `dataset.toml` has a wrong or missing value.
     #[error(
-        "{path}: seconds_per_frame = {seconds_per_frame} does not divide the models' period of \
-         {PERIOD_S} s into a whole number of frames ({ratio:.4} frames); resample the data to a \
-         rate that does (e.g. 2.5, 5, 10, 25 or 30 Hz)",
-        path = .path.display()
+        "{path}{at}: {key}: {msg} (docs/own-data.md)",
+        path = .path.display(),
+        at = .line.map(|l| format!(":{l}")).unwrap_or_default()
     )]
-    Clock {
+    Key {
         /// The `dataset.toml`.
         path: PathBuf,
-        /// Its clock.
-        seconds_per_frame: f64,
-        /// `PERIOD_S / seconds_per_frame`.
-        ratio: f64,
+        /// The 1-based line of the key, when it is written.
+        line: Option<usize>,
+        /// The key (`seconds_per_frame`, `columns.x`, …).
+        key: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// A split folder is missing or holds no data file.
+    #[error(
+        "{path}: {msg}; a data-set folder holds dataset.toml and train/, val/, test/ folders \
+         of data files (docs/own-data.md)",
+        path = .path.display()
+    )]
+    Split {
+        /// The split folder.
+        path: PathBuf,
+        /// What is wrong.
+        msg: String,
     },
     /// A file of a pixel set converted to metres has no factor.
     #[error(
@@ -98,9 +198,123 @@ pub enum FolderError {
         /// Its stem.
         stem: String,
     },
+    /// A column `[columns]` names is not in a file's header.
+    #[error(
+        "{path}:{line}: {key} = {name:?} is not a column of this header (columns: {header:?})",
+        path = .path.display()
+    )]
+    NoColumn {
+        /// The data file.
+        path: PathBuf,
+        /// The header's 1-based line.
+        line: usize,
+        /// The key (`columns.x`, …).
+        key: &'static str,
+        /// The column name it gives.
+        name: String,
+        /// The header's column names.
+        header: Vec<String>,
+    },
+    /// A value of a mapped column is wrong.
+    #[error(
+        "{path}:{line}: {key} (column {column:?}): {text:?} is not {expected}",
+        path = .path.display()
+    )]
+    Value {
+        /// The data file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// The key (`columns.time`, `columns.x`, …).
+        key: &'static str,
+        /// The column's name.
+        column: String,
+        /// The text found.
+        text: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// A line that cannot be split into fields.
+    #[error("{path}:{line}: {msg}", path = .path.display())]
+    Row {
+        /// The data file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        msg: String,
+    },
+    /// Two detections of one pedestrian in the same millisecond (timestamps).
+    #[error(
+        "{path}:{line}: ped_id {ped_id} has two detections at the same time (to the \
+         millisecond, {ms} ms after its first; the other at line {first_line})",
+        path = .path.display()
+    )]
+    SameTime {
+        /// The data file.
+        path: PathBuf,
+        /// 1-based line of the later detection in time order.
+        line: usize,
+        /// 1-based line of the other.
+        first_line: usize,
+        /// The pedestrian.
+        ped_id: f64,
+        /// Milliseconds after its first detection.
+        ms: u32,
+    },
+    /// A pedestrian's detections span more than the track table's 2³¹ ms.
+    #[error(
+        "{path}:{line}: ped_id {ped_id} is detected more than 2^31 ms (24.8 days) after its \
+         first detection (line {first_line}): split the recording or check the time unit",
+        path = .path.display()
+    )]
+    TimeRange {
+        /// The data file.
+        path: PathBuf,
+        /// 1-based line of the late detection.
+        line: usize,
+        /// 1-based line of the first.
+        first_line: usize,
+        /// The pedestrian.
+        ped_id: f64,
+    },
+    /// The track table refused a detection the loader had checked (never expected).
+    #[error("{path}:{line}: ped_id {ped_id}: the track table refused the detection: {why}", path = .path.display())]
+    Track {
+        /// The data file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// The pedestrian.
+        ped_id: f64,
+        /// The table's answer.
+        why: String,
+    },
     /// A data file problem.
     #[error(transparent)]
     Data(#[from] DataError),
+}
+
+/// The 1-based line of `key` in a TOML text: the first line `key = …` (after the header
+/// `[table]` when `table` is given).
+fn key_line(text: &str, table: Option<&str>, key: &str) -> Option<usize> {
+    let mut in_table = table.is_none();
+    for (i, l) in text.lines().enumerate() {
+        let t = l.trim();
+        if t.starts_with('[') {
+            in_table =
+                table.is_some_and(|tb| t.trim_matches(|c| c == '[' || c == ']').trim() == tb);
+            continue;
+        }
+        if in_table {
+            if let Some(rest) = t.strip_prefix(key) {
+                if rest.trim_start().starts_with('=') {
+                    return Some(i + 1);
+                }
+            }
+        }
+    }
+    None
 }
 
 impl FolderInfo {
@@ -114,7 +328,7 @@ impl FolderInfo {
         let meta = std::fs::metadata(&path).map_err(|e| {
             bad(format!(
                 "cannot read the data set's description ({e}); a data-set folder needs \
-                 dataset.toml with unit and seconds_per_frame (docs/own-data.md)"
+                 dataset.toml with unit and seconds_per_frame or time_unit (docs/own-data.md)"
             ))
         })?;
         if !meta.is_file() || meta.len() > MAX_TOML_BYTES {
@@ -124,62 +338,215 @@ impl FolderInfo {
         }
         let text = crate::inpath::read_text_limited(&path, crate::inpath::FileKind::Text)
             .map_err(|e| bad(e.to_string()))?;
-        let info: FolderInfo = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        if info.unit != "m" && info.unit != "px" {
-            return Err(bad(format!(
-                "unit = {:?}: expected \"m\" (metres) or \"px\" (pixels)",
-                info.unit
-            )));
+        let raw: RawInfo = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        Self::check(raw, &path, &text)
+    }
+
+    /// Checks every key of a parsed `dataset.toml` (`path`, `text`: its file and content).
+    fn check(raw: RawInfo, path: &Path, text: &str) -> Result<Self, FolderError> {
+        let key = |table: Option<&str>, k: &str, msg: String| FolderError::Key {
+            path: path.to_path_buf(),
+            line: key_line(text, table, k),
+            key: match table {
+                Some(t) => format!("{t}.{k}"),
+                None => k.to_string(),
+            },
+            msg,
+        };
+        if raw.unit != "m" && raw.unit != "px" {
+            return Err(key(
+                None,
+                "unit",
+                format!("{:?}: expected \"m\" (metres) or \"px\" (pixels)", raw.unit),
+            ));
         }
-        let s = info.seconds_per_frame;
-        if !(s.is_finite() && s > 0.0 && s <= f64::from(PERIOD_S)) {
-            return Err(bad(format!(
-                "seconds_per_frame = {s}: expected a number in (0, {PERIOD_S}]"
-            )));
-        }
-        if !info.metres_per_pixel.is_empty() && info.unit != "px" {
-            return Err(bad(
+        let (time, seconds_per_frame) = match (raw.seconds_per_frame, raw.time_unit.as_deref()) {
+            (Some(s), None) => {
+                if !(s.is_finite() && (MIN_SECONDS_PER_FRAME..=MAX_GAP_S).contains(&s)) {
+                    return Err(key(
+                        None,
+                        "seconds_per_frame",
+                        format!(
+                            "{s}: expected a number of seconds in [{MIN_SECONDS_PER_FRAME}, \
+                             {MAX_GAP_S}] (any clock is resampled onto the models' {PERIOD_S} s)"
+                        ),
+                    ));
+                }
+                (TimeColumn::Frame, s)
+            }
+            (None, Some("s")) => (TimeColumn::Seconds, 1.0),
+            (None, Some("ms")) => (TimeColumn::Milliseconds, 0.001),
+            (None, Some(u)) => {
+                return Err(key(
+                    None,
+                    "time_unit",
+                    format!("{u:?}: expected \"s\" (seconds) or \"ms\" (milliseconds)"),
+                ))
+            }
+            (Some(_), Some(_)) => {
+                return Err(key(
+                    None,
+                    "time_unit",
+                    "set either seconds_per_frame (the time column holds frame numbers) or \
+                     time_unit (it holds timestamps), not both"
+                        .into(),
+                ))
+            }
+            (None, None) => {
+                return Err(key(
+                    None,
+                    "seconds_per_frame",
+                    "missing: the data's clock is seconds_per_frame = <seconds between \
+                     consecutive frame numbers> or time_unit = \"s\" | \"ms\" (timestamps)"
+                        .into(),
+                ))
+            }
+        };
+        let max_gap_s = match raw.max_gap_s {
+            Some(g) => {
+                if !(g.is_finite() && (MIN_SECONDS_PER_FRAME..=MAX_GAP_S).contains(&g)) {
+                    return Err(key(
+                        None,
+                        "max_gap_s",
+                        format!(
+                            "{g}: expected seconds in [{MIN_SECONDS_PER_FRAME}, {MAX_GAP_S}] \
+                             (at most 8 periods of {PERIOD_S} s)"
+                        ),
+                    ));
+                }
+                if time == TimeColumn::Frame && g < seconds_per_frame {
+                    return Err(key(
+                        None,
+                        "max_gap_s",
+                        format!(
+                            "{g} is shorter than one frame ({seconds_per_frame} s): no two \
+                             detections of a track would be joined"
+                        ),
+                    ));
+                }
+                g
+            }
+            None if time == TimeColumn::Frame => (1.5 * seconds_per_frame).clamp(1.0, MAX_GAP_S),
+            None => 1.0,
+        };
+        let columns = match raw.columns {
+            None => None,
+            Some(c) => {
+                let t = match (c.frame, c.time, time) {
+                    (Some(f), None, TimeColumn::Frame) => f,
+                    (None, Some(t), TimeColumn::Seconds | TimeColumn::Milliseconds) => t,
+                    (Some(_), None, _) => {
+                        return Err(key(
+                            Some("columns"),
+                            "frame",
+                            "a frame column needs seconds_per_frame (for timestamps write \
+                             columns.time and time_unit)"
+                                .into(),
+                        ))
+                    }
+                    (None, Some(_), _) => {
+                        return Err(key(
+                            Some("columns"),
+                            "time",
+                            "a time column needs time_unit = \"s\" or \"ms\" (for frame \
+                             numbers write columns.frame and seconds_per_frame)"
+                                .into(),
+                        ))
+                    }
+                    (Some(_), Some(_), _) => {
+                        return Err(key(
+                            Some("columns"),
+                            "time",
+                            "give either frame or time, not both".into(),
+                        ))
+                    }
+                    (None, None, _) => {
+                        return Err(key(
+                            Some("columns"),
+                            "time",
+                            "missing: name the time column (time = \"…\") or the frame \
+                             column (frame = \"…\")"
+                                .into(),
+                        ))
+                    }
+                };
+                let delimiter = match c.delimiter.as_deref() {
+                    None => None,
+                    Some(d) if d.len() == 1 && d.is_ascii() && d != "\"" && d != "\n" => {
+                        Some(d.as_bytes()[0])
+                    }
+                    Some(d) => {
+                        return Err(key(
+                            Some("columns"),
+                            "delimiter",
+                            format!(
+                                "{d:?}: expected one ASCII character (\",\", \";\", \"\\t\", \
+                                 or \" \" for runs of whitespace)"
+                            ),
+                        ))
+                    }
+                };
+                for (k, v) in [("id", &c.id), ("x", &c.x), ("y", &c.y)] {
+                    if v.is_empty() {
+                        return Err(key(Some("columns"), k, "an empty column name".into()));
+                    }
+                }
+                Some(Columns {
+                    time: t,
+                    id: c.id,
+                    x: c.x,
+                    y: c.y,
+                    delimiter,
+                })
+            }
+        };
+        if !raw.metres_per_pixel.is_empty() && raw.unit != "px" {
+            return Err(key(
+                None,
+                "unit",
                 "metres_per_pixel converts pixel data: set unit = \"px\"".into(),
             ));
         }
         // Positions are scaled in f32: the factor must survive the conversion (1e-300 is a
         // positive f64 and 0 as f32; 1e300 is infinite), as a normal number.
-        if let Some((k, v)) = info.metres_per_pixel.iter().find(|(_, v)| {
+        if let Some((k, v)) = raw.metres_per_pixel.iter().find(|(_, v)| {
             let f = **v as f32;
             !(v.is_finite() && **v > 0.0 && f.is_finite() && f.is_normal())
         }) {
-            return Err(bad(format!(
-                "metres_per_pixel.{k} = {v}: expected a positive number that is a normal f32 \
-                 (between {:e} and {:e})",
-                f32::MIN_POSITIVE,
-                f32::MAX
-            )));
+            return Err(key(
+                Some("metres_per_pixel"),
+                k,
+                format!(
+                    "{v}: expected a positive number that is a normal f32 (between {:e} and \
+                     {:e})",
+                    f32::MIN_POSITIVE,
+                    f32::MAX
+                ),
+            ));
         }
         // The licence is stored in every blob trained on the folder: refused here, naming the
         // key, rather than at export.
         let most = gpecnet_core::blob::MAX_META_TEXT;
-        if let Some(l) = info.licence.as_ref().filter(|l| l.len() > most) {
-            return Err(bad(format!(
-                "licence is {} bytes: allowed at most {most} (a blob stores it)",
-                l.len()
-            )));
+        if let Some(l) = raw.licence.as_ref().filter(|l| l.len() > most) {
+            return Err(key(
+                None,
+                "licence",
+                format!(
+                    "the licence is {} bytes: allowed at most {most} (a blob stores it)",
+                    l.len()
+                ),
+            ));
         }
-        info.step(&path)?;
-        Ok(info)
-    }
-
-    /// Frames per model step (`PERIOD_S / seconds_per_frame`, a whole number).
-    pub fn step(&self, path: &Path) -> Result<i64, FolderError> {
-        let ratio = f64::from(PERIOD_S) / self.seconds_per_frame;
-        let step = ratio.round();
-        if (ratio - step).abs() > 1e-4 * ratio || !(1.0..=1e6).contains(&step) {
-            return Err(FolderError::Clock {
-                path: path.to_path_buf(),
-                seconds_per_frame: self.seconds_per_frame,
-                ratio,
-            });
-        }
-        Ok(step as i64)
+        Ok(FolderInfo {
+            name: raw.name,
+            unit: raw.unit,
+            seconds_per_frame,
+            time,
+            max_gap_s,
+            licence: raw.licence,
+            metres_per_pixel: raw.metres_per_pixel,
+            columns,
+        })
     }
 
     /// The unit of the loaded windows (metres when pixel data is converted).
@@ -190,60 +557,83 @@ impl FolderInfo {
             Unit::Pixels
         }
     }
-}
 
-/// Cut one file of a folder data set into windows, `step` frames apart (module docs).
-pub fn parse_folder_file(path: &Path, step: i64) -> Result<Vec<Window>, DataError> {
-    let rows = read_rows(path)?;
-    let scene = super::rows::scene_name(path);
-    let mut order: Vec<u64> = Vec::new();
-    let mut tracks: HashMap<u64, BTreeMap<i64, Row>> = HashMap::new();
-    for r in rows {
-        let k = id_key(r.ped_id);
-        let t = tracks.entry(k).or_insert_with(|| {
-            order.push(k);
-            BTreeMap::new()
-        });
-        if t.insert(r.frame, r).is_some() {
-            return Err(DataError::DuplicateRow {
-                path: path.to_path_buf(),
-                line: r.line,
-                ped_id: r.ped_id,
-                frame: r.frame,
-            });
+    /// The file extensions a split's data files have.
+    pub fn extensions(&self) -> &'static [&'static str] {
+        if self.columns.is_some() {
+            &["csv", "tsv", "txt"]
+        } else {
+            &["txt"]
         }
     }
-    let mut out = Vec::new();
-    for k in order {
-        let t = &tracks[&k];
-        let Some((&first, _)) = t.iter().next() else {
-            continue;
+
+    /// The clock of the files in words, for reports.
+    pub fn describe_clock(&self) -> String {
+        let clock = match self.time {
+            TimeColumn::Frame => format!(
+                "frame numbers, {} s apart ({:.3} Hz)",
+                self.seconds_per_frame,
+                1.0 / self.seconds_per_frame
+            ),
+            TimeColumn::Seconds => "timestamps in seconds".to_string(),
+            TimeColumn::Milliseconds => "timestamps in milliseconds".to_string(),
         };
-        for (&f, r) in t.iter() {
-            if (f - first).rem_euclid(step) != 0 {
-                continue;
-            }
-            let mut w = Window {
-                scene: scene.clone(),
-                ped_id: r.ped_id,
-                frames: [0; WINDOW],
-                pos: [[0.0; 2]; WINDOW],
-            };
-            let complete = (0..WINDOW).all(|i| {
-                let fi = f + i as i64 * step;
-                match t.get(&fi) {
-                    Some(p) => {
-                        w.frames[i] = fi;
-                        w.pos[i] = p.pos;
-                        true
-                    }
-                    None => false,
-                }
-            });
-            if complete {
-                out.push(w);
-            }
+        format!(
+            "{clock}, resampled onto {PERIOD_S} s steps (gaps up to {} s interpolated)",
+            self.max_gap_s
+        )
+    }
+
+    /// The data files of one split folder, sorted by name (errors name the folder and
+    /// point at the folder layout, not at the benchmark data).
+    pub fn split_files(&self, dir: &Path, split: &str) -> Result<Vec<PathBuf>, FolderError> {
+        let sub = dir.join(split);
+        let exts = self.extensions();
+        let pattern = exts
+            .iter()
+            .map(|e| format!("*.{e}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        match sorted_files(&sub, split, exts) {
+            Ok(f) => Ok(f),
+            Err(DataError::Missing { path, .. }) => Err(FolderError::Split {
+                path,
+                msg: format!("the {split}/ folder of the data set is missing"),
+            }),
+            Err(DataError::NoFiles { path }) => Err(FolderError::Split {
+                path,
+                msg: format!("no data file ({pattern}) in the {split}/ folder"),
+            }),
+            Err(e) => Err(e.into()),
         }
+    }
+
+    fn clock(&self) -> TrackClock {
+        TrackClock {
+            ms_per_unit: self.seconds_per_frame * 1000.0,
+            frames: self.time == TimeColumn::Frame,
+            max_gap_ms: (self.max_gap_s * 1000.0).round() as u32,
+        }
+    }
+}
+
+/// Cut one file of a folder data set into windows on the models' grid (module docs), in the
+/// file's unit (no `metres_per_pixel` applied).
+pub fn parse_folder_file(path: &Path, info: &FolderInfo) -> Result<Vec<Window>, FolderError> {
+    let file = read_detections(path, info)?;
+    let scene = scene_name(path);
+    let mut tracks: Vec<Vec<super::detections::Detection>> = vec![Vec::new(); file.ped_ids.len()];
+    for d in &file.dets {
+        if let Some(t) = tracks.get_mut(d.id) {
+            t.push(*d);
+        }
+    }
+    let clock = info.clock();
+    let mut out = Vec::new();
+    for (t, &ped_id) in tracks.iter_mut().zip(&file.ped_ids) {
+        // Stable: detections at one time stay in file order, so an error names the later line.
+        t.sort_by(|a, b| a.t.total_cmp(&b.t));
+        track_windows(path, &scene, ped_id, t, &clock, &mut out)?;
     }
     Ok(out)
 }
@@ -251,13 +641,11 @@ pub fn parse_folder_file(path: &Path, step: i64) -> Result<Vec<Window>, DataErro
 /// One split (`train`, `val` or `test`) of the folder data set at `dir`.
 pub fn load_folder(dir: &Path, split: &str) -> Result<Dataset, FolderError> {
     let info = FolderInfo::read(dir)?;
-    let step = info.step(&dir.join(DATASET_TOML))?;
-    let sub = dir.join(split);
     let mut windows = Vec::new();
-    for f in sorted_txt_files(&sub, &format!("{split}/ folder of the data set"))? {
-        let mut ws = parse_folder_file(&f, step)?;
+    for f in info.split_files(dir, split)? {
+        let mut ws = parse_folder_file(&f, &info)?;
         if !info.metres_per_pixel.is_empty() {
-            let stem = super::rows::scene_name(&f);
+            let stem = scene_name(&f);
             let s = *info
                 .metres_per_pixel
                 .get(&stem)

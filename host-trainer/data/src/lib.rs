@@ -27,10 +27,12 @@ pub mod units;
 
 use gpecnet_files::{csvfile, inpath};
 
+mod detections;
 mod error;
 mod eth_ucy;
 mod folder;
 mod recording;
+mod resample;
 mod rows;
 mod scales;
 mod sdd;
@@ -39,7 +41,10 @@ mod window;
 
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};
-pub use folder::{load_folder, parse_folder_file, FolderError, FolderInfo, DATASET_TOML};
+pub use folder::{
+    load_folder, parse_folder_file, Columns, FolderError, FolderInfo, TimeColumn, DATASET_TOML,
+    MAX_GAP_S,
+};
 pub use recording::{read_recording, recordings, RecordedFrame, Recording};
 pub use rows::{default_data_root, read_rows, Row};
 pub use scales::sdd_metres_per_pixel;

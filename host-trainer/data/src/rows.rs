@@ -157,6 +157,15 @@ pub(super) fn read_data_file(path: &Path, what: &str) -> Result<Vec<u8>, DataErr
 /// not a regular file once links are followed (a dangling or looping link, a directory, a
 /// FIFO, ...) is an error naming it, never skipped.
 pub(super) fn sorted_txt_files(dir: &Path, what: &str) -> Result<Vec<PathBuf>, DataError> {
+    sorted_files(dir, what, &["txt"])
+}
+
+/// [`sorted_txt_files`] for the files whose extension is one of `exts`.
+pub(super) fn sorted_files(
+    dir: &Path,
+    what: &str,
+    exts: &[&str],
+) -> Result<Vec<PathBuf>, DataError> {
     if !dir.is_dir() {
         return Err(DataError::Missing {
             path: dir.to_path_buf(),
@@ -171,7 +180,7 @@ pub(super) fn sorted_txt_files(dir: &Path, what: &str) -> Result<Vec<PathBuf>, D
             source,
         })?;
         let p = e.path();
-        if p.extension().is_some_and(|x| x == "txt") {
+        if p.extension().is_some_and(|x| exts.iter().any(|e| x == *e)) {
             match std::fs::metadata(&p) {
                 Ok(md) if md.is_file() => files.push(p),
                 Ok(md) => {
