@@ -18,14 +18,18 @@ pub fn run() -> bool {
     };
     let s = match crate::models::pack() {
         // An image linked for a model pack (`cargo xtask qemu`): the models xtask wrote into it.
-        Some(pack) => crate::golden::verify_pack::<{ crate::SCRATCH }>(pack, true, &mut out),
+        Some(pack) => crate::golden::verify_pack::<{ crate::SCRATCH }, { crate::ONLINE_SCENE }>(
+            pack, true, &mut out,
+        ),
         None if crate::models::MODELS.is_empty() => {
             defmt::error!("golden: no model embedded (weights/<name>.gpec + weights/<name>.golden missing at build time)");
             return false;
         }
-        None => {
-            crate::golden::verify_all::<{ crate::SCRATCH }>(crate::models::MODELS, true, &mut out)
-        }
+        None => crate::golden::verify_all::<{ crate::SCRATCH }, { crate::ONLINE_SCENE }>(
+            crate::models::MODELS,
+            true,
+            &mut out,
+        ),
     };
     crate::golden::resample_scene(&mut print);
     defmt::println!(
@@ -85,6 +89,22 @@ fn print(l: crate::golden::Line<'_>) {
             points,
             hash,
         } => defmt::println!("resample {=u32} {=u32} {=u32:08x}", frames, points, hash),
+        Line::Online {
+            model,
+            frame,
+            t_ms,
+            forecasts,
+            feedback,
+            hash,
+        } => defmt::println!(
+            "online {=str} {=u32} {=u32} {=u32} {=u32} {=u32:08x}",
+            model,
+            frame,
+            t_ms,
+            forecasts,
+            feedback,
+            hash
+        ),
         Line::Error { model, what } => defmt::error!("golden {=str}: {=str}", model, what),
         Line::TooWide {
             model,

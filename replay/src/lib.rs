@@ -14,6 +14,10 @@
 //!                                        (no expected values; host vs target only)
 //! resample <frames> <points> <fnv32>     the timed track table on a jittery 30 Hz scene
 //!                                        ([`resample_scene`]; host vs target only)
+//! online <model> <frame> <t_ms> <forecasts> <feedback> <fnv32>
+//!                                        one per camera frame of the streamed scene through
+//!                                        the online loop, after [`ONLINE_MODEL`]'s cases
+//!                                        ([`online_scene`]; host vs target only)
 //! ```
 //!
 //! `fnv32` is FNV-1a over the output bit patterns (x0, y0, x1, y1, ...).
@@ -31,6 +35,8 @@
 use core::fmt;
 
 use gpecnet_core::golden::{fnv1a, fnv1a_continue, GoldenCase, GoldenSet};
+use gpecnet_core::online::{Calibration, Config, Forecaster, TrackForecast, STATE_LEN};
+use gpecnet_core::planner::Radii;
 use gpecnet_core::sine::{FastSine, LibmSine, Sine};
 use gpecnet_core::tracks::{Observation, TimedTrackTable};
 use gpecnet_core::{fixed, Model, NumericKind, PredictError, Predictor, Trajectory};
@@ -98,6 +104,23 @@ pub enum Line<'a> {
         /// FNV-1a over every fresh history's id, end time and position bits.
         hash: u32,
     },
+    /// `online <model> <frame> <t_ms> <forecasts> <feedback> <hash>`: one
+    /// camera frame of [`online_scene`].
+    Online {
+        /// The model's name.
+        model: &'a str,
+        /// The frame's index in the scene.
+        frame: u32,
+        /// Its timestamp (milliseconds, wrapping).
+        t_ms: u32,
+        /// Forecasts the frame issued.
+        forecasts: u32,
+        /// Feedback updates it applied to the calibration.
+        feedback: u32,
+        /// FNV-1a over the frame's report, every forecast's outputs and the
+        /// calibration's state bytes after the frame.
+        hash: u32,
+    },
     /// Something that prevents verification (counts as a failure).
     Error {
         /// The model's name.
@@ -119,7 +142,7 @@ pub enum Line<'a> {
 impl Line<'_> {
     /// The line as text through `print(text, error)`: `error` is `false` for
     /// the result lines `cargo xtask qemu` compares (`model`, `golden`,
-    /// `xcheck`) and `true` for failures (printed on stderr on the host, at
+    /// `xcheck`, `resample`, `online`) and `true` for failures (printed on stderr on the host, at
     /// error level by defmt); a golden case that differs from its sidecar is
     /// followed by the error line `MISMATCH <model> case <case>`.
     pub fn print(&self, print: &mut dyn FnMut(fmt::Arguments<'_>, bool)) {
@@ -152,6 +175,17 @@ impl Line<'_> {
                 points,
                 hash,
             } => print(format_args!("resample {frames} {points} {hash:08x}"), false),
+            Line::Online {
+                model,
+                frame,
+                t_ms,
+                forecasts,
+                feedback,
+                hash,
+            } => print(
+                format_args!("online {model} {frame} {t_ms} {forecasts} {feedback} {hash:08x}"),
+                false,
+            ),
             Line::Error { model, what } => print(format_args!("golden {model}: {what}"), true),
             Line::TooWide {
                 model,
@@ -379,7 +413,7 @@ impl EmbeddedModel {
 /// [`verify_all`] over the models of the [`pack::ModelPack`] at the start of
 /// `pack`, one model at a time (the same lines as one `verify_all` over the same
 /// models); a pack that cannot be read is one [`Line::Error`] (model `pack`).
-pub fn verify_pack<const W: usize>(
+pub fn verify_pack<const W: usize, const ONLINE: bool>(
     pack: &'static [u8],
     xcheck: bool,
     out: &mut dyn FnMut(Line<'_>),
@@ -388,7 +422,11 @@ pub fn verify_pack<const W: usize>(
     match pack::ModelPack::parse(pack) {
         Ok(models) => {
             for m in (0..models.len()).filter_map(|i| models.get(i)) {
-                s.add(verify_all::<W>(core::slice::from_ref(&m), xcheck, out));
+                s.add(verify_all::<W, ONLINE>(
+                    core::slice::from_ref(&m),
+                    xcheck,
+                    out,
+                ));
             }
         }
         Err(e) => s.error(out, "pack", e.what()),
@@ -399,8 +437,10 @@ pub fn verify_pack<const W: usize>(
 /// Verifies every model with predictors of scratch width `W` (a model
 /// wider than `W` is reported as [`Line::TooWide`]); `xcheck`: also run the
 /// other compiled-in sines. The firmware takes `W` = 128 (64 on the
-/// Cortex-M0), the host 128.
-pub fn verify_all<const W: usize>(
+/// Cortex-M0), the host 128. `ONLINE`: after [`ONLINE_MODEL`]'s cases, also
+/// run [`online_scene`] (the Cortex-M0's image leaves it out: see
+/// `firmware/src/lib.rs`).
+pub fn verify_all<const W: usize, const ONLINE: bool>(
     models: &[EmbeddedModel],
     xcheck: bool,
     out: &mut dyn FnMut(Line<'_>),
@@ -475,6 +515,12 @@ pub fn verify_all<const W: usize>(
                     }
                 };
                 let _ = cases_named::<W>(m.blob, &set, other, &mut emit);
+            }
+        }
+        // The streamed scene through the online loop, on its one model.
+        if ONLINE && m.name == ONLINE_MODEL {
+            if let Err(what) = online_scene::<W>(m.name, m.blob, out) {
+                s.error(out, m.name, what);
             }
         }
     }
@@ -559,4 +605,209 @@ pub fn resample_scene(out: &mut dyn FnMut(Line<'_>)) {
         points,
         hash: h,
     });
+}
+
+/// The model [`online_scene`] runs on, after its golden cases: the metric
+/// MCU model (learned probabilities and radii, a point head, 0.4 s period).
+pub const ONLINE_MODEL: &str = "sdd-m-lp-qe";
+/// Camera frames of [`online_scene`]: 36 s at 10 Hz.
+pub const ONLINE_FRAMES: u32 = 360;
+/// Tracks of [`online_scene`]'s forecaster: with its calibration, about
+/// 3.8 KiB on a 32-bit target.
+pub const ONLINE_TRACKS: usize = 4;
+/// Forecasts per track awaiting their truth in [`online_scene`].
+pub const ONLINE_PENDING: usize = 2;
+
+/// Where pedestrian `id` of [`online_scene`] is at `t` seconds into the
+/// scene (metres), or `None` while out of view: a walker on a gentle
+/// curve; one standing for 12 s who then starts walking (1.2 m/s after a
+/// 2 s start); one who leaves at 14 s, its id re-entering at 20 s as
+/// another pedestrian far away; a slow walker from 3 s; and a fifth from
+/// 24 s to 30 s, for whom the table has no room.
+fn online_position(id: u32, t: f32) -> Option<[f32; 2]> {
+    match id {
+        1 => Some([1.0 + 1.3 * t, 2.0 + 0.15 * t - 0.004 * t * t]),
+        2 => {
+            let s = if t > 12.0 { t - 12.0 } else { 0.0 };
+            let d = if s < 2.0 {
+                0.3 * s * s
+            } else {
+                1.2 + 1.2 * (s - 2.0)
+            };
+            Some([6.0 + 0.6 * d, 4.0 + 0.8 * d])
+        }
+        3 if t < 1.0 => None,
+        3 if t < 14.0 => Some([15.0 - 1.0 * t, 1.0 + 0.5 * t]),
+        3 if t < 20.0 => None,
+        3 => Some([-3.0 + 0.9 * (t - 20.0), 10.0 - 0.4 * (t - 20.0)]),
+        4 if t >= 3.0 => Some([2.0 + 0.6 * (t - 3.0), 8.0 + 0.1 * (t - 3.0)]),
+        5 if (24.0..30.0).contains(&t) => Some([10.0, 1.5 * (t - 24.0)]),
+        _ => None,
+    }
+}
+
+/// A streamed scene through the online loop
+/// ([`gpecnet_core::online::Forecaster`], `ONLINE_TRACKS` tracks,
+/// `ONLINE_PENDING` forecasts each, the loop on with
+/// [`Config::metres`]), one [`Line::Online`] per camera frame: the
+/// detections of [`online_position`]'s five pedestrians at 10 Hz with
+/// 0–12 ms of jitter and ±1.5 cm of detection noise (a 32-bit LCG), one
+/// detection in 12 missed, one in 60 not finite, ids 1 and 4 swapped for
+/// three frames (an id switch), one frame with a stale timestamp, and a
+/// clock that starts 10 s before the `u32` wrap. Each line's hash covers
+/// the frame's report, every forecast's outputs (endpoints,
+/// probabilities, point head, static radii, aggregate point, per-horizon
+/// radii, weights, experts) and [`Calibration::state`]'s bytes after the
+/// frame: the same bits on every target when the loop's arithmetic is
+/// portable, which `cargo xtask qemu` checks on each MCU class.
+///
+/// Out of line, with the predictor built in its own frame (see
+/// [`predictor_for`]): it runs after the model's golden cases, whose
+/// predictor is gone by then. `Err`: why the scene could not run.
+#[inline(never)]
+pub fn online_scene<const W: usize>(
+    model: &str,
+    blob: &'static [u8],
+    out: &mut dyn FnMut(Line<'_>),
+) -> Result<(), &'static str> {
+    let mut forecaster = online_forecaster(blob)?;
+    let mut made = predictor_for::<LibmSine, W>(blob);
+    let Some(p) = made.as_mut() else {
+        return Err("online scene: no predictor for this blob");
+    };
+    // A 32-bit LCG (Numerical Recipes): jitter, noise, misses, faults.
+    let mut state: u32 = 0x0a11_ce55;
+    let mut next = move || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        state >> 8
+    };
+    let start = u32::MAX - 9_999;
+    let mut last_ms = start;
+    for frame in 0..ONLINE_FRAMES {
+        let nominal = frame * 100;
+        // One frame stamped 40 ms before the previous one: refused as stale.
+        let t_ms = if frame == 150 {
+            last_ms.wrapping_sub(40)
+        } else {
+            start.wrapping_add(nominal + next() % 13)
+        };
+        if frame != 150 {
+            last_ms = t_ms;
+        }
+        let t = nominal as f32 / 1000.0;
+        let mut seen: Vec<Observation, 8> = Vec::new();
+        for id in 1..=5u32 {
+            // Ids 1 and 4 swapped for three frames.
+            let at = match (id, (200..203).contains(&frame)) {
+                (1, true) => 4,
+                (4, true) => 1,
+                _ => id,
+            };
+            let Some(mut pos) = online_position(at, t) else {
+                continue;
+            };
+            let r = next();
+            if r % 12 == 0 {
+                continue; // missed
+            }
+            pos[0] += ((r >> 4) % 31) as f32 * 0.001 - 0.015;
+            pos[1] += ((r >> 9) % 31) as f32 * 0.001 - 0.015;
+            if r % 60 == 7 {
+                pos[1] = f32::NAN;
+            }
+            let _ = seen.push(Observation { id, pos });
+        }
+        let mut h = fnv1a([]);
+        let report =
+            forecaster.frame::<LibmSine, W, MAX_K>(p, t_ms, &seen, |fc| h = hash_forecast(h, fc));
+        let d = &report.delta;
+        h = fnv1a_continue(
+            h,
+            [
+                report.forecasts,
+                report.failed,
+                report.feedback,
+                d.rejected,
+                d.duplicates,
+                d.non_finite,
+                d.stale as u32,
+            ]
+            .into_iter()
+            .chain(d.entered.iter().copied())
+            .chain([u32::MAX])
+            .chain(d.left.iter().copied()),
+        );
+        h = hash_state(h, forecaster.calibration());
+        out(Line::Online {
+            model,
+            frame,
+            t_ms,
+            forecasts: report.forecasts,
+            feedback: report.feedback,
+            hash: h,
+        });
+    }
+    Ok(())
+}
+
+/// [`online_scene`]'s forecaster for `blob`, the `Model` view parsed in
+/// this frame only (see [`predictor_for`]).
+#[inline(never)]
+fn online_forecaster(
+    blob: &'static [u8],
+) -> Result<Forecaster<ONLINE_TRACKS, ONLINE_PENDING>, &'static str> {
+    let model = Model::from_blob(blob).map_err(|_| "online scene: blob rejected")?;
+    Forecaster::new(&model, Config::metres(), 1_000)
+        .map_err(|_| "online scene: the online loop refused the model")
+}
+
+/// `h` continued over one forecast of [`online_scene`]: id, time, speed,
+/// motion state, endpoints, probabilities, whether they are learned, the
+/// point head, the static radii, the aggregate point, the per-horizon
+/// radii, the scale, the experts' weights, anchor and velocities.
+fn hash_forecast(h: u32, fc: &TrackForecast<MAX_K>) -> u32 {
+    let bits = |p: &[f32; 2]| [p[0].to_bits(), p[1].to_bits()];
+    let radii = |r: &Radii| [r.r50.to_bits(), r.r90.to_bits()];
+    let h = fnv1a_continue(
+        h,
+        [
+            fc.id,
+            fc.end_ms,
+            fc.speed.to_bits(),
+            fc.motion as u32,
+            fc.learned as u32,
+            fc.endpoints.len() as u32,
+        ],
+    );
+    let h = fnv1a_continue(h, fc.endpoints.iter().flat_map(bits));
+    let h = fnv1a_continue(h, fc.probabilities.iter().map(|p| p.to_bits()));
+    let h = fnv1a_continue(h, fc.head.iter().flatten().flat_map(bits));
+    let h = fnv1a_continue(h, fc.static_radii.iter().flat_map(radii));
+    let h = fnv1a_continue(h, fc.point.iter().flat_map(bits));
+    let h = fnv1a_continue(h, fc.radii.iter().flat_map(radii));
+    let h = fnv1a_continue(h, [fc.scale.to_bits()]);
+    let h = fnv1a_continue(h, fc.weights.iter().map(|w| w.to_bits()));
+    fnv1a_continue(
+        h,
+        core::iter::once(&fc.anchor)
+            .chain(fc.velocities.iter())
+            .flat_map(bits),
+    )
+}
+
+/// `h` continued over the bytes of [`Calibration::state`] (little-endian
+/// words). Out of line: its buffer ([`STATE_LEN`] bytes) is on the stack
+/// only while it runs, not during the forecasts.
+#[inline(never)]
+fn hash_state(h: u32, calibration: &Calibration) -> u32 {
+    let mut bytes = [0u8; STATE_LEN];
+    let n = calibration.state(&mut bytes).unwrap_or(0);
+    let words = bytes.get(..n).unwrap_or(&[]).chunks(4).map(|c| {
+        let mut w = [0u8; 4];
+        for (d, s) in w.iter_mut().zip(c) {
+            *d = *s;
+        }
+        u32::from_le_bytes(w)
+    });
+    fnv1a_continue(h, core::iter::once(n as u32).chain(words))
 }

@@ -54,6 +54,18 @@ fn every_line_kind_has_its_text() {
         printed(resample),
         [("resample 400 77 01020304".into(), false)]
     );
+    let online = Line::Online {
+        model: "m",
+        frame: 7,
+        t_ms: 4_294_967_200,
+        forecasts: 2,
+        feedback: 3,
+        hash: 0xbeef,
+    };
+    assert_eq!(
+        printed(online),
+        [("online m 7 4294967200 2 3 0000beef".into(), false)]
+    );
     let error = Line::Error {
         model: "m",
         what: "bad blob",

@@ -73,8 +73,8 @@ fn a_pack_replays_like_its_models() {
         })
         .collect();
     let mut sums = Vec::new();
-    let from_pack = lines(|out| sums.push(verify_pack::<128>(area, true, out)));
-    let from_models = lines(|out| sums.push(verify_all::<128>(&direct, true, out)));
+    let from_pack = lines(|out| sums.push(verify_pack::<128, true>(area, true, out)));
+    let from_models = lines(|out| sums.push(verify_all::<128, true>(&direct, true, out)));
     assert_eq!(from_pack, from_models);
     assert!(
         from_pack
@@ -96,7 +96,7 @@ fn an_area_without_a_pack_is_one_error_line() {
     let area = leak(vec![0; 4096]);
     assert_eq!(ModelPack::parse(area).err(), Some(PackError::BadMagic));
     let mut s = None;
-    let printed = lines(|out| s = Some(verify_pack::<128>(area, true, out)));
+    let printed = lines(|out| s = Some(verify_pack::<128, true>(area, true, out)));
     assert_eq!(
         printed,
         ["golden pack: model pack: no pack written into the image (bad magic)"]

@@ -15,7 +15,7 @@ fn read(name: &str) -> &'static [u8] {
 /// Runs `models` with scratch width 128; (summary, golden lines, error lines).
 fn run(models: &[EmbeddedModel]) -> (gpecnet_replay::Summary, usize, Vec<String>) {
     let (mut golden, mut errors) = (0, Vec::new());
-    let s = verify_all::<128>(models, true, &mut |l| match l {
+    let s = verify_all::<128, true>(models, true, &mut |l| match l {
         Line::Golden { ok, .. } => {
             assert!(ok, "a shipped golden case must match");
             golden += 1

@@ -334,6 +334,9 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
     let linked = log_dir.join("golden.elf");
     let mut c = fw_cargo(o);
     c.env("GPECNET_MODEL_PACK", mcu.image_data_budget.to_string());
+    if let Some(level) = mcu.golden_opt_level {
+        c.env("CARGO_PROFILE_RELEASE_OPT_LEVEL", level);
+    }
     let built =
         build_image(c, mcu, "golden", &mcu.golden_features(), &o.rest, &linked).and_then(|()| {
             std::fs::read(&linked).map_err(|e| (1, format!("{}: {e}", linked.display())))
@@ -443,9 +446,14 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
     }) {
         outln!(log, "firmware| {l}");
     }
-    let keep = ["model ", "golden ", "xcheck "];
+    let keep = ["model ", "golden ", "xcheck ", "online "];
     let fl = lines_with(&fw_out, &keep);
-    let hl = lines_with(&host_out, &keep);
+    // The host plays the online loop's scene always; a class whose image leaves it out
+    // is compared without it.
+    let hl: Vec<&str> = lines_with(&host_out, &keep)
+        .into_iter()
+        .filter(|l| mcu.online || !l.starts_with("online "))
+        .collect();
     let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
         .filter_map(|i| {
             let (a, b) = (
@@ -475,7 +483,28 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
         host_resample.first().copied().unwrap_or("<none>"),
         if resampled { "" } else { "  <- NOT VERIFIED" }
     );
-    let run_ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && resampled;
+    // The streamed scene through the online loop: one line per frame after the cases of
+    // its model (compared line by line above), on every class that embeds that model.
+    let online_model = gpecnet_replay::ONLINE_MODEL;
+    let online = count(&format!("online {online_model} "));
+    let online_ok = !mcu.online
+        || !models.iter().any(|m| m == online_model)
+        || online == gpecnet_replay::ONLINE_FRAMES as usize;
+    outln!(
+        log,
+        "qemu: online loop scene ({online_model}, Forecaster<{}, {}>): {online} of {} frames in the firmware's lines{}",
+        gpecnet_replay::ONLINE_TRACKS,
+        gpecnet_replay::ONLINE_PENDING,
+        gpecnet_replay::ONLINE_FRAMES,
+        if !mcu.online {
+            "  (not played on this class: firmware/src/lib.rs ONLINE_SCENE)"
+        } else if online_ok {
+            ""
+        } else {
+            "  <- NOT VERIFIED"
+        }
+    );
+    let run_ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && resampled && online_ok;
     // Every embedded model must have been verified, each with all its cases.
     let mut missing_models = 0;
     for m in &models {

@@ -65,7 +65,7 @@ fn main() {
             ),
         })
         .collect();
-    let s = verify_all::<SCRATCH>(&models, true, &mut |l| {
+    let s = verify_all::<SCRATCH, true>(&models, true, &mut |l| {
         l.print(&mut |text, error| {
             if error {
                 eprintln!("{text}")
@@ -74,9 +74,7 @@ fn main() {
             }
         })
     });
-    gpecnet_replay::resample_scene(&mut |l| {
-        l.print(&mut |text, _| println!("{text}"))
-    });
+    gpecnet_replay::resample_scene(&mut |l| l.print(&mut |text, _| println!("{text}")));
     println!("{s}");
     exit(if s.ok() { 0 } else { 1 })
 }
