@@ -280,6 +280,45 @@
 // than the one the forecaster was initialised with.
 #define GPECNET_E_ONLINE_OTHER_MODEL 90
 
+// Camera: an input is NaN or infinite (intrinsics, distortion, angles, a
+// NaN quaternion, position, ground height, a pixel, a ground point).
+#define GPECNET_E_CAMERA_NON_FINITE 100
+
+// Camera: a focal length is zero, negative or under 1 pixel.
+#define GPECNET_E_CAMERA_FOCAL_LENGTH 101
+
+// Camera: `max_range` is not positive.
+#define GPECNET_E_CAMERA_MAX_RANGE 102
+
+// Camera: the attitude's `|q|²` is outside `1 ± 10⁻³` (not normalised, all
+// zero, or not a quaternion).
+#define GPECNET_E_CAMERA_QUATERNION 103
+
+// Camera: the camera is at or below the ground plane.
+#define GPECNET_E_CAMERA_BELOW_GROUND 104
+
+// Camera: the pixel's ray points at or above the horizon (a camera looking
+// at the sky): it never meets the ground.
+#define GPECNET_E_CAMERA_ABOVE_HORIZON 105
+
+// Camera: the ray meets the ground farther than `max_range` from the point
+// below the camera.
+#define GPECNET_E_CAMERA_BEYOND_RANGE 106
+
+// Camera: the ground point is at or behind the camera's image plane.
+#define GPECNET_E_CAMERA_BEHIND_CAMERA 107
+
+// Camera: the lens model cannot be inverted at this pixel (far outside the
+// calibrated field of view).
+#define GPECNET_E_CAMERA_UNDISTORTION 108
+
+// Camera: a result overflowed f32 (a pixel or point absurdly far outside
+// the image).
+#define GPECNET_E_CAMERA_OVERFLOW 109
+
+// Camera: the detection array was full; this box has no detection.
+#define GPECNET_E_CAMERA_OUTPUT_FULL 110
+
 // Most trusted keys one `gpecnet_init_signed` call takes.
 #define GPECNET_MAX_TRUSTED_KEYS 8
 
@@ -329,6 +368,10 @@
 
 // [`GpecnetTrackForecast::motion`]: at or above the third.
 #define GPECNET_MOTION_FAST 3
+
+// 32-bit words of [`GpecnetPose::opaque`]: room for the core's `Pose`
+// (21 words today) and for its growth without changing the C struct.
+#define GPECNET_POSE_WORDS 31
 
 // An initialised forecaster in caller-owned storage:
 // `(GpecnetForecaster *)storage` after [`gpecnet_forecaster_init`]. Opaque to C.
@@ -582,6 +625,101 @@ typedef struct GpecnetOnlineReport {
   // Feedback updates applied to the calibration.
   uint32_t feedback;
 } GpecnetOnlineReport;
+
+// Roll, pitch and yaw in radians, applied yaw first, then pitch, then roll
+// (intrinsic Z-Y-X; PX4's and MAVLink's order): `gpecnet_core::camera::Euler`.
+// For a gimbal, pitch −π/2 looks straight down (MAVLink's sign).
+typedef struct GpecnetEuler {
+  // Rotation about x (forward), radians.
+  float roll;
+  // Rotation about y (right), radians; negative looks down.
+  float pitch;
+  // Rotation about z (down), radians; positive turns right (clockwise
+  // seen from above).
+  float yaw;
+} GpecnetEuler;
+
+// What does not change during a flight (`gpecnet_core::camera::Camera`):
+// the pinhole intrinsics and OpenCV lens coefficients in pixels (ROS
+// `CameraInfo.K`, the first four of `CameraInfo.D`), how the gimbal's base
+// (or a fixed camera) is mounted on the body, and the farthest ground
+// point accepted.
+typedef struct GpecnetCamera {
+  // Focal length along the image's x axis (right), pixels, at least 1.
+  float fx;
+  // Focal length along the image's y axis (down), pixels, at least 1.
+  float fy;
+  // Principal point's x, pixels from the left edge.
+  float cx;
+  // Principal point's y, pixels from the top edge.
+  float cy;
+  // Radial distortion coefficient of `r²` (0 for a rectified image).
+  float k1;
+  // Radial distortion coefficient of `r⁴`.
+  float k2;
+  // First tangential distortion coefficient.
+  float p1;
+  // Second tangential distortion coefficient.
+  float p2;
+  // The gimbal's base relative to the body (FRD); all zero when the
+  // gimbal's zero looks forward along the body's x axis.
+  struct GpecnetEuler mount;
+  // The farthest ground point, horizontal metres from the point below
+  // the camera (> 0; 100–200 m from 30 m altitude).
+  float max_range;
+} GpecnetCamera;
+
+// The flight stack's state at a frame's timestamp (the camera's exposure
+// time): `gpecnet_core::camera::State`.
+typedef struct GpecnetCameraState {
+  // The vehicle's attitude quaternion `(w, x, y, z)`, body (FRD) → NED:
+  // PX4's `vehicle_attitude.q`, MAVLink's `ATTITUDE_QUATERNION (q1, q2,
+  // q3, q4)`, in that order; `|q|²` within `1 ± 10⁻³`.
+  float attitude[4];
+  // The camera's position `(north, east, down)`, NED metres (PX4's
+  // `vehicle_local_position x, y, z`).
+  float position[3];
+  // The gimbal's angles relative to its base ([`GpecnetCamera::mount`]);
+  // all zero for a fixed camera. A gimbal reporting its yaw in the world
+  // frame must subtract the vehicle's yaw first.
+  struct GpecnetEuler gimbal;
+  // The ground plane's down coordinate in the same NED frame, metres (0
+  // at the local origin's height); the camera must be above it
+  // (`position[2] < ground_down`).
+  float ground_down;
+} GpecnetCameraState;
+
+// A camera at one frame, the core's validated and precomputed `Pose`,
+// written by [`gpecnet_camera_pose`]: declare one (stack, static, struct
+// member; any alignment), fill it once per frame and pass it to the
+// mapping functions. Copying it (assignment, `memcpy`) copies the pose.
+// Its fields are opaque: a pose that [`gpecnet_camera_pose`] refused, or
+// zero-filled memory, is [`GPECNET_E_NOT_INITIALISED`].
+typedef struct GpecnetPose {
+  // Opaque: a tag saying whether the rest holds a pose.
+  uint32_t tag;
+  // Opaque: the core's pose.
+  uint32_t opaque[GPECNET_POSE_WORDS];
+} GpecnetPose;
+
+// A detector's box in pixels (x right, y down), with the upstream
+// tracker's id: `x_min ≤ x_max`, `y_min ≤ y_max`. Its ground point is the
+// foot point, the bottom centre `((x_min + x_max)·0.5, y_max)`
+// (`gpecnet_core::camera::BoundingBox::foot`: right for an oblique
+// camera; for one looking straight down, map the box centre with
+// [`gpecnet_image_to_ground`] instead).
+typedef struct GpecnetBox {
+  // Track id from the upstream tracker (any value).
+  uint32_t id;
+  // Left edge, pixels.
+  float x_min;
+  // Top edge, pixels.
+  float y_min;
+  // Right edge, pixels.
+  float x_max;
+  // Bottom edge, pixels.
+  float y_max;
+} GpecnetBox;
 
 #ifdef __cplusplus
 extern "C" {
@@ -923,6 +1061,84 @@ int32_t gpecnet_forecaster_clear(struct GpecnetForecaster *f);
 // `f` as in [`gpecnet_forecaster_state`]; `out` is NULL or valid for
 // writes of `cap` counts.
 int32_t gpecnet_forecaster_feedback(const struct GpecnetForecaster *f, uint32_t *out, size_t cap);
+
+// Builds the camera's geometry at one frame from the fixed `*camera` and
+// the flight stack's `*state` (the core's `Pose::new`) into `*out`.
+// Checks, in this order: every number finite
+// ([`GPECNET_E_CAMERA_NON_FINITE`], a NaN quaternion among them), the
+// focal lengths at least 1 px ([`GPECNET_E_CAMERA_FOCAL_LENGTH`]),
+// `max_range > 0`, `|q|²` within `1 ± 10⁻³`
+// ([`GPECNET_E_CAMERA_QUATERNION`]) and the camera above the ground plane
+// ([`GPECNET_E_CAMERA_BELOW_GROUND`]). On any failure `*out` (when not
+// NULL) is marked as holding no pose: the mapping functions then return
+// [`GPECNET_E_NOT_INITIALISED`]. The three structs may have any alignment.
+//
+// # Safety
+// `camera` and `state` are NULL or valid for a read; `out` is NULL or
+// valid for a write of a [`GpecnetPose`].
+int32_t gpecnet_camera_pose(const struct GpecnetCamera *camera,
+                            const struct GpecnetCameraState *state,
+                            struct GpecnetPose *out);
+
+// The ground point seen at pixel `(u, v)` (the core's
+// `Pose::image_to_ground`): `out_ne[0]` = north, `out_ne[1]` = east, NED
+// metres. A ray at or above the horizon is
+// [`GPECNET_E_CAMERA_ABOVE_HORIZON`], a ground point beyond the camera's
+// `max_range` `GPECNET_E_CAMERA_BEYOND_RANGE`, a pixel the lens model
+// cannot invert `GPECNET_E_CAMERA_UNDISTORTION`, a NaN or infinite pixel
+// [`GPECNET_E_CAMERA_NON_FINITE`]; nothing is written on failure.
+//
+// # Safety
+// `pose` is NULL or valid for a read of a [`GpecnetPose`]; `out_ne` is
+// NULL or valid for writes of 2 floats (any alignment).
+int32_t gpecnet_image_to_ground(const struct GpecnetPose *pose, float u, float v, float *out_ne);
+
+// The pixel at which the ground point `(north, east)` (NED metres) is
+// seen (the core's `Pose::ground_to_image`): `out_uv[0]` = u (right),
+// `out_uv[1]` = v (down), e.g. to draw a forecast into the image. Any
+// range is accepted; a point at or behind the image plane is
+// `GPECNET_E_CAMERA_BEHIND_CAMERA`, a NaN or infinite one
+// [`GPECNET_E_CAMERA_NON_FINITE`]; nothing is written on failure.
+//
+// # Safety
+// `pose` is NULL or valid for a read of a [`GpecnetPose`]; `out_uv` is
+// NULL or valid for writes of 2 floats (any alignment).
+int32_t gpecnet_ground_to_image(const struct GpecnetPose *pose,
+                                float north,
+                                float east,
+                                float *out_uv);
+
+// Maps one frame's `n` boxes at `boxes` onto the ground, each at its foot
+// point ([`GpecnetBox`]), through the core's `to_observations`: box `i`'s
+// detection `{id, x = north, y = east}` (NED metres) goes to the next free
+// entry of `out` (room for `cap`), in box order, and `statuses[i]`
+// receives [`GPECNET_OK`], or the `GPECNET_E_CAMERA_*` code of why it has
+// no detection (above the horizon, beyond range, not finite, ...; or
+// [`GPECNET_E_CAMERA_OUTPUT_FULL`] when `out` was already full). Every box
+// gets a status: none is dropped silently. `*n_out` receives the
+// detections written: `out[0 .. *n_out]` is the frame for
+// `gpecnet_forecaster_frame` or `gpecnet_tracks_update`.
+//
+// Returns [`GPECNET_OK`] when every box that maps found room (boxes
+// refused for their geometry are normal: a pedestrian near the horizon),
+// [`GPECNET_E_CAMERA_OUTPUT_FULL`] when some did not (the first `cap` were
+// written), or an argument's status (NULL pointers, a pose that holds
+// none), with nothing written but `*n_out` = 0.
+//
+// # Safety
+// `pose` is NULL or valid for a read of a [`GpecnetPose`]; `boxes` is NULL
+// (only with `n` = 0) or valid for reads of `n` boxes; `statuses` is NULL
+// (only with `n` = 0) or valid for writes of `n` codes; `out` is NULL
+// (only with `cap` = 0) or valid for writes of `cap` detections; `n_out`
+// is NULL or valid for a write. Any alignment; `out` and `statuses` must
+// not overlap `boxes`.
+int32_t gpecnet_boxes_to_detections(const struct GpecnetPose *pose,
+                                    const struct GpecnetBox *boxes,
+                                    size_t n,
+                                    struct GpecnetDetection *out,
+                                    size_t cap,
+                                    int32_t *statuses,
+                                    size_t *n_out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -99,6 +99,8 @@ pub mod tracks;
 pub use tracks::*;
 mod online;
 pub use online::*;
+mod camera;
+pub use camera::*;
 
 // ---------------------------------------------------------------- bare metal
 

@@ -5,6 +5,7 @@ use core::ffi::c_char;
 
 use gpecnet_core::blob::signed::SignError;
 use gpecnet_core::blob::NetworkId;
+use gpecnet_core::camera::CameraError;
 use gpecnet_core::online::OnlineError;
 use gpecnet_core::units::UnitError;
 use gpecnet_core::{BlobError, Error, PredictError};
@@ -145,6 +146,35 @@ pub const GPECNET_E_ONLINE_FORECASTS_DROPPED: i32 = 89;
 /// than the one the forecaster was initialised with.
 pub const GPECNET_E_ONLINE_OTHER_MODEL: i32 = 90;
 
+/// Camera: an input is NaN or infinite (intrinsics, distortion, angles, a
+/// NaN quaternion, position, ground height, a pixel, a ground point).
+pub const GPECNET_E_CAMERA_NON_FINITE: i32 = 100;
+/// Camera: a focal length is zero, negative or under 1 pixel.
+pub const GPECNET_E_CAMERA_FOCAL_LENGTH: i32 = 101;
+/// Camera: `max_range` is not positive.
+pub const GPECNET_E_CAMERA_MAX_RANGE: i32 = 102;
+/// Camera: the attitude's `|q|²` is outside `1 ± 10⁻³` (not normalised, all
+/// zero, or not a quaternion).
+pub const GPECNET_E_CAMERA_QUATERNION: i32 = 103;
+/// Camera: the camera is at or below the ground plane.
+pub const GPECNET_E_CAMERA_BELOW_GROUND: i32 = 104;
+/// Camera: the pixel's ray points at or above the horizon (a camera looking
+/// at the sky): it never meets the ground.
+pub const GPECNET_E_CAMERA_ABOVE_HORIZON: i32 = 105;
+/// Camera: the ray meets the ground farther than `max_range` from the point
+/// below the camera.
+pub const GPECNET_E_CAMERA_BEYOND_RANGE: i32 = 106;
+/// Camera: the ground point is at or behind the camera's image plane.
+pub const GPECNET_E_CAMERA_BEHIND_CAMERA: i32 = 107;
+/// Camera: the lens model cannot be inverted at this pixel (far outside the
+/// calibrated field of view).
+pub const GPECNET_E_CAMERA_UNDISTORTION: i32 = 108;
+/// Camera: a result overflowed f32 (a pixel or point absurdly far outside
+/// the image).
+pub const GPECNET_E_CAMERA_OVERFLOW: i32 = 109;
+/// Camera: the detection array was full; this box has no detection.
+pub const GPECNET_E_CAMERA_OUTPUT_FULL: i32 = 110;
+
 /// The status code of a blob error (exhaustive: a new core variant fails to compile here).
 pub fn blob_status(e: BlobError) -> i32 {
     match e {
@@ -227,6 +257,24 @@ pub fn online_status(e: OnlineError) -> i32 {
         OnlineError::StateValue => GPECNET_E_ONLINE_STATE_VALUE,
         OnlineError::BufferTooSmall => GPECNET_E_ONLINE_BUFFER_TOO_SMALL,
         OnlineError::Predict(p) => predict_status(p),
+        _ => GPECNET_E_UNKNOWN_ERROR,
+    }
+}
+
+/// The status code of a camera error (exhaustive, like [`blob_status`]).
+pub fn camera_status(e: CameraError) -> i32 {
+    match e {
+        CameraError::NonFinite => GPECNET_E_CAMERA_NON_FINITE,
+        CameraError::FocalLength => GPECNET_E_CAMERA_FOCAL_LENGTH,
+        CameraError::MaxRange => GPECNET_E_CAMERA_MAX_RANGE,
+        CameraError::Quaternion => GPECNET_E_CAMERA_QUATERNION,
+        CameraError::BelowGround => GPECNET_E_CAMERA_BELOW_GROUND,
+        CameraError::AboveHorizon => GPECNET_E_CAMERA_ABOVE_HORIZON,
+        CameraError::BeyondRange => GPECNET_E_CAMERA_BEYOND_RANGE,
+        CameraError::BehindCamera => GPECNET_E_CAMERA_BEHIND_CAMERA,
+        CameraError::Undistortion => GPECNET_E_CAMERA_UNDISTORTION,
+        CameraError::Overflow => GPECNET_E_CAMERA_OVERFLOW,
+        CameraError::OutputFull => GPECNET_E_CAMERA_OUTPUT_FULL,
         _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
@@ -314,6 +362,17 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_ONLINE_OTHER_MODEL => {
             c"the predictor's blob or unit is not the one the forecaster was initialised with"
         }
+        GPECNET_E_CAMERA_NON_FINITE => c"camera input not finite (intrinsics, angles, quaternion, position, pixel or point)",
+        GPECNET_E_CAMERA_FOCAL_LENGTH => c"focal length under one pixel",
+        GPECNET_E_CAMERA_MAX_RANGE => c"camera maximum range not positive",
+        GPECNET_E_CAMERA_QUATERNION => c"attitude quaternion not normalised",
+        GPECNET_E_CAMERA_BELOW_GROUND => c"camera at or below the ground plane",
+        GPECNET_E_CAMERA_ABOVE_HORIZON => c"ray at or above the horizon: it never meets the ground",
+        GPECNET_E_CAMERA_BEYOND_RANGE => c"ground point beyond the camera's maximum range",
+        GPECNET_E_CAMERA_BEHIND_CAMERA => c"ground point behind the camera",
+        GPECNET_E_CAMERA_UNDISTORTION => c"lens distortion not invertible at this pixel",
+        GPECNET_E_CAMERA_OVERFLOW => c"camera arithmetic overflowed",
+        GPECNET_E_CAMERA_OUTPUT_FULL => c"detection array full: the box has no detection",
         GPECNET_E_UNKNOWN_ERROR => c"an error this build of the C ABI has no code for",
         _ => c"unknown status code",
     };
