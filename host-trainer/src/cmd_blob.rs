@@ -182,13 +182,16 @@ pub(crate) struct EvalArgs {
     /// The blob to evaluate.
     #[arg(long, value_name = "FILE", default_value = "weights/sdd-small.gpec")]
     blob: PathBuf,
-    /// Data root holding sdd/ and eth_ucy/ (see shared/data/README.md).
+    /// Where the BENCHMARK data lives: the root holding sdd/ and eth_ucy/ (shared/data/README.md).
+    /// Only the built-in data sets read it; your own folder goes in --dataset, not here.
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
     data: PathBuf,
-    /// The data set whose test split is evaluated: `sdd` (pixels), `sdd-m` (SDD in metres
-    /// through the per-scene scales; also prints the pixel-equivalent numbers) or
-    /// `eth_ucy:<eth|hotel|univ|zara1|zara2>` (metres). A blob whose unit differs from the data
-    /// set's is refused before anything runs.
+    /// WHICH data set's test split is evaluated: `sdd` (pixels), `sdd-m` (SDD in metres
+    /// through the per-scene scales; also prints the pixel-equivalent numbers),
+    /// `eth_ucy:<eth|hotel|univ|zara1|zara2>` (metres), or your own data-set folder with a '/'
+    /// in its path (`./mydrone`: dataset.toml and test/; docs/own-data.md). A folder without
+    /// val/ is evaluated zero-shot, the constant-velocity window fixed at 2 steps (the report
+    /// says so). A blob whose unit differs from the data set's is refused before anything runs.
     #[arg(long, value_name = "SPEC", default_value = "sdd", value_parser = parse_dataset)]
     dataset: data::DatasetSpec,
     /// The unit of a blob that does not state one (format version < 4). Without it such a
@@ -200,9 +203,9 @@ pub(crate) struct EvalArgs {
     sine: Option<gpecnet_trainer::reference::SineKind>,
     #[command(flatten)]
     sampling: TestSampling,
-    /// Where to draw predictions (SVG).
-    #[arg(long, value_name = "FILE", default_value = "out/predictions.svg")]
-    draw: PathBuf,
+    /// Draw predictions to this SVG file (nothing is written without it).
+    #[arg(long, value_name = "FILE")]
+    draw: Option<PathBuf>,
     /// Number of test windows to draw.
     #[arg(long, default_value_t = 16)]
     n_draw: usize,
@@ -211,9 +214,11 @@ pub(crate) struct EvalArgs {
     #[arg(long, value_name = "FILE")]
     reliability: Option<PathBuf>,
     /// Print exactly one JSON object on stdout (name, n, k, min_ade, min_fde, ade_k1, fde_k1,
-    /// mean_ade, mean_fde, point_ade, point_fde, cv_n, cv_ade, cv_fde, cv_last_ade,
-    /// cv_last_fde, kde_nll, hit20, hit40, matches_card, probabilities, planner: the planner
-    /// metrics of a model with endpoint probabilities, ...) instead of the table.
+    /// mean_ade, mean_fde, point_ade, point_fde, cv_n, cv_n_chosen_on, cv_ade, cv_fde,
+    /// cv_last_ade, cv_last_fde, kde_nll, the hit rates at the unit's radii: hit_0.5m and
+    /// hit_1m, or hit_20px and hit_40px, scenes: the same per scene, matches_card,
+    /// probabilities, planner: the planner metrics of a model with endpoint probabilities,
+    /// ...) instead of the table.
     #[arg(long)]
     json: bool,
     /// Add the distribution metrics (kde_nll, hit20, hit40) to the blob's existing model card
@@ -291,6 +296,16 @@ pub(crate) fn cmd_eval(a: EvalArgs) -> Result<()> {
         dataset: a.dataset.clone(),
         assume_unit: a.assume_unit.map(Into::into),
     };
+    // A data-set folder given as the benchmark root would be read as sdd/ and eth_ucy/.
+    if a.data.join(data::DATASET_TOML).is_file() {
+        anyhow::bail!(
+            "--data {} is a data-set folder (it holds {}): --data is the benchmark data \
+             root; evaluate your folder with --dataset {}",
+            a.data.display(),
+            data::DATASET_TOML,
+            a.data.display()
+        );
+    }
     if a.update_card && a.dataset != data::DatasetSpec::Sdd {
         anyhow::bail!("--update-card applies to the SDD pixel cards only");
     }
@@ -301,7 +316,7 @@ pub(crate) fn cmd_eval(a: EvalArgs) -> Result<()> {
         a.sine,
         a.sampling.k,
         a.sampling.seed,
-        Some(&a.draw),
+        a.draw.as_deref(),
         a.n_draw,
         a.reliability.as_deref(),
     )?;

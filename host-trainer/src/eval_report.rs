@@ -14,6 +14,11 @@ macro_rules! w {
     }};
 }
 
+/// The JSON key of a hit rate: the radius and its unit (`hit_0.5m`, `hit_1m`, `hit_20px`).
+pub fn hit_key(radius: f64, unit: crate::data::Unit) -> String {
+    format!("hit_{radius}{}", unit.suffix())
+}
+
 /// The report as one JSON object (`gpecnet eval --json`); `blob` is the path as given.
 pub fn json(r: &EvalReport, blob: &Path) -> serde_json::Value {
     let (m, cv, cvn, d) = (&r.metrics, &r.constant_velocity, &r.cv, &r.dist);
@@ -40,9 +45,14 @@ pub fn json(r: &EvalReport, blob: &Path) -> serde_json::Value {
         "cv_val_fde": r.cv_val.iter().map(|v| v.fde_k1).collect::<Vec<_>>(),
         "n_val": r.n_val,
         "kde_nll": d.kde_nll,
-        "hit20": d.hit20,
-        "hit40": d.hit40,
-        "hits": r.hits.iter().map(|(radius, fraction)| serde_json::json!({"radius": radius, "fraction": fraction})).collect::<Vec<_>>(),
+        hit_key(r.hits[0].0, r.unit): r.hits[0].1,
+        hit_key(r.hits[1].0, r.unit): r.hits[1].1,
+        "hits": r.hits.iter().map(|(radius, fraction)| serde_json::json!({"radius": radius, "unit": r.unit.suffix(), "fraction": fraction})).collect::<Vec<_>>(),
+        "cv_n_chosen_on": match &r.cv_fixed {
+            Some(dir) => format!("fixed at {} (no val/ in {dir})", r.cv_n),
+            None => "validation".to_string(),
+        },
+        "scenes": r.scenes,
         "min_ade_px": r.pixels.map(|p| p.metrics.min_ade),
         "min_fde_px": r.pixels.map(|p| p.metrics.min_fde),
         "point_ade_px": r.pixels.and_then(|p| p.point.map(|q| q.0)),
@@ -98,12 +108,11 @@ pub fn table(r: &EvalReport) -> String {
         cv.ade_k1,
         cv.fde_k1,
     );
-    row(
-        &mut out,
-        format!("constant velocity, n = {} (chosen on val)", r.cv_n),
-        cvn.ade_k1,
-        cvn.fde_k1,
-    );
+    let cv_label = match &r.cv_fixed {
+        Some(_) => format!("constant velocity, n = {} (fixed: no val/)", r.cv_n),
+        None => format!("constant velocity, n = {} (chosen on val)", r.cv_n),
+    };
+    row(&mut out, cv_label, cvn.ade_k1, cvn.fde_k1);
     w!(out,
         "distribution of the K = {} endpoints: KDE NLL {:.3} nats ({u}), true endpoint within {} {u} of a sample {:.2} %, within {} {u} {:.2} %",
         m.k,
@@ -134,17 +143,66 @@ pub fn table(r: &EvalReport) -> String {
             p.cv.fde_k1,
         );
     }
-    w!(
-        out,
-        "constant-velocity n: lowest FDE on {} {} validation windows; val FDE for n = 1..7: {}",
-        r.n_val,
-        r.dataset,
-        r.cv_val
+    match &r.cv_fixed {
+        Some(dir) => w!(
+            out,
+            "constant-velocity n: fixed at {} observed steps (0.8 s): {dir} has no val/ to choose it on",
+            r.cv_n
+        ),
+        None => w!(
+            out,
+            "constant-velocity n: lowest FDE on {} {} validation windows; val FDE for n = 1..7: {}",
+            r.n_val,
+            r.dataset,
+            r.cv_val
+                .iter()
+                .map(|v| format!("{:.2}", v.fde_k1))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+    if r.scenes.len() > 1 {
+        let width = r
+            .scenes
             .iter()
-            .map(|v| format!("{:.2}", v.fde_k1))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
+            .map(|s| s.scene.len())
+            .max()
+            .unwrap_or(5)
+            .max(5);
+        w!(
+            out,
+            "per scene ({u}; point = the point forecast's FDE, CV = constant velocity n = {}):",
+            r.cv_n
+        );
+        w!(
+            out,
+            "  {:<width$} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9}",
+            "scene",
+            "windows",
+            "minADE",
+            "minFDE",
+            "point",
+            "CV ADE",
+            "CV FDE",
+            format!("<{}{u}", r.hits[0].0),
+            format!("<{}{u}", r.hits[1].0)
+        );
+        for s in &r.scenes {
+            w!(
+                out,
+                "  {:<width$} {:>7} {:>8.3} {:>8.3} {:>8} {:>8.3} {:>8.3} {:>8.1}% {:>8.1}%",
+                s.scene,
+                s.n,
+                s.min_ade,
+                s.min_fde,
+                s.point_fde.map_or("n/a".to_string(), |v| format!("{v:.3}")),
+                s.cv_ade,
+                s.cv_fde,
+                100.0 * s.hits[0],
+                100.0 * s.hits[1]
+            );
+        }
+    }
     match r.matches_card {
         Some(true) => w!(out, "model card: reproduced exactly"),
         Some(false) => {

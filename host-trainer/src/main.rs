@@ -60,11 +60,12 @@ enum Command {
     /// Choose inference settings (latent sigma, test-time samples N) on the run's VALIDATION
     /// windows through gpecnet-core; prints a table (the test set is never read).
     Select(SelectArgs),
-    /// Evaluate a shipped blob on the SDD test set through gpecnet-core; print ADE/FDE and draw.
+    /// Evaluate a blob on a data set's test split through gpecnet-core; print ADE/FDE.
     ///
     /// This is what runs on the drone, on the real test set: best-of-K and K = 1 errors in
-    /// pixels, the constant-velocity baseline, whether the model card is reproduced exactly,
-    /// and an SVG of predicted vs. true trajectories.
+    /// the data's unit, the constant-velocity baseline, hit rates at the unit's radii, the
+    /// same per scene, whether the model card is reproduced exactly, and (with --draw) an
+    /// SVG of predicted vs. true trajectories. Writes no file unless asked.
     Eval(EvalArgs),
     /// Quantize an f32 blob to the fixed-point kind (Int16Q15); writes <out>.gpec, .golden,
     /// .json and .md with f32 vs fixed ADE/FDE on the SDD test set through gpecnet-core.

@@ -564,3 +564,78 @@ fn a_folder_with_only_test_names_the_user_s_folder() {
     .to_string();
     assert!(e.contains("no data file (*.txt)"), "{e}");
 }
+
+#[test]
+fn eval_on_a_folder_with_only_test_is_zero_shot_in_metres_and_writes_nothing() {
+    // Two ETH/UCY scenes copied into a folder with test/ only; run from an empty directory.
+    let dir = folder(
+        "unit = \"m\"\nseconds_per_frame = 0.04\n",
+        &[
+            (
+                "biwi_hotel.txt",
+                fs::read_to_string(eth_ucy("hotel/test/biwi_hotel.txt")).unwrap(),
+            ),
+            (
+                "crowds_zara01.txt",
+                fs::read_to_string(eth_ucy("zara1/test/crowds_zara01.txt")).unwrap(),
+            ),
+        ],
+    );
+    let cwd = tempfile::tempdir().unwrap();
+    let blob = Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights/ethucy-hotel.gpec");
+    let spec = format!("{}/", dir.path().display());
+    let run = |extra: &[&str]| {
+        let o = crate::common::gpecnet()
+            .current_dir(cwd.path())
+            .args(["eval", "--blob", blob.to_str().unwrap(), "--dataset", &spec])
+            .args(extra)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(
+            o.status.success(),
+            "{text}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        text
+    };
+    let j: serde_json::Value = serde_json::from_str(&run(&["--json"])).unwrap();
+    // Hit rates at the metre radii, named by radius and unit; no pixel keys on metre data.
+    assert!(j["hit_0.5m"].as_f64().unwrap() > 0.5, "{j}");
+    assert!(j["hit_1m"].as_f64().unwrap() >= j["hit_0.5m"].as_f64().unwrap());
+    assert!(j.get("hit20").is_none() && j.get("hit_20px").is_none());
+    assert_eq!(j["cv_n"], 2);
+    assert!(
+        j["cv_n_chosen_on"].as_str().unwrap().contains("no val/"),
+        "{j}"
+    );
+    // Per scene: both files, their windows adding up, each scene's numbers its own.
+    let scenes = j["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 2);
+    assert_eq!(scenes[0]["scene"], "biwi_hotel");
+    let n: u64 = scenes.iter().map(|s| s["n"].as_u64().unwrap()).sum();
+    assert_eq!(n, j["n"].as_u64().unwrap());
+    let weighted: f64 = scenes
+        .iter()
+        .map(|s| s["n"].as_f64().unwrap() * s["min_fde"].as_f64().unwrap())
+        .sum::<f64>()
+        / n as f64;
+    assert!((weighted - j["min_fde"].as_f64().unwrap()).abs() < 1e-9);
+    let text = run(&[]);
+    assert!(text.contains("n = 2 (fixed: no val/)"), "{text}");
+    assert!(
+        text.contains("crowds_zara01") && text.contains("<0.5m"),
+        "{text}"
+    );
+    // Nothing was written where it ran.
+    assert_eq!(fs::read_dir(cwd.path()).unwrap().count(), 0);
+    // The folder given as the benchmark root is refused, pointing at --dataset.
+    let (ok, text) = crate::common::run(&[
+        "eval",
+        "--blob",
+        blob.to_str().unwrap(),
+        "--data",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("--dataset"), "{text}");
+}

@@ -125,6 +125,14 @@ pub fn validation_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Datase
 pub fn test_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Dataset> {
     let test = data::load(data_root, spec, Split::Test, &[])?;
     if test.windows.is_empty() {
+        // A folder's own test/ is named, not the benchmark data root it does not use.
+        if let DatasetSpec::Folder { dir, .. } = spec {
+            bail!(
+                "{}: no window: no track is 20 steps of 0.4 s (8 s) long without a gap longer \
+                 than max_gap_s (docs/own-data.md)",
+                Path::new(dir).join("test").display()
+            );
+        }
         bail!(
             "the {spec} test set under {} has no window",
             data_root.display()

@@ -41,9 +41,12 @@ pub struct EvalReport {
     /// The model's single point forecast (ADE, FDE) on the test set, when it has one; `None`
     /// until a point forecast exists (printed as `null` / "n/a").
     pub point: Option<(f64, f64)>,
-    /// Constant-velocity window `n` (1..=7 observed steps) chosen by the lowest FDE on the SDD
-    /// validation scenes.
+    /// Constant-velocity window `n` (1..=7 observed steps) chosen by the lowest FDE on the
+    /// data set's validation windows, or [`FIXED_CV_N`] for a folder without `val/`.
     pub cv_n: usize,
+    /// `Some(folder)` when the data set is a folder without `val/`: `cv_n` is then fixed at
+    /// [`FIXED_CV_N`], not chosen.
+    pub cv_fixed: Option<String>,
     /// Constant velocity with `cv_n` on the test set.
     pub cv: Metrics,
     /// Constant velocity with `n = 1..=7` on the validation scenes (element `n - 1`).
@@ -55,6 +58,8 @@ pub struct EvalReport {
     pub hits: [(f64, f64); 2],
     /// SDD in metres only: the same results in pixels, scene by scene.
     pub pixels: Option<PixelEquivalent>,
+    /// The same numbers per scene (the source file's stem), in the order scenes first appear.
+    pub scenes: Vec<SceneRow>,
     /// The blob's card is about another data set (so it was not compared).
     pub card_on_other_data: bool,
     /// `Some(true)` when the blob's model card exists and its numbers (ADE/FDE and the
@@ -86,6 +91,84 @@ pub struct PixelEquivalent {
     pub point: Option<(f64, f64)>,
     /// Constant velocity with the validation-chosen window, on the pixel test set.
     pub cv: Metrics,
+}
+
+/// The constant-velocity window of a folder with no `val/` to choose it on: 2 observed
+/// steps (0.8 s), the window the SDD validation scenes choose.
+pub const FIXED_CV_N: usize = 2;
+
+/// One scene's share of the test windows and its numbers (the data set's unit).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SceneRow {
+    /// The scene (the file stem).
+    pub scene: String,
+    /// Its test windows.
+    pub n: usize,
+    /// Best-of-K ADE and FDE.
+    pub min_ade: f64,
+    /// Best-of-K FDE.
+    pub min_fde: f64,
+    /// The point forecast's FDE (a model with a point head).
+    pub point_fde: Option<f64>,
+    /// Constant velocity with the report's `cv_n`: ADE.
+    pub cv_ade: f64,
+    /// Constant velocity with the report's `cv_n`: FDE.
+    pub cv_fde: f64,
+    /// Fractions of windows with a sample within each of the unit's two radii.
+    pub hits: [f64; 2],
+}
+
+/// The [`SceneRow`]s of `test` and its predictions (`point`: the point forecasts).
+fn scene_rows(
+    test: &Dataset,
+    preds: &[crate::eval::Prediction],
+    point: Option<&[crate::eval::Prediction]>,
+    cv_n: usize,
+    radii: [f64; 2],
+) -> Result<Vec<SceneRow>> {
+    let mut out = Vec::new();
+    for scene in test.scenes() {
+        let idx: Vec<usize> = (0..test.windows.len())
+            .filter(|&i| test.windows[i].scene == scene)
+            .collect();
+        let sub = Dataset {
+            name: scene.clone(),
+            unit: test.unit,
+            windows: idx.iter().map(|&i| test.windows[i].clone()).collect(),
+        };
+        let pick = |p: &[crate::eval::Prediction]| -> Vec<crate::eval::Prediction> {
+            idx.iter().filter_map(|&i| p.get(i).cloned()).collect()
+        };
+        let mine = pick(preds);
+        let mut acc = crate::eval::MetricsAccumulator::new();
+        for (w, p) in sub.windows.iter().zip(&mine) {
+            acc.add(w, p)?;
+        }
+        let m = acc.finish();
+        let point_fde = match point {
+            Some(p) => {
+                let mut a = crate::eval::MetricsAccumulator::new();
+                for (w, q) in sub.windows.iter().zip(pick(p)) {
+                    a.add(w, &q)?;
+                }
+                Some(a.finish().fde_k1)
+            }
+            None => None,
+        };
+        let cv = evaluate_baseline_with(&sub, |w| constant_velocity_n(w, cv_n));
+        let dist = dist_accumulator(&sub, &mine).context("one prediction per test window")?;
+        out.push(SceneRow {
+            scene,
+            n: m.n,
+            min_ade: m.min_ade,
+            min_fde: m.min_fde,
+            point_fde,
+            cv_ade: cv.ade_k1,
+            cv_fde: cv.fde_k1,
+            hits: radii.map(|r| dist.within(r)),
+        });
+    }
+    Ok(out)
 }
 
 /// What a blob is evaluated on: a data set, and the unit to assume for a blob that states
@@ -146,9 +229,29 @@ pub fn eval_blob(
     let unit = check_unit(&model, &meta, spec, target.assume_unit)
         .with_context(|| format!("evaluating {}", blob_path.display()))?;
     let test = test_windows(data_root, spec)?;
-    let val = validation_windows(data_root, spec)?;
-    let (cv_n, cv_val) = select_cv_n(&val)
-        .with_context(|| format!("no {spec} validation window under {}", data_root.display()))?;
+    // A folder without val/ is evaluated zero-shot: nothing to choose the constant-velocity
+    // window on, so it is fixed (and the report says so).
+    let no_val = match spec {
+        DatasetSpec::Folder { dir, .. } if !Path::new(dir).join("val").exists() => {
+            Some(dir.clone())
+        }
+        _ => None,
+    };
+    let (cv_n, cv_val, n_val) = match &no_val {
+        Some(_) => (FIXED_CV_N, Vec::new(), 0),
+        None => {
+            let val = validation_windows(data_root, spec)?;
+            let (n, sweep) = select_cv_n(&val).with_context(|| match spec {
+                DatasetSpec::Folder { dir, .. } => format!(
+                    "no validation window in {}: its tracks are shorter than 20 steps of 0.4 s \
+                     (8 s); remove val/ to evaluate with a fixed constant-velocity window",
+                    Path::new(dir).join("val").display()
+                ),
+                _ => format!("no {spec} validation window under {}", data_root.display()),
+            })?;
+            (n, sweep, val.windows.len())
+        }
+    };
     let card: Option<serde_json::Value> = crate::inpath::read_limited(
         &blob_path.with_extension("json"),
         crate::inpath::FileKind::Text,
@@ -222,6 +325,13 @@ pub fn eval_blob(
     };
     let hit_radii = crate::dist::hit_radii(unit);
     let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
+    let scenes = scene_rows(
+        &test,
+        &preds,
+        point_preds.as_ref().map(|p| p.1.as_slice()),
+        cv_n,
+        hit_radii,
+    )?;
     let run_sine = sine
         .or_else(|| crate::export::sine_of_blob(blob_path))
         .unwrap_or(SineKind::Libm);
@@ -289,10 +399,12 @@ pub fn eval_blob(
         hits,
         point,
         cv_n,
+        cv_fixed: no_val,
         cv: evaluate_baseline_with(&test, |w| constant_velocity_n(w, cv_n)),
         cv_val,
-        n_val: val.windows.len(),
+        n_val,
         pixels,
+        scenes,
         matches_card,
         card_on_other_data,
         svg,
