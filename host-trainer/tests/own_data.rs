@@ -229,6 +229,7 @@ fn a_29_97_fps_csv_of_a_scene_gives_the_scene_s_numbers() {
     // String ids are numbered by first appearance.
     assert!(ds.windows.iter().all(|w| w.ped_id.fract() == 0.0));
     let (n, m) = (ds.len() as f64, scene.len() as f64);
+    eprintln!("29.97 fps CSV: {n} windows, the scene {m}");
     assert!((n - m).abs() / m < 0.01, "{n} windows vs the scene's {m}");
     let got = numbers(&ds);
     // The loader's part (the file format, the jitter, the dropped rows): against the same
@@ -273,6 +274,7 @@ fn slow_clocks_two_and_one_frames_per_second() {
         &[("biwi_hotel.txt", text)],
     );
     let ds = load_test(dir.path()).unwrap();
+    eprintln!("0.5 s per frame: {} windows", ds.len());
     assert!(ds.len() as f64 > 0.9 * scene.len() as f64, "{}", ds.len());
     // The model within 5 %; constant velocity gains more from the smoothing of
     // interpolating 2 Hz detections (measured: -18.5 % ADE, -13.5 % FDE).
@@ -294,6 +296,7 @@ fn slow_clocks_two_and_one_frames_per_second() {
         &[("biwi_hotel.txt", text)],
     );
     let ds = load_test(dir.path()).unwrap();
+    eprintln!("1 s per frame: {} windows", ds.len());
     assert!(ds.len() as f64 > 0.8 * scene.len() as f64, "{}", ds.len());
     // Grid points are 400 ms apart on the track's own clock (milliseconds here).
     let w = &ds.windows[0];

@@ -18,7 +18,9 @@
 //! Files: `window.rs` (units, windows, data sets, the validation split, model-space samples),
 //! `error.rs` ([`DataError`]), `rows.rs` (the shared `frame ped_id x y` row reader and file
 //! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark), `scales.rs` (SDD's
-//! metres-per-pixel table), `folder.rs` (a user's own data-set folder), `spec.rs` (dataset names and their train/val/test splits: the one
+//! metres-per-pixel table), `folder.rs` (a user's own data-set folder: `dataset.toml`, its splits), `detections.rs` (a
+//! folder's files, plain text or with a header, read into detections), `resample.rs` (a
+//! folder's tracks onto the 0.4 s grid through the core's timed track table), `spec.rs` (dataset names and their train/val/test splits: the one
 //! entry point the commands use, [`load`]), `recording.rs` (a split's files frame by frame in time
 //! order, for the streaming evaluation: [`recordings`]), `units.rs` (checks that a model's unit matches a
 //! data set's).
