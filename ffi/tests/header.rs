@@ -46,6 +46,10 @@ fn header_has_every_entry_point_and_cpp_guards() {
         "gpecnet_forecaster_state",
         "gpecnet_forecaster_restore",
         "gpecnet_forecaster_reset",
+        "gpecnet_camera_pose",
+        "gpecnet_image_to_ground",
+        "gpecnet_ground_to_image",
+        "gpecnet_boxes_to_detections",
     ] {
         assert!(h.contains(&format!("{f}(")), "{f} missing from the header");
     }

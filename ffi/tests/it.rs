@@ -3,6 +3,7 @@
 //! per file. Run one file's tests with `cargo test -p gpecnet-ffi --test it <file>::`;
 //! `cargo xtask check-modules` fails when a file of this folder is missing below.
 mod c_abi;
+mod c_camera;
 mod c_examples;
 mod c_online;
 mod c_signed;
