@@ -16,5 +16,6 @@ mod proposal;
 mod public_api;
 mod signed;
 mod timed_tracks;
+mod track_filter;
 mod tracks;
 mod units;

@@ -8,6 +8,11 @@
 //! wants. [`TrackTable`], described below, takes frames that are already
 //! one model period apart.
 //!
+//! For noisy detections (a drone's camera), [`filter::TrackFilter`] is an
+//! optional stage in front of either table: a constant-velocity Kalman filter
+//! per track that replaces each detection by its filtered position. The
+//! tables themselves never filter.
+//!
 //! The integrator's detector/tracker delivers, once per *frame*, a list of
 //! [`Observation`]s `(track id, position)`. Association is by id only: run
 //! your own data association / re-identification upstream. A frame of
@@ -93,6 +98,7 @@
 //! capacity `N`) is about `8·N + 32` bytes. `update` costs O(N) per
 //! observation (lookup by id) plus O(N) per call (expiry).
 
+pub mod filter;
 mod history;
 pub mod timed;
 
