@@ -1140,6 +1140,27 @@ int32_t gpecnet_boxes_to_detections(const struct GpecnetPose *pose,
                                     int32_t *statuses,
                                     size_t *n_out);
 
+// A ROS attitude (REP-103: body FLU → world ENU, `geometry_msgs/Quaternion`
+// as `(w, x, y, z)`) at `q_enu_flu` as the `(w, x, y, z)` body FRD → NED
+// quaternion [`GpecnetCameraState::attitude`] takes, at `out_q` (the
+// core's `attitude_from_ros`: `(√½(w + z), √½(x + y), √½(x − y), √½(w − z))`,
+// MAVROS's conversion). `out_q` may be `q_enu_flu`.
+//
+// # Safety
+// `q_enu_flu` is NULL or valid for reads of 4 floats; `out_q` is NULL or
+// valid for writes of 4 floats (any alignment).
+int32_t gpecnet_attitude_from_ros(const float *q_enu_flu, float *out_q);
+
+// A ROS ENU position `(x east, y north, z up)` at `enu` as the NED
+// `(north, east, down)` = `(y, x, −z)` [`GpecnetCameraState::position`]
+// takes, at `out_ned` (the core's `position_from_ros`). `out_ned` may be
+// `enu`.
+//
+// # Safety
+// `enu` is NULL or valid for reads of 3 floats; `out_ned` is NULL or valid
+// for writes of 3 floats (any alignment).
+int32_t gpecnet_position_from_ros(const float *enu, float *out_ned);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

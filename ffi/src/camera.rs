@@ -27,8 +27,8 @@
 //! [`GpecnetPose`] the caller declares), and each box goes through the
 //! core's `to_observations`.
 use gpecnet_core::camera::{
-    to_observations, BoundingBox, Camera, CameraError, Detection, Distortion, Euler, Intrinsics,
-    Pose, State,
+    attitude_from_ros, position_from_ros, to_observations, BoundingBox, Camera, CameraError,
+    Detection, Distortion, Euler, Intrinsics, Pose, State,
 };
 use gpecnet_core::tracks::Observation;
 
@@ -439,6 +439,55 @@ pub unsafe extern "C" fn gpecnet_boxes_to_detections(
         unsafe { n_out.write_unaligned(written) };
         if full {
             return Err(GPECNET_E_CAMERA_OUTPUT_FULL);
+        }
+        Ok(())
+    })
+}
+
+/// A ROS attitude (REP-103: body FLU → world ENU, `geometry_msgs/Quaternion`
+/// as `(w, x, y, z)`) at `q_enu_flu` as the `(w, x, y, z)` body FRD → NED
+/// quaternion [`GpecnetCameraState::attitude`] takes, at `out_q` (the
+/// core's `attitude_from_ros`: `(√½(w + z), √½(x + y), √½(x − y), √½(w − z))`,
+/// MAVROS's conversion). `out_q` may be `q_enu_flu`.
+///
+/// # Safety
+/// `q_enu_flu` is NULL or valid for reads of 4 floats; `out_q` is NULL or
+/// valid for writes of 4 floats (any alignment).
+#[no_mangle]
+pub unsafe extern "C" fn gpecnet_attitude_from_ros(q_enu_flu: *const f32, out_q: *mut f32) -> i32 {
+    guard(|| {
+        non_null(q_enu_flu)?;
+        non_null(out_q)?;
+        // SAFETY: non-null, 4 readable floats (caller's contract); any alignment.
+        let q = unsafe { [0, 1, 2, 3].map(|i| q_enu_flu.add(i).read_unaligned()) };
+        let out = attitude_from_ros(q);
+        for (i, v) in out.into_iter().enumerate() {
+            // SAFETY: i < 4, room for 4 floats (caller's contract); the input was read first.
+            unsafe { out_q.add(i).write_unaligned(v) };
+        }
+        Ok(())
+    })
+}
+
+/// A ROS ENU position `(x east, y north, z up)` at `enu` as the NED
+/// `(north, east, down)` = `(y, x, −z)` [`GpecnetCameraState::position`]
+/// takes, at `out_ned` (the core's `position_from_ros`). `out_ned` may be
+/// `enu`.
+///
+/// # Safety
+/// `enu` is NULL or valid for reads of 3 floats; `out_ned` is NULL or valid
+/// for writes of 3 floats (any alignment).
+#[no_mangle]
+pub unsafe extern "C" fn gpecnet_position_from_ros(enu: *const f32, out_ned: *mut f32) -> i32 {
+    guard(|| {
+        non_null(enu)?;
+        non_null(out_ned)?;
+        // SAFETY: non-null, 3 readable floats (caller's contract); any alignment.
+        let p = unsafe { [0, 1, 2].map(|i| enu.add(i).read_unaligned()) };
+        let ned = position_from_ros(p);
+        for (i, v) in ned.into_iter().enumerate() {
+            // SAFETY: i < 3, room for 3 floats (caller's contract); the input was read first.
+            unsafe { out_ned.add(i).write_unaligned(v) };
         }
         Ok(())
     })

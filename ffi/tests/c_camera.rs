@@ -735,3 +735,52 @@ fn a_copied_pose_and_unaligned_buffers_give_the_same_bits() {
         assert_eq!(s, *w);
     }
 }
+
+/// The ROS conversions are the core's, in place too; NULL is refused.
+#[test]
+fn ros_conversions_are_the_cores() {
+    use gpecnet_core::camera::{attitude_from_ros, position_from_ros};
+    let q = [0.9f32, 0.1, -0.3, 0.2969];
+    let mut out = [f32::NAN; 4];
+    // SAFETY: test: 4 readable and 4 writable floats.
+    assert_eq!(
+        unsafe { gpecnet_attitude_from_ros(q.as_ptr(), out.as_mut_ptr()) },
+        GPECNET_OK
+    );
+    assert_eq!(
+        out.map(f32::to_bits),
+        attitude_from_ros(q).map(f32::to_bits)
+    );
+    let mut inplace = q;
+    // SAFETY: test: the same 4 floats in and out.
+    let st = unsafe { gpecnet_attitude_from_ros(inplace.as_ptr(), inplace.as_mut_ptr()) };
+    assert_eq!((st, inplace), (GPECNET_OK, out));
+    let enu = [3.0f32, -4.0, 30.0];
+    let mut ned = [f32::NAN; 3];
+    // SAFETY: test: 3 readable and 3 writable floats.
+    assert_eq!(
+        unsafe { gpecnet_position_from_ros(enu.as_ptr(), ned.as_mut_ptr()) },
+        GPECNET_OK
+    );
+    assert_eq!(ned, position_from_ros(enu));
+    assert_eq!(ned, [-4.0, 3.0, -30.0]);
+    // SAFETY (every call below): test: NULL or valid pointers.
+    unsafe {
+        assert_eq!(
+            gpecnet_attitude_from_ros(null(), out.as_mut_ptr()),
+            GPECNET_E_NULL_POINTER
+        );
+        assert_eq!(
+            gpecnet_attitude_from_ros(q.as_ptr(), null_mut()),
+            GPECNET_E_NULL_POINTER
+        );
+        assert_eq!(
+            gpecnet_position_from_ros(null(), ned.as_mut_ptr()),
+            GPECNET_E_NULL_POINTER
+        );
+        assert_eq!(
+            gpecnet_position_from_ros(enu.as_ptr(), null_mut()),
+            GPECNET_E_NULL_POINTER
+        );
+    }
+}

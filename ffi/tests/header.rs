@@ -50,6 +50,8 @@ fn header_has_every_entry_point_and_cpp_guards() {
         "gpecnet_image_to_ground",
         "gpecnet_ground_to_image",
         "gpecnet_boxes_to_detections",
+        "gpecnet_attitude_from_ros",
+        "gpecnet_position_from_ros",
     ] {
         assert!(h.contains(&format!("{f}(")), "{f} missing from the header");
     }
