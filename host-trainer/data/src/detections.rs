@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::folder::{Columns, FolderError, FolderInfo, TimeColumn};
+use super::folder_info::{Columns, FolderError, FolderInfo, TimeColumn};
 use super::rows::{id_key, parse_f64, read_data_file, MAX_FRAME};
 use super::*;
 

@@ -18,7 +18,7 @@
 //! Files: `window.rs` (units, windows, data sets, the validation split, model-space samples),
 //! `error.rs` ([`DataError`]), `rows.rs` (the shared `frame ped_id x y` row reader and file
 //! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark), `scales.rs` (SDD's
-//! metres-per-pixel table), `folder.rs` (a user's own data-set folder: `dataset.toml`, its splits), `detections.rs` (a
+//! metres-per-pixel table), `folder_info.rs` (a user's own data-set folder: `dataset.toml`, its keys, files and errors), `folder.rs` (its splits cut into windows), `detections.rs` (a
 //! folder's files, plain text or with a header, read into detections), `resample.rs` (a
 //! folder's tracks onto the 0.4 s grid through the core's timed track table), `spec.rs` (dataset names and their train/val/test splits: the one
 //! entry point the commands use, [`load`]), `recording.rs` (a split's files frame by frame in time
@@ -33,6 +33,7 @@ mod detections;
 mod error;
 mod eth_ucy;
 mod folder;
+mod folder_info;
 mod recording;
 mod resample;
 mod rows;
@@ -43,10 +44,8 @@ mod window;
 
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};
-pub use folder::{
-    load_folder, parse_folder_file, Columns, FolderError, FolderInfo, TimeColumn, DATASET_TOML,
-    MAX_GAP_S,
-};
+pub use folder::{load_folder, parse_folder_file};
+pub use folder_info::{Columns, FolderError, FolderInfo, TimeColumn, DATASET_TOML, MAX_GAP_S};
 pub use recording::{read_recording, recordings, RecordedFrame, Recording};
 pub use rows::{default_data_root, read_rows, Row};
 pub use scales::sdd_metres_per_pixel;

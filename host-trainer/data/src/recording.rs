@@ -6,7 +6,8 @@
 //! frame's time in milliseconds from the file's first frame (`(frame − first) · ms_per_frame`,
 //! rounded to the nearest millisecond in f64), ids numbered 1, 2, … by first appearance (the
 //! file's ids may be any number). Clocks: SDD 30 frames per second (its 12-frame steps are
-//! 0.4 s), ETH/UCY 25 (10-frame steps), a folder its `seconds_per_frame`. `metres_per_unit`
+//! 0.4 s), ETH/UCY 25 (10-frame steps), a folder its `dataset.toml`'s clock and layout (any
+//! clock, plain text or files with a header: `super::folder_info`). `metres_per_unit`
 //! is 1 for metre data and the scene's metres per pixel for pixel data where it is known.
 
 use std::collections::{BTreeMap, HashMap};
@@ -134,20 +135,17 @@ pub fn recordings(
         DatasetSpec::Folder { dir, .. } => {
             let dir = Path::new(dir);
             let info = FolderInfo::read(dir)?;
-            let sub = dir.join(split.dir_name());
-            let what = format!("{}/ folder of the data set", split.dir_name());
             let mut out = Vec::new();
-            for f in sorted_txt_files(&sub, &what)? {
+            for f in info.split_files(dir, split.dir_name())? {
                 let stem = scene_name(&f);
-                let ms = info.seconds_per_frame * 1000.0;
                 if info.unit == "m" {
-                    out.push(read_recording(&f, ms, Unit::Metres, Some(1.0))?);
+                    out.push(read_folder_recording(&f, &info, Unit::Metres, Some(1.0))?);
                 } else if let Some(&s) = info.metres_per_pixel.get(&stem) {
-                    let mut r = read_recording(&f, ms, Unit::Pixels, Some(s as f32))?;
+                    let mut r = read_folder_recording(&f, &info, Unit::Pixels, Some(s as f32))?;
                     r.scale(s as f32);
                     out.push(r);
                 } else if info.metres_per_pixel.is_empty() {
-                    out.push(read_recording(&f, ms, Unit::Pixels, None)?);
+                    out.push(read_folder_recording(&f, &info, Unit::Pixels, None)?);
                 } else {
                     return Err(FolderError::NoScale { path: f, stem }.into());
                 }
@@ -176,6 +174,61 @@ impl Recording {
         self.unit = Unit::Metres;
         self.metres_per_unit = Some(1.0);
     }
+}
+
+/// One file of a data-set folder as a recording, in the folder's layout and clock (plain
+/// `time id x y` text or a file with a header; frame numbers or timestamps): times rounded to
+/// whole milliseconds from the file's first detection. Two detections of one pedestrian in the
+/// same millisecond are [`DataError::DuplicateRow`].
+fn read_folder_recording(
+    path: &Path,
+    info: &FolderInfo,
+    unit: Unit,
+    metres_per_unit: Option<f32>,
+) -> Result<Recording, FolderError> {
+    let file = super::detections::read_detections(path, info)?;
+    let ms_per_unit = info.seconds_per_frame * 1000.0;
+    let first = file.dets.iter().map(|d| d.t).fold(f64::INFINITY, f64::min);
+    let mut frames: BTreeMap<u64, Vec<(u32, [f32; 2], usize)>> = BTreeMap::new();
+    for d in &file.dets {
+        let t = ((d.t - first) * ms_per_unit).round();
+        let id = u32::try_from(d.id + 1).unwrap_or(u32::MAX);
+        let ped = file.ped_ids.get(d.id).copied().unwrap_or(f64::NAN);
+        if !(0.0..=f64::from(u32::MAX)).contains(&t) {
+            return Err(DataError::BadNumber {
+                path: path.to_path_buf(),
+                line: d.line,
+                column: 1,
+                text: d.t.to_string(),
+                expected: "a time within 2^32 milliseconds of the file's first detection",
+            }
+            .into());
+        }
+        let f = frames.entry(t as u64).or_default();
+        if f.iter().any(|x| x.0 == id) {
+            return Err(DataError::DuplicateRow {
+                path: path.to_path_buf(),
+                line: d.line,
+                ped_id: ped,
+                frame: t as i64,
+            }
+            .into());
+        }
+        f.push((id, d.pos, d.line));
+    }
+    Ok(Recording {
+        scene: scene_name(path),
+        path: path.to_path_buf(),
+        unit,
+        metres_per_unit,
+        frames: frames
+            .into_iter()
+            .map(|(t, dets)| RecordedFrame {
+                t_ms: t as u32,
+                detections: dets.into_iter().map(|d| (d.0, d.1)).collect(),
+            })
+            .collect(),
+    })
 }
 
 /// One `frame id x y` file as a recording (module docs); two rows of one id in one frame are

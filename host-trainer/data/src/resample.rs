@@ -22,7 +22,7 @@ use std::path::Path;
 use gpecnet_core::tracks::{Observation, Sampled, TimedTrackTable, HISTORY};
 
 use super::detections::Detection;
-use super::folder::FolderError;
+use super::folder_info::FolderError;
 use super::*;
 
 /// The models' period in milliseconds (400).

@@ -92,7 +92,8 @@ impl DatasetSpec {
             ));
         }
         if s.contains('/') {
-            let info = super::folder::FolderInfo::read(Path::new(s)).map_err(|e| e.to_string())?;
+            let info =
+                super::folder_info::FolderInfo::read(Path::new(s)).map_err(|e| e.to_string())?;
             return Ok(Self::Folder {
                 dir: s.to_string(),
                 unit: info.unit(),
@@ -325,7 +326,7 @@ pub enum LoadError {
     Empty,
     /// A data-set folder's description or clock is wrong.
     #[error(transparent)]
-    Folder(#[from] super::folder::FolderError),
+    Folder(#[from] super::folder_info::FolderError),
     /// An SDD scene without a metres-per-pixel factor.
     #[error(
         "SDD scene {scene:?} has no metres-per-pixel factor in {table}: \
