@@ -14,13 +14,23 @@
 //! track table's resampled positions: the truth the drone itself sees); forecasts of tracks
 //! that leave earlier are counted as unscored. Every distance is in metres when the
 //! recording's scale is known (`Recording::metres_per_unit`), else in its unit.
+//!
+//! **Noise and filtering** ([`StreamSettings::noise_m`], [`StreamSettings::filter`]): every
+//! detection the forecaster gets may carry i.i.d. Gaussian noise (a seeded PRNG, the same
+//! draws with the loop off and on) and may go through the core's per-track Kalman filter
+//! (`gpecnet_core::tracks::filter`) first. The truth stays the clean recording's: a second
+//! timed track table is fed the clean detections alongside, and forecasts are scored against
+//! its grid positions. Without noise and filter that table holds exactly the forecaster's
+//! positions, so the report is the same as scoring against the forecaster's own table.
 
 use std::collections::{BTreeMap, HashMap};
 
 use anyhow::{anyhow, bail, Result};
 use gpecnet_core::online::{Config, Forecaster, MotionState, TrackForecast, EXPERTS, HORIZONS};
 use gpecnet_core::planner::Radii;
-use gpecnet_core::tracks::{Observation, HISTORY};
+use gpecnet_core::prng::Gaussian;
+use gpecnet_core::tracks::filter::{FilterConfig, TrackFilter};
+use gpecnet_core::tracks::{Observation, TimedTrackTable, HISTORY};
 use gpecnet_core::units::CallerUnit;
 use gpecnet_core::{LibmSine, Model, Predictor};
 use serde::Serialize;
@@ -48,6 +58,14 @@ pub struct StreamSettings {
     /// Forecasts per track awaiting their truth: 2 (the device default) or 12 (every forecast
     /// scored by the loop).
     pub pending: usize,
+    /// Standard deviation of the i.i.d. Gaussian noise added to each coordinate of every
+    /// detection, in metres (0: none). Scoring stays against the clean positions.
+    pub noise_m: f32,
+    /// Seed of the noise (the same draws with the loop off and on).
+    pub noise_seed: u64,
+    /// The core's per-track Kalman filter in front of the forecaster, its config in metres
+    /// (scaled to each recording's unit); `None`: detections go in as they are.
+    pub filter: Option<FilterConfig>,
 }
 
 impl Default for StreamSettings {
@@ -56,6 +74,9 @@ impl Default for StreamSettings {
             config: Config::metres(),
             max_gap_ms: 1_000,
             pending: 2,
+            noise_m: 0.0,
+            noise_seed: 0,
+            filter: None,
         }
     }
 }
@@ -82,6 +103,9 @@ pub struct Fde {
     pub point: f64,
     /// The issued point's average displacement error over the 12 steps.
     pub point_ade: f64,
+    /// Best-of-K endpoint error: the model's endpoint nearest the truth (K = 20 for the
+    /// shipped models).
+    pub min_k: f64,
 }
 
 impl Fde {
@@ -147,6 +171,7 @@ struct Issued {
     experts: [Option<[f32; 2]>; EXPERTS],
     anchor: [f32; 2],
     scale: f32,
+    endpoints: Vec<[f32; 2]>,
 }
 
 /// One scored forecast.
@@ -159,6 +184,8 @@ struct Scored {
     radii: [Radii; HORIZONS],
     experts: [Option<f64>; EXPERTS],
     scale: f64,
+    /// The nearest endpoint's distance to the truth.
+    min_k: f64,
 }
 
 /// Streams `rec` through `blob` with the loop off and on (module docs); `(off, on)`.
@@ -200,6 +227,23 @@ fn stream_with<const P: usize>(
     );
     let period = f.table().period_ms();
     let metres = rec.metres_per_unit.unwrap_or(1.0) as f64;
+    // The clean recording's grid positions: the truth forecasts are scored against.
+    let mut clean: Box<TimedTrackTable<TRACKS>> = Box::new(TimedTrackTable::new(
+        core::num::NonZeroU32::new(period).ok_or_else(|| anyhow!("zero period"))?,
+        s.max_gap_ms,
+    ));
+    let mut filter: Option<Box<TrackFilter<TRACKS>>> = match s.filter {
+        Some(c) => Some(Box::new(
+            TrackFilter::new(c.scaled(per_metre)).map_err(|e| anyhow!("{e}"))?,
+        )),
+        None => None,
+    };
+    let noise = s.noise_m * per_metre;
+    if !(noise.is_finite() && noise >= 0.0) {
+        bail!("noise of {} m: expected a finite value >= 0", s.noise_m);
+    }
+    let mut normal = Gaussian::new(s.noise_seed);
+    let mut clean_obs: Vec<Observation> = Vec::new();
     let mut pending: HashMap<u32, Vec<Issued>> = HashMap::new();
     let mut truth: HashMap<u32, BTreeMap<u32, [f32; 2]>> = HashMap::new();
     let mut scored: Vec<Scored> = Vec::new();
@@ -213,6 +257,17 @@ fn stream_with<const P: usize>(
                 .iter()
                 .map(|&(id, pos)| Observation { id, pos }),
         );
+        clean_obs.clone_from(&obs);
+        clean.update(frame.t_ms, &clean_obs);
+        if noise > 0.0 {
+            for o in obs.iter_mut() {
+                o.pos[0] += noise * normal.next();
+                o.pos[1] += noise * normal.next();
+            }
+        }
+        if let Some(fl) = filter.as_mut() {
+            fl.update(frame.t_ms, &mut obs);
+        }
         let mut new: Vec<(u32, Issued)> = Vec::new();
         let report = f.frame::<LibmSine, WIDTH, K>(&mut p, frame.t_ms, &obs, |fc| {
             new.push((fc.id, issued(fc, issued_n + new.len())));
@@ -233,8 +288,8 @@ fn stream_with<const P: usize>(
         for (id, i) in new {
             pending.entry(id).or_default().push(i);
         }
-        // The grid positions the table now holds (the truth as the drone sees it).
-        for t in f.table().iter() {
+        // The clean grid positions (without noise or filter, the forecaster's table's).
+        for t in clean.iter() {
             let past = t.past();
             let known = t.len().min(HISTORY);
             let m = truth.entry(t.id()).or_default();
@@ -294,6 +349,7 @@ fn issued(fc: &TrackForecast<K>, order: usize) -> Issued {
         experts,
         anchor: fc.anchor,
         scale: fc.scale,
+        endpoints: fc.endpoints.to_vec(),
     }
 }
 
@@ -320,6 +376,11 @@ fn score(i: &Issued, ys: &[[f32; 2]], metres: f64) -> Scored {
         radii: i.radii,
         experts,
         scale: i.scale as f64,
+        min_k: i
+            .endpoints
+            .iter()
+            .map(|&e| dist(end, e) * metres)
+            .fold(f64::INFINITY, f64::min),
     }
 }
 
@@ -384,6 +445,7 @@ fn summarise(scored: &[Scored], metres: f64) -> StreamReport {
         cv: [1, 2, 3].map(|e| mean(scored.iter().filter_map(|s| s.experts[e]))),
         point: mean(scored.iter().map(|s| s.d[end] * metres)),
         point_ade: mean(scored.iter().map(|s| mean(s.d.iter().copied()) * metres)),
+        min_k: mean(scored.iter().map(|s| s.min_k)),
     };
     let hits: Vec<bool> = scored.iter().map(|s| covered(s, end).1).collect();
     let burn_in = BURN_IN
@@ -479,6 +541,7 @@ pub fn pool(name: &str, reports: &[StreamReport]) -> StreamReport {
             cv: [0, 1, 2].map(|i| w(&|r| r.fde.cv[i])),
             point: w(&|r| r.fde.point),
             point_ade: w(&|r| r.fde.point_ade),
+            min_k: w(&|r| r.fde.min_k),
         },
         ..StreamReport::default()
     }

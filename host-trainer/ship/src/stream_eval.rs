@@ -38,6 +38,13 @@ pub struct StreamSet {
     pub split: String,
     /// Forecasts awaiting their truth per track (the loop's `P`).
     pub pending: usize,
+    /// Detection noise, metres (0: none).
+    pub noise_m: f32,
+    /// Its seed.
+    pub noise_seed: u64,
+    /// The Kalman filter's config (metres) when it was on.
+    #[serde(serialize_with = "filter_config")]
+    pub filter: Option<gpecnet_core::tracks::filter::FilterConfig>,
     /// Per recording: `(off, on)`.
     pub recordings: Vec<[StreamReport; 2]>,
     /// All recordings pooled: `[off, on]`.
@@ -99,6 +106,9 @@ pub fn stream_blob(t: &StreamTarget, s: &StreamSettings, plot: Option<&Path>) ->
         dataset: t.dataset.to_string(),
         split: t.split.dir_name().to_string(),
         pending: s.pending,
+        noise_m: s.noise_m,
+        noise_seed: s.noise_seed,
+        filter: s.filter,
         pooled: [pool(&name, &offs), pool(&name, &ons)],
         recordings: per,
     };
@@ -193,6 +203,27 @@ pub fn coverage_svg(set: &StreamSet) -> String {
     }
     s += "</svg>\n";
     s
+}
+
+/// The filter's config as `{accel, sigma, init_speed, reset, max_gap_ms}` (the core's type
+/// has no serde).
+fn filter_config<S: serde::Serializer>(
+    c: &Option<gpecnet_core::tracks::filter::FilterConfig>,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    use serde::ser::SerializeStruct;
+    match c {
+        None => s.serialize_none(),
+        Some(c) => {
+            let mut m = s.serialize_struct("FilterConfig", 5)?;
+            m.serialize_field("accel", &c.accel)?;
+            m.serialize_field("sigma", &c.sigma)?;
+            m.serialize_field("init_speed", &c.init_speed)?;
+            m.serialize_field("reset", &c.reset)?;
+            m.serialize_field("max_gap_ms", &c.max_gap_ms)?;
+            m.end()
+        }
+    }
 }
 
 fn escape(t: &str) -> String {
