@@ -3,8 +3,6 @@
 //! crates"), and one import path to all of them for the trainer's integration tests, benches
 //! and examples. Each module below is the crate or module of the stage that owns it.
 
-pub mod eval_report;
-
 pub use gpecnet_data as data;
 pub use gpecnet_data::units;
 pub use gpecnet_files::{csvfile, inpath, outpath, rundir};
@@ -15,7 +13,7 @@ pub use gpecnet_metrics::{
 pub use gpecnet_nn::{mlp, ops, optim, pool, rng};
 pub use gpecnet_onnx as onnx;
 pub use gpecnet_reference::{export, frame, network, quantize, reference, signing, tts};
-pub use gpecnet_ship::{blob_eval, quantize_blob, score, stream_eval};
+pub use gpecnet_ship::{blob_eval, eval_report, quantize_blob, score, stream_eval};
 pub use gpecnet_train::{
     checkpoint, config, model, propose, run_export, select, social, synth, train,
 };

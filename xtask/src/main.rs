@@ -22,6 +22,7 @@ use std::process::exit;
 use clap::{Args, Parser, Subcommand};
 
 mod defmt;
+mod demo;
 mod elf;
 mod faults;
 mod ffi;
@@ -159,7 +160,7 @@ impl FwArgs {
 }
 
 /// The repository root.
-fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .expect("xtask lives one level below the repository root")
@@ -172,46 +173,10 @@ fn die(msg: &str) -> ! {
     exit(2)
 }
 
-/// The README's one command: set up, evaluate on the host through gpecnet-core, verify on target.
-fn demo(o: &Opts) -> i32 {
-    let rc = toolchain::setup();
-    if rc != 0 {
-        return rc;
-    }
-    let mut c = toolchain::host_cargo();
-    c.args([
-        "run",
-        "--release",
-        "-q",
-        "-p",
-        "gpecnet-trainer",
-        "--",
-        "eval",
-    ]);
-    c.args([
-        "--blob",
-        "weights/sdd-m-lp-qe.gpec",
-        "--dataset",
-        "sdd-m",
-        "--draw",
-        "out/predictions.svg",
-    ]);
-    let rc = toolchain::status(c);
-    if rc != 0 {
-        return rc;
-    }
-    // The two models a drone flashes (pixel and metric MCU defaults); CI's
-    // `qemu --all-targets` replays every shipped model on three MCU classes.
-    replay::qemu_models(o, Some(&DEMO_MODELS))
-}
-
-/// The models `cargo xtask demo` replays on the emulated STM32F405.
-const DEMO_MODELS: [&str; 2] = ["sdd-tiny-v2-qe", "sdd-m-lp-qe"];
-
 fn main() {
     let code = match Cli::parse().cmd {
         Cmd::Setup => toolchain::setup(),
-        Cmd::Demo(a) => demo(&a.opts()),
+        Cmd::Demo(a) => demo::demo(&a.opts()),
         Cmd::BuildCoreThumb => thumb::build_core_thumb(),
         Cmd::FwBuild(a) => firmware::fw_build(&a.opts(), &[]),
         Cmd::FwRun(a) => firmware::fw_run(&a.opts()),

@@ -5,6 +5,7 @@
 //!
 //! Depends on `gpecnet-metrics` and below; no candle.
 pub mod blob_eval;
+pub mod eval_report;
 pub mod quantize_blob;
 pub mod score;
 pub mod stream_eval;
