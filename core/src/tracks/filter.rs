@@ -113,7 +113,7 @@ use core::fmt;
 
 use heapless::Vec;
 
-use super::{advance, expire, Observation, Pos};
+use super::{advance, expire, Observation, Pos, HISTORY};
 
 /// The filter's settings, in the caller's unit ([`FilterConfig::metres`]
 /// for metres, [`FilterConfig::scaled`] for another unit).
@@ -448,5 +448,102 @@ impl<const N: usize> TrackFilter<N> {
             }
         }
         report
+    }
+}
+
+/// A history smoothed by the same constant-velocity model: a
+/// Rauch–Tung–Striebel smoother over the [`HISTORY`] equally spaced points
+/// of `past` (oldest first, `period_s` apart), each taken as a measurement
+/// of standard deviation `config.sigma`. The newest point is the filter's
+/// estimate given all of them (no delay); older points also use the points
+/// after them. For callers of [`crate::online::forecast`] with their own
+/// track handling, before the forecast.
+///
+/// Arithmetic (f32, per axis, in this order): a forward pass as the
+/// module's **Start** at `past[0]` and **Predict**/**Update** with `dt =
+/// period_s` for `k = 1 … 7` (no reset: a restart would lose the history),
+/// keeping each step's filtered `(x, v, p00, p01, p11)` and predicted
+/// `(x, v, p00, p01, p11)`; then backwards for `k = 6 … 0`, with the rows
+/// `b = (p00 + dt·p01, p01)`, `c = (p01 + dt·p11, p11)` of `P_k·Fᵀ` (`P_k`
+/// the filtered one), the predicted `P_{k+1}` as `(a, m, d)`, `det = a·d −
+/// m·m`: `C = [[(b0·d − b1·m)/det, (b1·a − b0·m)/det], [(c0·d − c1·m)/det,
+/// (c1·a − c0·m)/det]]`, `dx = xs_{k+1} − xp_{k+1}`, `dv = vs_{k+1} −
+/// vp_{k+1}`, `xs_k = x_k + (C00·dx + C01·dv)`, `vs_k = v_k + (C10·dx +
+/// C11·dv)`. Where any value is not finite or `det` is not positive, `past`
+/// is returned unchanged.
+pub fn smooth_history(
+    past: &[Pos; HISTORY],
+    period_s: f32,
+    config: &FilterConfig,
+) -> [Pos; HISTORY] {
+    let dt = period_s;
+    let r = config.sigma * config.sigma;
+    let q = config.accel * config.accel;
+    // Filtered and predicted (x, v) per axis and the covariances (shared).
+    let mut xf = [[0.0f32; 2]; HISTORY];
+    let mut vf = [[0.0f32; 2]; HISTORY];
+    let mut pf = [[0.0f32; 3]; HISTORY];
+    let mut xp = [[0.0f32; 2]; HISTORY];
+    let mut vp = [[0.0f32; 2]; HISTORY];
+    let mut pp = [[0.0f32; 3]; HISTORY];
+    let [first, ..] = *past;
+    let mut t = FilteredTrack::start(0, first, r, config.init_speed, 0);
+    xf[0] = t.pos;
+    vf[0] = t.vel;
+    pf[0] = t.p;
+    for k in 1..HISTORY {
+        let (Some(z), Some(out)) = (past.get(k), xp.get_mut(k)) else {
+            return *past;
+        };
+        // The prediction, as in `step`, kept for the backward pass.
+        let [p00, p01, p11] = t.p;
+        let d2 = dt * dt;
+        let d3 = d2 * dt;
+        let a01 = p01 + dt * p11;
+        *out = [t.pos[0] + t.vel[0] * dt, t.pos[1] + t.vel[1] * dt];
+        vp[k] = t.vel;
+        pp[k] = [
+            (p00 + dt * (p01 + a01)) + q * (d3 / 3.0),
+            a01 + q * (d2 * 0.5),
+            p11 + q * dt,
+        ];
+        if !t.step(dt, *z, r, q, f32::INFINITY) {
+            return *past;
+        }
+        xf[k] = t.pos;
+        vf[k] = t.vel;
+        pf[k] = t.p;
+    }
+    let mut xs = xf;
+    let mut vs = vf;
+    for k in (0..HISTORY - 1).rev() {
+        let [p00, p01, p11] = pf[k];
+        let [a, m, d] = pp[k + 1];
+        let det = a * d - m * m;
+        if !(det > 0.0 && det.is_finite()) {
+            return *past;
+        }
+        let b = [p00 + dt * p01, p01];
+        let c = [p01 + dt * p11, p11];
+        let c00 = (b[0] * d - b[1] * m) / det;
+        let c01 = (b[1] * a - b[0] * m) / det;
+        let c10 = (c[0] * d - c[1] * m) / det;
+        let c11 = (c[1] * a - c[0] * m) / det;
+        for i in 0..2 {
+            let dx = xs[k + 1][i] - xp[k + 1][i];
+            let dv = vs[k + 1][i] - vp[k + 1][i];
+            xs[k][i] = xf[k][i] + (c00 * dx + c01 * dv);
+            vs[k][i] = vf[k][i] + (c10 * dx + c11 * dv);
+        }
+    }
+    if xs
+        .iter()
+        .flatten()
+        .chain(vs.iter().flatten())
+        .all(|v| v.is_finite())
+    {
+        xs
+    } else {
+        *past
     }
 }
