@@ -105,7 +105,7 @@
 //!
 //! # Memory and cost
 //!
-//! A [`FilteredTrack`] is 40 bytes; a `TrackFilter<N>` is `40·N + 40`
+//! A [`FilteredTrack`] is 40 bytes; a `TrackFilter<N>` is about `40·N + 40`
 //! bytes (`new` is not `const`: it checks the config). A detection costs a
 //! lookup by id (O(N)) and about 30 flops, one of them a division.
 
