@@ -12,7 +12,8 @@
 //!
 //! A folder is a user's own data (`super::folder`, `docs/own-data.md`); a name that is not one
 //! of the built-in ones is taken as a folder when it contains a `/` (write `./mydrone` for a
-//! folder in the working directory).
+//! folder in the working directory). An existing folder wins over the `+` split: `./a+b` is
+//! the folder `a+b` when it exists, and `sdd-m+./a+b` is `sdd-m` and that folder.
 //!
 //! `sdd-m` multiplies every coordinate of a scene by that scene's factor in
 //! `sdd/scales/sdd_meters_per_pixel.csv` ([`sdd_metres_per_pixel`]), in f32 (`x * s` with `s`
@@ -26,6 +27,10 @@ use std::path::Path;
 use super::*;
 
 /// A data set, by name (see the module table).
+///
+/// `+` joins data sets, but a folder path (one with a `/`) that exists as a directory is
+/// never split at a `+` in its name: the longest run of `+`-separated pieces that names an
+/// existing directory is one folder.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DatasetSpec {
     /// Stanford Drone Dataset, TrajNet split, pixels (`"sdd"`).
@@ -55,13 +60,17 @@ pub const DATASET_NAMES: &str = "\"sdd\" (pixels), \"sdd-m\" (SDD in metres), \
                                  or several of them joined by '+'";
 
 impl DatasetSpec {
-    /// Parse a name of the module table (a folder's `dataset.toml` is read and checked).
+    /// Parse a name of the module table (a folder's `dataset.toml` is read and checked). An
+    /// existing folder whose name contains `+` is one data set, not several.
     pub fn parse(s: &str) -> Result<Self, String> {
         if s.contains('+') {
-            let parts = s
-                .split('+')
-                .map(Self::parse_one)
+            let parts = split_parts(s)
+                .iter()
+                .map(|p| Self::parse_one(p))
                 .collect::<Result<Vec<_>, _>>()?;
+            if let [one] = parts.as_slice() {
+                return Ok(one.clone());
+            }
             let unit = parts[0].unit();
             if let Some(p) = parts.iter().find(|p| p.unit() != unit) {
                 return Err(format!(
@@ -195,6 +204,28 @@ impl fmt::Display for DatasetSpec {
             }
         }
     }
+}
+
+/// Splits `s` at `+` into data-set names, keeping together the longest run of pieces that
+/// names an existing directory through a folder path (one with a `/`), so a folder such as
+/// `./a+b` is never read as `./a` and `b`.
+fn split_parts(s: &str) -> Vec<String> {
+    let pieces: Vec<&str> = s.split('+').collect();
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < pieces.len() {
+        let mut end = i + 1;
+        for j in (i + 2..=pieces.len()).rev() {
+            let joined = pieces[i..j].join("+");
+            if joined.contains('/') && Path::new(&joined).is_dir() {
+                end = j;
+                break;
+            }
+        }
+        parts.push(pieces[i..end].join("+"));
+        i = end;
+    }
+    parts
 }
 
 /// One split of a data set.
@@ -356,5 +387,45 @@ mod tests {
         assert!(DatasetSpec::parse("sdd_m").is_err());
         assert_eq!(DatasetSpec::SddMetres.unit(), Unit::Metres);
         assert_eq!(DatasetSpec::Sdd.unit(), Unit::Pixels);
+    }
+
+    /// An existing folder whose name holds a `+` is one data set, alone or joined to
+    /// another; a `+` outside any existing folder still joins.
+    #[test]
+    fn an_existing_folder_with_a_plus_is_not_split() {
+        let base = std::env::temp_dir().join(format!("gpecnet-spec-plus-{}", std::process::id()));
+        let dir = base.join("a+b");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("dataset.toml"),
+            "unit = \"m\"\nseconds_per_frame = 0.4\n",
+        )
+        .unwrap();
+        let name = format!("{}", dir.display());
+        assert_eq!(
+            DatasetSpec::parse(&name).unwrap(),
+            DatasetSpec::Folder {
+                dir: name.clone(),
+                unit: Unit::Metres,
+                licence: String::new(),
+            }
+        );
+        match DatasetSpec::parse(&format!("sdd-m+{name}")).unwrap() {
+            DatasetSpec::Combined(parts) => {
+                assert_eq!(parts.len(), 2);
+                assert_eq!(parts[0], DatasetSpec::SddMetres);
+                assert_eq!(parts[1].to_string(), name);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(
+            split_parts(&format!("{name}+eth_ucy:zara1")),
+            vec![name.clone(), "eth_ucy:zara1".to_string()]
+        );
+        assert_eq!(
+            split_parts("sdd-m+eth_ucy:zara1"),
+            vec!["sdd-m".to_string(), "eth_ucy:zara1".to_string()]
+        );
+        let _ = std::fs::remove_dir_all(&base);
     }
 }
