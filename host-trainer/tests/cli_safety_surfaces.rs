@@ -525,3 +525,99 @@ fn an_own_data_licence_too_long_for_a_blob_is_refused_up_front() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A metre data-set folder in `dir` with 25-step tracks of `peds` pedestrians in
+/// `train/a.txt`, `val/v.txt` and `test/t.txt`, and a tiny config training on it.
+fn own_folder(dir: &Path, peds: usize) -> PathBuf {
+    let ds = dir.join("ds");
+    std::fs::write(
+        {
+            std::fs::create_dir_all(&ds).unwrap();
+            ds.join("dataset.toml")
+        },
+        "unit = \"m\"\nseconds_per_frame = 0.4\n",
+    )
+    .unwrap();
+    for (split, file) in [("train", "a"), ("val", "v"), ("test", "t")] {
+        std::fs::create_dir_all(ds.join(split)).unwrap();
+        let rows: String = (0..peds)
+            .flat_map(|p| {
+                (0..25).map(move |t| {
+                    format!(
+                        "{t} {p} {:.1} {:.1}\n",
+                        1.0 + 0.3 * t as f32 + p as f32,
+                        2.0
+                    )
+                })
+            })
+            .collect();
+        std::fs::write(ds.join(split).join(format!("{file}.txt")), rows).unwrap();
+    }
+    let cfg = dir.join("cfg.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "enc_past_size = [8]\nenc_dest_size = [8]\nenc_latent_size = [8]\ndec_size = [8]\n\
+             predictor_hidden_size = [8]\nfdim = 4\nzdim = 2\nnum_epochs = 1\nbatch_size = 16\n\
+             learning_rate = 1e-3\nk = 3\nseed = 5\nthreads = 1\ndataset = \"{}/\"\n",
+            ds.display()
+        ),
+    )
+    .unwrap();
+    cfg
+}
+
+/// A run on a data-set folder names that folder when its data changed, never the default
+/// benchmark root it does not read.
+#[test]
+fn errors_on_a_folder_data_set_name_the_folder_not_the_data_root() {
+    let dir = temp_dir("folder-errors");
+    let cfg = own_folder(&dir, 5);
+    let out = dir.join("run");
+    let (ok, text) = common::train(&dir.join("nowhere"), &out, &["--config", s(&cfg)]);
+    assert!(ok, "{text}");
+    let rows = std::fs::read_to_string(dir.join("ds/train/a.txt")).unwrap();
+    std::fs::write(dir.join("ds/train/a.txt"), rows.replace(" 2.0\n", " 2.5\n")).unwrap();
+    let (ok, text) = common::train(&dir.join("nowhere"), &out, &["--resume"]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains(&format!("the folder {}/ds/", dir.display()))
+            && !text.contains("nowhere")
+            && !text.contains("--data"),
+        "{text}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An empty validation file is reported as empty, naming it, by `train` and `eval`, not
+/// as a missing scene or as tracks too short.
+#[test]
+fn an_empty_validation_file_is_reported_as_empty() {
+    let dir = temp_dir("empty-val");
+    let cfg = own_folder(&dir, 5);
+    let v = dir.join("ds/val/v.txt");
+    std::fs::write(&v, "").unwrap();
+    let (ok, text) = common::train(
+        &dir.join("nowhere"),
+        &dir.join("run"),
+        &["--config", s(&cfg)],
+    );
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("empty") && text.contains(&v.display().to_string()),
+        "{text}"
+    );
+    let (ok, text) = run(&[
+        "eval",
+        "--blob",
+        s(&weights().join("sdd-m-tiny.gpec")),
+        "--dataset",
+        &format!("{}/", dir.join("ds").display()),
+    ]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("empty") && text.contains(&v.display().to_string()),
+        "{text}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -172,6 +172,58 @@ impl DatasetSpec {
         }
     }
 
+    /// Where the set's files are, for messages: a folder's own path, `root` for the
+    /// built-in sets, each once for a combined set. A folder set never names `root`, which
+    /// it does not read.
+    pub fn location(&self, root: &Path) -> String {
+        let mut places: Vec<String> = Vec::new();
+        self.collect_locations(root, &mut places);
+        places.join(" and ")
+    }
+
+    fn collect_locations(&self, root: &Path, places: &mut Vec<String>) {
+        let place = match self {
+            Self::Combined(parts) => {
+                for p in parts {
+                    p.collect_locations(root, places);
+                }
+                return;
+            }
+            Self::Folder { dir, .. } => format!("the folder {dir}"),
+            Self::Sdd | Self::SddMetres | Self::EthUcy(_) => {
+                format!("{self} under the data root {}", root.display())
+            }
+        };
+        if !places.contains(&place) {
+            places.push(place);
+        }
+    }
+
+    /// The data files of `split` in the set's folders that hold nothing but white space, so
+    /// a split without windows can name them (empty for the built-in sets).
+    pub fn empty_files(&self, split: Split) -> Vec<std::path::PathBuf> {
+        match self {
+            Self::Folder { dir, .. } => {
+                let Ok(entries) = std::fs::read_dir(Path::new(dir).join(split.dir_name())) else {
+                    return Vec::new();
+                };
+                let mut out: Vec<_> = entries
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| {
+                        // Small files only: an empty file's emptiness needs no big read.
+                        std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.len() <= 4096)
+                            && std::fs::read(p)
+                                .is_ok_and(|b| b.iter().all(|c| c.is_ascii_whitespace()))
+                    })
+                    .collect();
+                out.sort();
+                out
+            }
+            Self::Combined(parts) => parts.iter().flat_map(|p| p.empty_files(split)).collect(),
+            Self::Sdd | Self::SddMetres | Self::EthUcy(_) => Vec::new(),
+        }
+    }
+
     /// `true` for the SDD-based sets, whose validation split is a list of held-out scenes.
     pub fn is_sdd(&self) -> bool {
         matches!(self, Self::Sdd | Self::SddMetres)
@@ -302,6 +354,18 @@ fn load_sdd_split(root: &Path, split: Split, val_scenes: &[String]) -> Result<Da
     let all = load_sdd(root, SddSplit::Train)?;
     for s in val_scenes {
         if !all.windows.iter().any(|w| &w.scene == s) {
+            // The scene's file is there but gives no window (empty, or no track long
+            // enough): name the file rather than call the scene missing.
+            let file = root
+                .join("sdd")
+                .join(SddSplit::Train.dir_name())
+                .join(format!("{s}.txt"));
+            if file.is_file() {
+                return Err(LoadError::EmptyValScene {
+                    scene: s.clone(),
+                    file,
+                });
+            }
             return Err(LoadError::UnknownValScene {
                 scene: s.clone(),
                 dataset: all.name.clone(),
@@ -352,6 +416,18 @@ pub enum LoadError {
         /// The data set searched.
         dataset: String,
     },
+    /// A validation scene whose file exists but gives no window.
+    #[error(
+        "validation scene {scene:?}: {file} is empty (no track of 20 rows): \
+         a validation scene needs at least one window",
+        file = .file.display()
+    )]
+    EmptyValScene {
+        /// The scene asked for.
+        scene: String,
+        /// Its file.
+        file: std::path::PathBuf,
+    },
     /// A combined data set of no part.
     #[error("a combined data set needs at least one part")]
     Empty,
@@ -387,6 +463,56 @@ mod tests {
         assert!(DatasetSpec::parse("sdd_m").is_err());
         assert_eq!(DatasetSpec::SddMetres.unit(), Unit::Metres);
         assert_eq!(DatasetSpec::Sdd.unit(), Unit::Pixels);
+    }
+
+    /// An empty validation scene file is reported as empty, naming the file; a scene
+    /// without a file is still missing.
+    #[test]
+    fn an_empty_validation_file_is_named_not_missing() {
+        let root = std::env::temp_dir().join(format!("gpecnet-spec-empty-{}", std::process::id()));
+        let train = root.join("sdd").join("train");
+        std::fs::create_dir_all(&train).unwrap();
+        let rows: String = (0..20)
+            .map(|t| format!("{} 1.0 {}.0 5.5\n", 12 * t, 10 + t))
+            .collect();
+        std::fs::write(train.join("a.txt"), rows).unwrap();
+        std::fs::write(train.join("v.txt"), "").unwrap();
+        let e = load(&root, &DatasetSpec::Sdd, Split::Val, &["v".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&train.join("v.txt").display().to_string())
+                && e.contains("is empty")
+                && !e.contains("is not in"),
+            "{e}"
+        );
+        let e = load(&root, &DatasetSpec::Sdd, Split::Val, &["w".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("is not in"), "{e}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    /// A folder set's messages name the folder, never the data root it does not read.
+    #[test]
+    fn a_folder_set_is_located_by_its_folder() {
+        let root = Path::new("../shared/data");
+        let folder = DatasetSpec::Folder {
+            dir: "./mine".into(),
+            unit: Unit::Metres,
+            licence: String::new(),
+        };
+        assert_eq!(folder.location(root), "the folder ./mine");
+        assert_eq!(
+            DatasetSpec::Combined(vec![
+                DatasetSpec::SddMetres,
+                folder,
+                DatasetSpec::EthUcy("eth".into())
+            ])
+            .location(root),
+            "sdd-m under the data root ../shared/data and the folder ./mine and \
+             eth_ucy:eth under the data root ../shared/data"
+        );
     }
 
     /// An existing folder whose name holds a `+` is one data set, alone or joined to

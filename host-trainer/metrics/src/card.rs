@@ -134,8 +134,8 @@ pub fn test_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Dataset> {
             );
         }
         bail!(
-            "the {spec} test set under {} has no window",
-            data_root.display()
+            "the {spec} test set in {} has no window",
+            spec.location(data_root)
         );
     }
     Ok(test)

@@ -241,13 +241,26 @@ pub fn eval_blob(
         Some(_) => (FIXED_CV_N, Vec::new(), 0),
         None => {
             let val = validation_windows(data_root, spec)?;
+            let empty = spec.empty_files(data::Split::Val);
             let (n, sweep) = select_cv_n(&val).with_context(|| match spec {
+                // Empty files are named as such, not as tracks too short.
+                _ if !empty.is_empty() => format!(
+                    "no {spec} validation window: these data files are empty: {}",
+                    empty
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
                 DatasetSpec::Folder { dir, .. } => format!(
                     "no validation window in {}: its tracks are shorter than 20 steps of 0.4 s \
                      (8 s); remove val/ to evaluate with a fixed constant-velocity window",
                     Path::new(dir).join("val").display()
                 ),
-                _ => format!("no {spec} validation window under {}", data_root.display()),
+                _ => format!(
+                    "no {spec} validation window in {}",
+                    spec.location(data_root)
+                ),
             })?;
             (n, sweep, val.windows.len())
         }

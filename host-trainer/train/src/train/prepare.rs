@@ -94,10 +94,22 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
         train.windows.extend(extra.windows);
     }
     if train.is_empty() || val.is_empty() {
+        // Empty files are named: they are why a split that has files has no window.
+        let empty: Vec<String> = [data::Split::Train, data::Split::Val]
+            .into_iter()
+            .flat_map(|s| spec.empty_files(s))
+            .map(|p| p.display().to_string())
+            .collect();
         bail!(
-            "empty split: {} training and {} validation windows",
+            "empty split: {} training and {} validation windows in {}{}",
             train.len(),
-            val.len()
+            val.len(),
+            spec.location(data_root),
+            if empty.is_empty() {
+                String::new()
+            } else {
+                format!("; these data files are empty: {}", empty.join(", "))
+            }
         );
     }
     let unit = train.unit;

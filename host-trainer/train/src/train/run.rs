@@ -176,10 +176,18 @@ pub fn train_resume_checked(
         Some(stored) => {
             let d = stored.diff(&data.fingerprint);
             if !d.is_empty() {
+                // Name the files the run reads: a folder data set's own folder, never the
+                // benchmark root it does not use.
+                let spec = cfg.dataset_spec()?;
+                let same = if matches!(spec, crate::data::DatasetSpec::Folder { .. }) {
+                    "the same files in that folder"
+                } else {
+                    "the same data (--data)"
+                };
                 bail!(
-                    "the data under {} differ from the data the run in {} started with: {}; \
-                     resume with the same data (--data) or start a new run",
-                    opts.data_root.display(),
+                    "the data in {} differ from the data the run in {} started with: {}; \
+                     resume with {same} or start a new run",
+                    spec.location(&opts.data_root),
                     opts.run_dir.display(),
                     d.join("; ")
                 );
