@@ -526,6 +526,39 @@ fn an_own_data_licence_too_long_for_a_blob_is_refused_up_front() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A run killed before its first checkpoint was written (its folder holds the lock of a
+/// dead process, config.toml and metrics.csv, no checkpoint): `--resume` says there is
+/// nothing to resume and how to start again; the suggested `--force` start then trains.
+#[test]
+fn resume_before_the_first_checkpoint_says_nothing_to_resume() {
+    let r = common::TinyRun::new("resume-no-ckpt");
+    std::fs::create_dir_all(&r.out).unwrap();
+    std::fs::write(
+        r.out.join(gpecnet_trainer::rundir::LOCK_FILE),
+        format!(
+            "pid={}\nhost={}\nstarted=1\n",
+            common::dead_pid(),
+            gpecnet_trainer::rundir::host_name()
+        ),
+    )
+    .unwrap();
+    std::fs::copy(&r.cfg, r.out.join("config.toml")).unwrap();
+    std::fs::write(r.out.join("metrics.csv"), "epoch\n").unwrap();
+    let (ok, text) = r.resume(&[]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("nothing to resume")
+            && text.contains("holds no checkpoint")
+            && text.contains("without --resume")
+            && text.contains("--force"),
+        "{text}"
+    );
+    assert!(!text.contains("panicked"), "{text}");
+    let (ok, text) = r.train(&["--force", "--epochs", "1"]);
+    assert!(ok, "{text}");
+    assert!(r.out.join("checkpoint.bin").exists());
+}
+
 /// A metre data-set folder in `dir` with 25-step tracks of `peds` pedestrians in
 /// `train/a.txt`, `val/v.txt` and `test/t.txt`, and a tiny config training on it.
 fn own_folder(dir: &Path, peds: usize) -> PathBuf {

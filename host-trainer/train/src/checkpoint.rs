@@ -290,12 +290,24 @@ fn copy_to_temp(src: &Path, dir: &Path) -> std::io::Result<PathBuf> {
 /// name both files when neither can be used.
 pub fn load_for_resume(run_dir: &Path) -> anyhow::Result<Checkpoint> {
     let path = run_dir.join(CHECKPOINT_FILE);
+    let prev_path = run_dir.join(PREV_FILE);
+    // A run killed before its first checkpoint was written has a folder (config, lock,
+    // metrics) but nothing to continue from: say so rather than report a missing file.
+    if fs::symlink_metadata(&path).is_err() && fs::symlink_metadata(&prev_path).is_err() {
+        anyhow::bail!(
+            "nothing to resume: {} holds no checkpoint ({CHECKPOINT_FILE} or {PREV_FILE}), \
+             the run stopped before its first epoch was saved; start it again without \
+             --resume: gpecnet train --config <TOML> --out {} --force (--force because the \
+             folder already holds the stopped run's files)",
+            run_dir.display(),
+            run_dir.display()
+        );
+    }
     let newest = load(&path);
     let err = match newest {
         Ok(c) => return Ok(c),
         Err(e) => e,
     };
-    let prev_path = run_dir.join(PREV_FILE);
     if !prev_path.exists() {
         return Err(err.into());
     }
