@@ -654,3 +654,48 @@ fn an_empty_validation_file_is_reported_as_empty() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `export` and `select` with `--tts` smaller than `--k` name both options and the rule.
+#[test]
+fn tts_below_k_names_both_options_and_the_rule() {
+    let r = common::TinyRun::trained("tts-below-k", 1);
+    let weights_out = r.dir.join("w");
+    for args in [
+        vec![
+            "export",
+            "--run",
+            s(&r.out),
+            "--name",
+            "m",
+            "--out",
+            s(&weights_out),
+            "--data",
+            s(&r.dir),
+            "--tts",
+            "5",
+            "--k",
+            "20",
+        ],
+        vec![
+            "select",
+            "--run",
+            s(&r.out),
+            "--data",
+            s(&r.dir),
+            "--tts",
+            "5",
+            "--k",
+            "20",
+        ],
+    ] {
+        let (ok, text) = run(&args);
+        assert!(!ok, "{args:?}: {text}");
+        assert!(
+            text.contains("--tts 5 with --k 20")
+                && text.contains("draws --tts samples and reduces them to --k endpoints")
+                && text.contains("between --k = 20 and"),
+            "{args:?}: {text}"
+        );
+    }
+    assert!(!weights_out.join("m.gpec").exists());
+}

@@ -47,10 +47,18 @@ pub fn host_max_endpoints(model: &Model<'_>) -> usize {
 pub fn check_k(name: &str, model: &Model<'_>, k: usize) -> Result<()> {
     let most = host_max_endpoints(model);
     if k == 0 || k > most {
+        let tts = model.extensions().tts_samples;
         let why = if model.has_proposal() {
-            " (its proposal has K latents)"
+            " (its proposal has K latents)".to_string()
+        } else if tts > 0 && k > most {
+            // Test-time sampling reduces its N samples to the endpoints: never more than N.
+            format!(
+                " (it was exported with --tts {tts}: test-time sampling reduces --tts samples \
+                 to {name} endpoints by k-means, so {name} must be at most --tts, and at most \
+                 {HOST_MAX_K})"
+            )
         } else {
-            ""
+            String::new()
         };
         return Err(anyhow!(
             "{name} {k}: this model gives 1..={most} endpoints per prediction{why}"

@@ -389,7 +389,9 @@ impl ExportSettings {
         if let Some(n) = self.tts.filter(|&n| n > 0) {
             if n < k || n > gpecnet_core::blob::MAX_TTS_SAMPLES {
                 bail!(
-                    "--tts {n}: test-time samples must be at least K = {k} and at most {}",
+                    "--tts {n} with --k {k}: test-time sampling draws --tts samples and reduces \
+                     them to --k endpoints by k-means, so --tts must be 0 (plain sampling) or \
+                     between --k = {k} and {}",
                     gpecnet_core::blob::MAX_TTS_SAMPLES
                 );
             }

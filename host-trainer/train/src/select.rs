@@ -61,7 +61,9 @@ pub fn select(
     for &n in tts {
         if n != 0 && (n < k || n > gpecnet_core::blob::MAX_TTS_SAMPLES) {
             bail!(
-                "--tts {n}: test-time samples N must be 0 or between K = {k} and {}",
+                "--tts {n} with --k {k}: test-time sampling draws --tts samples and reduces \
+                 them to --k endpoints by k-means, so each --tts must be 0 (plain sampling) \
+                 or between --k = {k} and {}",
                 gpecnet_core::blob::MAX_TTS_SAMPLES
             );
         }
@@ -74,9 +76,6 @@ pub fn select(
     let mut rows = Vec::new();
     for &sigma in sigmas {
         for &n in tts {
-            if n != 0 && n < k {
-                bail!("test-time samples N = {n} must be 0 or at least K = {k}");
-            }
             let mut m = model.clone();
             m.config.sigma = sigma;
             m.config.tts_samples = n;
