@@ -650,7 +650,7 @@ fn online_position(id: u32, t: f32) -> Option<[f32; 2]> {
 /// ([`gpecnet_core::online::Forecaster`], `ONLINE_TRACKS` tracks,
 /// `ONLINE_PENDING` forecasts each, the loop on with
 /// [`Config::metres`]), one [`Line::Online`] per camera frame: the
-/// detections of [`online_position`]'s five pedestrians at 10 Hz with
+/// detections of five scripted pedestrians (`online_position`) at 10 Hz with
 /// 0–12 ms of jitter and ±1.5 cm of detection noise (a 32-bit LCG), one
 /// detection in 12 missed, one in 60 not finite, ids 1 and 4 swapped for
 /// three frames (an id switch), one frame with a stale timestamp, and a
@@ -661,9 +661,9 @@ fn online_position(id: u32, t: f32) -> Option<[f32; 2]> {
 /// frame: the same bits on every target when the loop's arithmetic is
 /// portable, which `cargo xtask qemu` checks on each MCU class.
 ///
-/// Out of line, with the predictor built in its own frame (see
-/// [`predictor_for`]): it runs after the model's golden cases, whose
-/// predictor is gone by then. `Err`: why the scene could not run.
+/// Out of line, with the predictor built in its own frame (as for the
+/// golden cases): it runs after the model's golden cases, whose predictor
+/// is gone by then. `Err`: why the scene could not run.
 #[inline(never)]
 pub fn online_scene<const W: usize>(
     model: &str,
