@@ -1,39 +1,40 @@
-//! The tracker application: `ingest` -> timed track table -> `predict` ->
-//! Channel -> `report`, in metres, at a camera's rate.
+//! The tracker application: `ingest` -> `predict` (the online forecaster:
+//! timed track table, forecasts, the loop that calibrates them) -> Channel
+//! -> `report`, in metres, at a camera's rate.
 //!
 //! Time is simulated by the task sequence (deterministic under QEMU, no time
-//! driver): `ingest` feeds one camera frame at a time, 30 Hz with 0–8 ms of
-//! jitter and one detection in ten dropped, positions in metres, into the
-//! timed track table ([`gpecnet_core::tracks::TimedTrackTable`]), which
-//! resamples every track onto the model's 0.4 s period. When a frame made
-//! histories fresh, `ingest` hands the frame's time to `predict` through a
-//! 1-slot channel and waits until `predict` has copied those histories out
-//! (`TAKEN`); `predict` then runs the metric model on them, declared in
-//! metres ([`Predictor::with_units`]: a model in another unit is refused
-//! with its typed error), while `ingest` moves on, and sends the forecasts
-//! to `report` through a bounded channel. Each forecast is logged with its
-//! time and unit.
+//! driver): `ingest` produces one camera frame at a time, 30 Hz with 0–8 ms
+//! of jitter and one detection in ten dropped, positions in metres, and hands
+//! it to `predict` through a 1-slot channel. `predict` holds a
+//! [`gpecnet_core::online::Forecaster`]: one call per frame puts the
+//! detections into its timed track table (resampled onto the model's 0.4 s
+//! period), feeds each track's new grid points back to its pending forecasts
+//! (the loop learns the radius multipliers and the experts' weights, adapt
+//! on), and forecasts every track that gained a grid point through
+//! [`gpecnet_core::online::forecast`], the one forecast sequence. The model
+//! is declared in metres ([`Predictor::with_units`]: a model in another unit
+//! is refused with its typed error). The forecasts go to `report` through a
+//! bounded channel, each logged with its time and unit; now and then
+//! `predict` logs the adapted multipliers.
 //!
 //! On a board replace the frame loop with the detector's output and an
 //! embassy-time timestamp (`Instant::now().as_millis() as u32`), with a
 //! TIM/RTC time driver from your HAL (e.g. embassy-stm32's `time-driver-tim2`).
-use core::cell::RefCell;
-
-use core::num::NonZeroU32;
 use embassy_executor::Spawner;
-use embassy_sync::blocking_mutex::{raw::ThreadModeRawMutex, Mutex};
+use embassy_sync::blocking_mutex::raw::ThreadModeRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 
 use gpecnet_core::blob::PositionUnit;
+use gpecnet_core::online::{Config, Forecaster, MotionState, TrackForecast, HORIZONS};
 use gpecnet_core::planner::{most_probable, Radii};
+use gpecnet_core::tracks::Observation;
 use gpecnet_core::units::CallerUnit;
-use gpecnet_core::{LibmSine, Model, NumericKind, PredictError, Predictor};
+use gpecnet_core::{LibmSine, Model, NumericKind, Predictor};
 use heapless::Vec;
 
-use crate::golden::{MAX_K, MAX_SAMPLES};
+use crate::golden::MAX_K;
 use crate::SCRATCH;
-use gpecnet_core::tracks::{Observation, TimedTrackTable, HISTORY};
 
 /// Table capacity (tracks).
 pub const MAX_TRACKS: usize = 16;
@@ -45,91 +46,94 @@ pub const K: usize = MAX_K;
 pub const CAMERA_MS: u32 = 33;
 /// Camera frames of the synthetic scene (9.6 s at 30 Hz).
 pub const FRAMES: u32 = 288;
-/// The grid period the shipped models record (0.4 s); the table takes the
-/// model's own ([`gpecnet_core::tracks::period_ms_of`]).
-const DEFAULT_PERIOD: NonZeroU32 = match NonZeroU32::new(400) {
-    Some(p) => p,
-    None => NonZeroU32::MIN,
-};
+/// Forecasts per track awaiting their truth in the online loop.
+pub const PENDING: usize = 2;
+/// Camera frames between two logs of the adapted multipliers (1.2 s).
+pub const LOG_MULTIPLIERS_EVERY: u32 = 36;
 /// The sine of the demo's f32 path (the reference sine).
 type DemoSine = LibmSine;
+/// The demo's forecaster: the track table, the pending forecasts, the loop.
+type DemoForecaster = Forecaster<MAX_TRACKS, PENDING>;
 
 /// What `predict` hands to `report` for one track.
 pub struct Forecast {
     /// The model's endpoints (its protocol: plain, test-time sampling or a proposal).
     pub endpoints: Vec<[f32; 2], K>,
-    /// The point forecast's endpoint (`None` for a model without a point head).
-    pub point: Option<[f32; 2]>,
+    /// The point forecast's endpoint: the loop's aggregate of the point head and
+    /// the constant-velocity experts.
+    pub point: [f32; 2],
     /// The most probable endpoint's index and probability (`1/K` each for a model
     /// without probabilities: then `learned` is false).
     pub top: (usize, f32),
     /// Whether the probabilities are the model's own.
     pub learned: bool,
-    /// `r50` / `r90` around the point forecast (a model with probabilities).
-    pub radii: Option<Radii>,
+    /// `r50` / `r90` around the point forecast's endpoint, calibrated by the loop.
+    pub radii: Radii,
 }
 
-/// The model's forecast for one track ([`Forecast`]). The predictor picks its engine (f32
-/// or fixed point) from the blob.
-fn forecast(
-    p: &mut Predictor<'static, DemoSine, SCRATCH>,
-    past: &[[f32; 2]],
-    seed: u64,
-) -> Result<Forecast, PredictError> {
-    let mut ends: Vec<[f32; 2], K> = Vec::new();
-    let n = gpecnet_core::sampling::max_endpoints_of(p.model(), K);
-    let _ = ends.resize(n, [0.0; 2]);
-    let mut probs = [0.0f32; K];
-    let probs = &mut probs[..n];
-    let out = p.predict_planner::<MAX_SAMPLES>(past, seed, &mut ends, probs)?;
-    let (learned, radii) = (out.learned, out.radii);
-    let point = out.point.and_then(|t| t.last().copied());
-    let top = most_probable(probs)
-        .and_then(|i| probs.get(i).map(|&q| (i, q)))
-        .unwrap_or((0, 0.0));
-    Ok(Forecast {
-        endpoints: ends,
-        point,
-        top,
-        learned,
-        radii,
-    })
+impl Forecast {
+    /// The report of one forecast of the online sequence.
+    fn of(fc: &TrackForecast<K>) -> Self {
+        let top = most_probable(&fc.probabilities)
+            .and_then(|i| fc.probabilities.get(i).map(|&q| (i, q)))
+            .unwrap_or((0, 0.0));
+        Forecast {
+            endpoints: fc.endpoints.clone(),
+            point: fc.point[HORIZONS - 1],
+            top,
+            learned: fc.learned,
+            radii: fc.radii[HORIZONS - 1],
+        }
+    }
 }
 
-static TABLE: Mutex<ThreadModeRawMutex, RefCell<TimedTrackTable<MAX_TRACKS>>> = Mutex::new(
-    RefCell::new(TimedTrackTable::new(DEFAULT_PERIOD, MAX_GAP_MS)),
-);
-/// ingest -> predict: the frame's timestamp (ms), `None` = end of stream.
-static FRAME_TICKS: Channel<ThreadModeRawMutex, Option<u32>, 1> = Channel::new();
-/// predict -> ingest: the frame's ready histories are copied out, the table may move on.
-static TAKEN: Channel<ThreadModeRawMutex, (), 1> = Channel::new();
+/// One camera frame: its timestamp (ms) and detections.
+type CameraFrame = (u32, Vec<Observation, MAX_TRACKS>);
+/// ingest -> predict: one camera frame, `None` = end of stream.
+static FRAMES_IN: Channel<ThreadModeRawMutex, Option<CameraFrame>, 1> = Channel::new();
 /// predict -> report.
 static REPORTS: Channel<ThreadModeRawMutex, Report, 4> = Channel::new();
 /// report -> supervisor: number of predictions logged.
 static DONE: Signal<ThreadModeRawMutex, u32> = Signal::new();
 
+/// What `predict` hands to `report`.
 pub enum Report {
+    /// A frame where something happened (tracks entered or left, forecasts).
     Frame {
+        /// The frame's timestamp (ms).
         t_ms: u32,
+        /// Tracks in the table.
         active: u8,
+        /// Forecasts the frame issued.
         fresh: u8,
+        /// Ids that entered.
         entered: Vec<u32, MAX_TRACKS>,
+        /// Ids that left.
         left: Vec<u32, MAX_TRACKS>,
+        /// Detections refused (table full).
         rejected: u32,
     },
+    /// One track's forecast.
     Prediction {
         /// Time of the history's newest point (the forecast starts there).
         t_ms: u32,
         /// Time of the forecast's endpoint.
         end_ms: u32,
+        /// The track id.
         id: u32,
+        /// The newest observed point.
         last: [f32; 2],
+        /// The forecast.
         forecast: Forecast,
     },
+    /// Forecasts a frame refused.
     Failed {
+        /// The frame's timestamp (ms).
         t_ms: u32,
-        id: u32,
+        /// How many.
+        count: u32,
     },
+    /// End of the scene.
     Done,
 }
 
@@ -172,7 +176,14 @@ pub async fn run(spawner: Spawner) -> bool {
         defmt::error!("demo: model {=str} does not record its period", name);
         return false;
     };
-    TABLE.lock(|t| *t.borrow_mut() = TimedTrackTable::new(period, MAX_GAP_MS));
+    // The scene is in metres: the loop's defaults for metres, adapt on.
+    let forecaster = match DemoForecaster::new(&model, Config::metres(), MAX_GAP_MS) {
+        Ok(f) => f,
+        Err(e) => {
+            defmt::error!("demo: the online loop refused model {=str}: {}", name, e);
+            return false;
+        }
+    };
     defmt::println!(
         "demo: model {=str} ({=str}), unit {=str}, period {=u32} ms, {=usize} tracks max, K={=usize}, {=u32} camera frames at ~{=u32} ms",
         name,
@@ -188,7 +199,7 @@ pub async fn run(spawner: Spawner) -> bool {
         CAMERA_MS
     );
     spawner.spawn(report().unwrap());
-    spawner.spawn(predict(predictor).unwrap());
+    spawner.spawn(predict(predictor, forecaster).unwrap());
     spawner.spawn(ingest().unwrap());
     let n = DONE.wait().await;
     defmt::println!("demo: done, {=u32} predictions", n);
@@ -281,66 +292,79 @@ async fn ingest() {
         // One camera frame; on a board the watchdog's heartbeat.
         crate::watchdog::feed();
         let t_ms = camera_ms(frame);
-        let obs = scene(frame, t_ms);
-        let (d, active, fresh) = TABLE.lock(|t| {
-            let mut t = t.borrow_mut();
-            let d = t.update(t_ms, &obs);
-            (d, t.len() as u8, t.fresh().count() as u8)
+        FRAMES_IN.send(Some((t_ms, scene(frame, t_ms)))).await;
+    }
+    FRAMES_IN.send(None).await;
+}
+
+#[embassy_executor::task]
+async fn predict(mut p: Predictor<'static, DemoSine, SCRATCH>, mut f: DemoForecaster) {
+    let horizon = f.table().period_ms() * HORIZONS as u32;
+    let mut frame = 0u32;
+    while let Some((t_ms, obs)) = FRAMES_IN.receive().await {
+        let mut out: Vec<Report, MAX_TRACKS> = Vec::new();
+        // Seeds: the forecaster's (id and time), so every run reproduces.
+        let r = f.frame::<DemoSine, SCRATCH, K>(&mut p, t_ms, &obs, |fc| {
+            let _ = out.push(Report::Prediction {
+                t_ms: fc.end_ms,
+                end_ms: fc.end_ms.wrapping_add(horizon),
+                id: fc.id,
+                last: fc.anchor,
+                forecast: Forecast::of(fc),
+            });
         });
+        let d = &r.delta;
         // Log the frames where something happened, not all 30 a second.
-        if fresh > 0 || !d.entered.is_empty() || !d.left.is_empty() || d.rejected > 0 {
+        if r.forecasts > 0 || !d.entered.is_empty() || !d.left.is_empty() || d.rejected > 0 {
             REPORTS
                 .send(Report::Frame {
                     t_ms,
-                    active,
-                    fresh,
-                    entered: d.entered,
-                    left: d.left,
+                    active: f.table().len() as u8,
+                    fresh: r.forecasts as u8,
+                    entered: d.entered.clone(),
+                    left: d.left.clone(),
                     rejected: d.rejected,
                 })
                 .await;
         }
-        if fresh > 0 {
-            FRAME_TICKS.send(Some(t_ms)).await;
-            // Do not update the table before predict has copied this frame's
-            // histories out (it then runs while we ingest the next frames).
-            TAKEN.receive().await;
+        for report in out {
+            REPORTS.send(report).await;
+        }
+        if r.failed > 0 {
+            REPORTS
+                .send(Report::Failed {
+                    t_ms,
+                    count: r.failed,
+                })
+                .await;
+        }
+        frame += 1;
+        if frame % LOG_MULTIPLIERS_EVERY == 0 {
+            log_multipliers(t_ms, &f);
         }
     }
-    FRAME_TICKS.send(None).await;
+    log_multipliers(camera_ms(FRAMES - 1), &f);
+    REPORTS.send(Report::Done).await;
 }
 
-#[embassy_executor::task]
-async fn predict(mut p: Predictor<'static, DemoSine, SCRATCH>) {
-    while FRAME_TICKS.receive().await.is_some() {
-        // Copy the fresh histories out, so the table is not held during inference.
-        let (period, fresh) = TABLE.lock(|t| {
-            let t = t.borrow();
-            let fresh: Vec<(u32, u32, [[f32; 2]; HISTORY]), MAX_TRACKS> = t
-                .fresh()
-                .map(|tr| (tr.end_ms(), tr.id(), tr.past()))
-                .collect();
-            (t.period_ms(), fresh)
-        });
-        let horizon = period * u32::from(p.model().config().future_len);
-        TAKEN.send(()).await;
-        for (t_ms, id, past) in fresh {
-            // Seed: time and id, so every run (and the host) reproduces it.
-            let seed = ((t_ms as u64) << 32) | id as u64;
-            let r = match forecast(&mut p, &past, seed) {
-                Ok(forecast) => Report::Prediction {
-                    t_ms,
-                    end_ms: t_ms.wrapping_add(horizon),
-                    id,
-                    last: past[HISTORY - 1],
-                    forecast,
-                },
-                Err(_) => Report::Failed { t_ms, id },
-            };
-            REPORTS.send(r).await;
-        }
-    }
-    REPORTS.send(Report::Done).await;
+/// Logs what the loop has learned: the `r50`/`r90` multipliers at 0.4 s, 2.4 s
+/// and 4.8 s (one calibration for every motion state, the default) and the
+/// feedback updates so far.
+fn log_multipliers(t_ms: u32, f: &DemoForecaster) {
+    let c = f.calibration();
+    let state = MotionState::Walking;
+    let [m1, m6, m12] = [1, 6, 12].map(|h| c.multipliers(state, h));
+    defmt::info!(
+        "t={=u32}ms: online loop: multipliers r50/r90 at 0.4 s {=f32}/{=f32}, 2.4 s {=f32}/{=f32}, 4.8 s {=f32}/{=f32}; {=u32} feedback updates",
+        t_ms,
+        m1[0],
+        m1[1],
+        m6[0],
+        m6[1],
+        m12[0],
+        m12[1],
+        c.feedback_count(state)
+    );
 }
 
 #[embassy_executor::task]
@@ -381,27 +405,16 @@ async fn report() {
                     },
             } => {
                 n += 1;
-                match (point, radii) {
-                    (Some(q), Some(r)) => defmt::info!(
-                        "  t={=u32}ms track {=u32}: point forecast for t={=u32}ms ({=f32}, {=f32}) m, r50 {=f32} m, r90 {=f32} m",
-                        t_ms,
-                        id,
-                        end_ms,
-                        q[0],
-                        q[1],
-                        r.r50,
-                        r.r90
-                    ),
-                    (Some(q), None) => defmt::info!(
-                        "  t={=u32}ms track {=u32}: point forecast for t={=u32}ms ({=f32}, {=f32}) m",
-                        t_ms,
-                        id,
-                        end_ms,
-                        q[0],
-                        q[1]
-                    ),
-                    _ => {}
-                }
+                defmt::info!(
+                    "  t={=u32}ms track {=u32}: point forecast for t={=u32}ms ({=f32}, {=f32}) m, r50 {=f32} m, r90 {=f32} m",
+                    t_ms,
+                    id,
+                    end_ms,
+                    point[0],
+                    point[1],
+                    radii.r50,
+                    radii.r90
+                );
                 if let (true, Some(e)) = (learned, endpoints.get(top.0)) {
                     defmt::info!(
                         "  t={=u32}ms track {=u32}: most probable endpoint e{=usize} ({=f32}, {=f32}) m, p {=f32}",
@@ -430,8 +443,8 @@ async fn report() {
                     endpoints[0][1]
                 );
             }
-            Report::Failed { t_ms, id } => {
-                defmt::error!("  t={=u32}ms track {=u32}: prediction failed", t_ms, id)
+            Report::Failed { t_ms, count } => {
+                defmt::error!("  t={=u32}ms: {=u32} forecast(s) failed", t_ms, count)
             }
             Report::Done => break,
         }
