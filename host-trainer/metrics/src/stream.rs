@@ -203,12 +203,27 @@ pub fn stream_both(
 
 /// Streams `rec` through `blob` under `s` (module docs).
 pub fn stream(blob: &[u8], rec: &Recording, s: &StreamSettings) -> Result<StreamReport> {
-    match s.pending {
+    let run = || match s.pending {
         2 => stream_with::<2>(blob, rec, s),
         12 => stream_with::<12>(blob, rec, s),
         n => bail!("--pending {n}: expected 2 (the device default) or 12"),
-    }
+    };
+    // The forecaster is the device's fixed-capacity state sized for a crowd (TRACKS tracks, up
+    // to 12 pending forecasts each: about 0.8 MB), built by value before it is boxed: on a
+    // thread of its own with room for it, whatever the caller's stack (a test thread has 2 MiB).
+    std::thread::scope(|scope| {
+        std::thread::Builder::new()
+            .name("stream".into())
+            .stack_size(STACK_BYTES)
+            .spawn_scoped(scope, run)
+            .map_err(|e| anyhow!("cannot start the streaming thread: {e}"))?
+            .join()
+            .map_err(|_| anyhow!("the streaming thread panicked"))?
+    })
 }
+
+/// Stack of the thread a recording is streamed on (see [`stream`]).
+const STACK_BYTES: usize = 64 << 20;
 
 fn stream_with<const P: usize>(
     blob: &[u8],
