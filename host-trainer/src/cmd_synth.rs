@@ -8,6 +8,41 @@ use crate::cmd_blob::TestSampling;
 use anyhow::Result;
 use gpecnet_trainer::{config::TrainConfig, data};
 
+/// Largest synthetic pool (`synth --n`, `sweep --pool-n`): 55 times the default 18,000,
+/// about 160 MB of trajectories in memory (a pool of 10^11 aborted on allocation).
+const MAX_POOL: u64 = 1_000_000;
+/// Most policy-gradient episodes (`synth --rl-episodes`, `rl-train --episodes`).
+const MAX_EPISODES: u64 = 1_000_000;
+/// Most episodes per REINFORCE update (`rl-train --batch`).
+const MAX_RL_BATCH: u64 = 4096;
+
+/// A count option in `lo..=hi`, refused by clap before any work with the range named.
+fn count_in(lo: u64, hi: u64) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi)
+}
+
+/// `rl-train --lr`: a finite learning rate in (0, 1], like the training config's.
+fn parse_rl_lr(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if v.is_finite() && v > 0.0 && v <= 1.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} is out of range: allowed a finite number in (0, 1]"
+        ))
+    }
+}
+
+/// `abscore --max-abscore`: a finite AbScore >= 0 (NaN would filter nothing, silently).
+fn parse_max_abscore(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} is out of range: allowed a finite number >= 0"))
+    }
+}
+
 #[derive(clap::Args, Debug)]
 pub(crate) struct AbscoreArgs {
     /// Data root holding sdd/ (see shared/data/README.md).
@@ -17,7 +52,7 @@ pub(crate) struct AbscoreArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Outlier filter: report how many trajectories have AbScore above this value.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", value_parser = parse_max_abscore)]
     max_abscore: Option<f64>,
     /// Filter on the areal-scaled AbScore instead of the unscaled one.
     #[arg(long)]
@@ -62,13 +97,13 @@ pub(crate) struct SynthArgs {
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
     data: PathBuf,
     /// Pool size.
-    #[arg(long, default_value_t = 18000)]
+    #[arg(long, default_value_t = 18000, value_parser = count_in(1, MAX_POOL))]
     n: usize,
     /// Seed (policy training and pool order).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Episodes for the policy-gradient agents used in the pool.
-    #[arg(long, default_value_t = 3200)]
+    #[arg(long, default_value_t = 3200, value_parser = count_in(1, MAX_EPISODES))]
     rl_episodes: usize,
     /// Output CSV (index,type,source,x0,y0,...); pictures and tables go next to it.
     #[arg(long, value_name = "CSV")]
@@ -86,13 +121,13 @@ pub(crate) fn cmd_synth(a: SynthArgs) -> Result<()> {
 #[derive(clap::Args, Debug)]
 pub(crate) struct RlTrainArgs {
     /// Number of training episodes.
-    #[arg(long, default_value_t = 3200)]
+    #[arg(long, default_value_t = 3200, value_parser = count_in(1, MAX_EPISODES))]
     episodes: usize,
     /// Episodes per REINFORCE update.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = count_in(1, MAX_RL_BATCH))]
     batch: usize,
     /// Adam learning rate.
-    #[arg(long, default_value_t = 3e-3)]
+    #[arg(long, default_value_t = 3e-3, value_parser = parse_rl_lr)]
     lr: f64,
     /// Seed.
     #[arg(long, default_value_t = 1)]
@@ -135,7 +170,7 @@ pub(crate) struct SweepArgs {
     #[arg(long, default_value_t = 1)]
     pool_seed: u64,
     /// Size of a generated pool.
-    #[arg(long, default_value_t = 18000)]
+    #[arg(long, default_value_t = 18000, value_parser = count_in(1, MAX_POOL))]
     pool_n: usize,
     /// Data root holding sdd/.
     #[arg(long, value_name = "DIR", default_value_os_t = data::default_data_root())]
@@ -149,6 +184,14 @@ pub(crate) struct SweepArgs {
 
 pub(crate) fn cmd_sweep(a: SweepArgs) -> Result<()> {
     use gpecnet_trainer::synth::sweep;
+    // Every run is evaluated at --k after its training: refuse a K no blob gives first.
+    let most = gpecnet_trainer::core_eval::HOST_MAX_K;
+    if a.sampling.k == 0 || a.sampling.k > most {
+        anyhow::bail!(
+            "--k {} is out of range: allowed 1..={most} endpoints per window",
+            a.sampling.k
+        );
+    }
     let command = format!(
         "gpecnet sweep --config {} --pcts {} --epochs {} --out {} --pool {}",
         a.config.display(),

@@ -699,3 +699,73 @@ fn tts_below_k_names_both_options_and_the_rule() {
     }
     assert!(!weights_out.join("m.gpec").exists());
 }
+
+/// The numeric options of `synth`, `rl-train`, `abscore`, `sweep` and `train` that were
+/// accepted out of range (an aborting pool size, NaN or negative rates, empty batches, a seed
+/// config.toml cannot hold) are refused before any work, naming the option and its limit.
+#[test]
+fn numeric_options_are_bounded_before_any_work() {
+    let r = common::TinyRun::new("numeric-bounds");
+    let out = r.dir.join("o");
+    let pool = r.dir.join("o/pool.csv");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["synth", "--out", s(&pool), "--n", "100000000000"],
+            "1..=1000000",
+        ),
+        (vec!["synth", "--out", s(&pool), "--n", "0"], "1..=1000000"),
+        (
+            vec!["synth", "--out", s(&pool), "--rl-episodes", "0"],
+            "1..=1000000",
+        ),
+        (
+            vec!["rl-train", "--out", s(&out), "--episodes", "0"],
+            "1..=1000000",
+        ),
+        (
+            vec!["rl-train", "--out", s(&out), "--batch", "0"],
+            "1..=4096",
+        ),
+        (
+            vec!["rl-train", "--out", s(&out), "--batch", "100000000000"],
+            "1..=4096",
+        ),
+        (vec!["rl-train", "--out", s(&out), "--lr", "nan"], "(0, 1]"),
+        (vec!["rl-train", "--out", s(&out), "--lr=-1"], "(0, 1]"),
+        (
+            vec!["abscore", "--out", s(&out), "--max-abscore", "nan"],
+            "finite number >= 0",
+        ),
+        (
+            vec!["sweep", "--config", s(&r.cfg), "--out", s(&out), "--k", "0"],
+            "--k 0 is out of range: allowed 1..=64",
+        ),
+        (
+            vec![
+                "sweep",
+                "--config",
+                s(&r.cfg),
+                "--out",
+                s(&out),
+                "--pool-n",
+                "0",
+            ],
+            "1..=1000000",
+        ),
+    ];
+    for (args, want) in cases {
+        let (ok, text) = run(&args);
+        assert!(!ok && text.contains(want), "{args:?}: {text}");
+        assert!(
+            !text.contains("panicked") && !out.exists(),
+            "{args:?}: {text}"
+        );
+    }
+    let (ok, text) = r.train(&["--seed", "18446744073709551615"]);
+    assert!(
+        !ok && text.contains("seed = 18446744073709551615")
+            && text.contains("0..=9223372036854775807"),
+        "{text}"
+    );
+    assert!(!r.out.join("config.toml").exists());
+}

@@ -21,7 +21,8 @@ impl TrainConfig {
     /// `VAL_CHUNK · k · widest layer` f32 activations, which must stay within
     /// [`MAX_VAL_ACTIVATION_BYTES`]); layer widths, `fdim`, `zdim` in `1..=`[`MAX_WIDTH`] and at
     /// most [`MAX_HIDDEN_LAYERS`] hidden layers per network (the blob holds at most 8 layers
-    /// per network); `num_epochs`, `batch_size`, `eval_every` at least 1; `learning_rate`
+    /// per network); `num_epochs`, `batch_size`, `eval_every` at least 1 (`num_epochs`,
+    /// `eval_every` and `seed` at most `i64::MAX`, a TOML integer); `learning_rate`
     /// finite in `(0, 1]`; `data_scale`, `coord_scale`, `w0`, `point_reg` finite and `> 0`;
     /// `sigma`, `kld_reg`, `adl_reg` finite and `>= 0`; `threads` in `0..=`[`MAX_THREADS`].
     ///
@@ -53,9 +54,19 @@ impl TrainConfig {
             MAX_K,
             " (the most samples a blob's predictor draws per window)",
         )?;
-        in_range("num_epochs", self.num_epochs, 1, usize::MAX, "")?;
+        // config.toml holds every value as a TOML integer, whose largest value is i64::MAX.
+        let toml_max = i64::MAX as usize;
+        let toml_int = " (config.toml holds it as a TOML integer)";
+        in_range("num_epochs", self.num_epochs, 1, toml_max, toml_int)?;
         in_range("batch_size", self.batch_size, 1, MAX_BATCH, "")?;
-        in_range("eval_every", self.eval_every, 1, usize::MAX, "")?;
+        in_range("eval_every", self.eval_every, 1, toml_max, toml_int)?;
+        if self.seed > i64::MAX as u64 {
+            bail!(
+                "seed = {} is out of range: allowed 0..={}{toml_int}",
+                self.seed,
+                i64::MAX
+            );
+        }
         in_range("threads", self.threads, 0, MAX_THREADS, " (0 = all cores)")?;
         in_range(
             "nonlocal_pools",
