@@ -253,11 +253,17 @@ fn main() {
     };
     src += &format!("pub static MIN_VERSION_FLOOR: u32 = {floor};\n");
     // The profile build's extra windows (timed track table, signature verification):
-    // GPECNET_PROFILE_EXTRAS=1 (`cargo xtask profile`), off in the MCU x model table.
+    // GPECNET_PROFILE_EXTRAS=1 (`cargo xtask profile`), off in the MCU x model table;
+    // GPECNET_PROFILE_EXTRAS=online: the online forecaster's window after the models'.
     println!("cargo:rerun-if-env-changed=GPECNET_PROFILE_EXTRAS");
     println!("cargo::rustc-check-cfg=cfg(prof_extras)");
-    if env::var("GPECNET_PROFILE_EXTRAS").is_ok_and(|v| v == "1") {
-        println!("cargo:rustc-cfg=prof_extras");
+    println!("cargo::rustc-check-cfg=cfg(prof_online)");
+    match env::var("GPECNET_PROFILE_EXTRAS").as_deref() {
+        Ok("1") => println!("cargo:rustc-cfg=prof_extras"),
+        // The online forecaster's window, in an image of its own: linked beside the
+        // models' windows it would change how the compiler lays out their code.
+        Ok("online") => println!("cargo:rustc-cfg=prof_online"),
+        _ => {}
     }
     // Numeric path of the profile build (one sine per image, so flash/RAM are per path).
     println!("cargo:rerun-if-env-changed=GPECNET_SINE");

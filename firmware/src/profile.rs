@@ -8,7 +8,13 @@
 //! once per image after the models, measures the timed track table: one
 //! model period (12 camera frames at 30 Hz) of 16 tracks in steady state
 //! ([`track_table_period`]); a third, when the image embeds a signed blob,
-//! one signature verification ([`verify_first_signed`]).
+//! one signature verification ([`verify_first_signed`]). An image built with
+//! `GPECNET_PROFILE_EXTRAS=online` instead measures, after the models'
+//! windows, one grid step of one pedestrian through the online forecaster:
+//! its forecast (endpoints, probabilities, point forecast, per-step radii)
+//! and the loop's update (`online_step`); in an image of its own, because
+//! the forecaster's predictor links both engines, which changes how the
+//! compiler lays out the measured call's code.
 use core::hint::black_box;
 use core::ptr::{addr_of_mut, write_volatile};
 
@@ -152,6 +158,121 @@ fn track_table_period() -> bool {
     fresh == TRACKS
 }
 
+#[cfg(prof_online)]
+/// The online measurement's forecaster: one pedestrian, two forecasts awaiting
+/// their truth (the golden replay's and the C ABI's `P`).
+type OnlineForecaster = gpecnet_core::online::Forecaster<1, 2>;
+
+#[cfg(prof_online)]
+/// The predictor the online forecaster drives (the engine follows the blob;
+/// the sine is that of an f32 blob's path).
+#[cfg(not(prof_sine = "q15-table"))]
+type OnlinePredictor<'a> = gpecnet_core::Predictor<'a, ProfSine, SCRATCH>;
+#[cfg(prof_online)]
+#[cfg(prof_sine = "q15-table")]
+type OnlinePredictor<'a> = gpecnet_core::Predictor<'a, gpecnet_core::LibmSine, SCRATCH>;
+
+#[cfg(prof_online)]
+/// Grid steps fed before the measured one (one camera frame per 0.4 s step):
+/// 12 s, so the track's history is full and both forecasts are pending.
+pub const ONLINE_WARM_STEPS: u32 = 30;
+
+#[cfg(prof_online)]
+/// A pedestrian walking at 1.3 m/s on a gentle curve, seen at grid step `k`
+/// (metres, 0.4 s apart).
+fn online_detection(k: u32) -> (u32, gpecnet_core::tracks::Observation) {
+    let t = k as f32 * 0.4;
+    let pos = [1.0 + 1.3 * t, 2.0 + 0.15 * t - 0.004 * t * t];
+    (k * 400, gpecnet_core::tracks::Observation { id: 1, pos })
+}
+
+#[cfg(prof_online)]
+/// The measured online work: one camera frame of one pedestrian that
+/// completes a grid point (the track table's update, the feedback of the new
+/// point to the pending forecasts, the forecast sequence
+/// [`gpecnet_core::online::forecast`] with the loop on). Returns (forecasts,
+/// feedback updates, FNV-1a over the forecast's point and radii).
+#[inline(never)]
+#[no_mangle]
+pub fn gpecnet_online_step(
+    f: &mut OnlineForecaster,
+    p: &mut OnlinePredictor<'_>,
+    t_ms: u32,
+    detections: &[gpecnet_core::tracks::Observation],
+) -> (u32, u32, u32) {
+    let mut hash = 0;
+    let r = f.frame::<_, SCRATCH, K>(p, t_ms, detections, |fc| {
+        hash = gpecnet_core::golden::fnv1a(
+            fc.point
+                .iter()
+                .flat_map(|q| [q[0].to_bits(), q[1].to_bits()])
+                .chain(
+                    fc.radii
+                        .iter()
+                        .flat_map(|r| [r.r50.to_bits(), r.r90.to_bits()]),
+                ),
+        );
+    });
+    (r.forecasts, r.feedback, hash)
+}
+
+#[cfg(prof_online)]
+/// One grid step of one pedestrian through the online forecaster in steady
+/// state ([`gpecnet_online_step`]), between the markers, with its stack; logs
+/// the forecaster's RAM: its size with one and with two tracks, the track
+/// table's share of a track, and the calibration. `true` when the model is not
+/// one the loop takes at K = 20 (no period, or test-time sampling of more
+/// than K samples: no window) or the step forecast and fed back.
+fn online_step(name: &str, model: Model<'static>) -> bool {
+    use core::mem::size_of;
+    use gpecnet_core::online::{Calibration, Config, Forecaster};
+    use gpecnet_core::tracks::TimedTrackTable;
+    let Ok(mut f) = OnlineForecaster::new(&model, Config::metres(), 1_000) else {
+        return true;
+    };
+    // `online::forecast` draws at most K samples: a model whose test-time sampling
+    // needs more gives no endpoint set at K = 20.
+    if gpecnet_core::sampling::max_endpoints_of(&model, K) == 0 {
+        defmt::println!(
+            "online-skipped {=str}: test-time sampling needs more than K = {=usize} samples",
+            name,
+            K
+        );
+        return true;
+    }
+    let Ok(mut p) = OnlinePredictor::new(model) else {
+        return false;
+    };
+    for k in 0..ONLINE_WARM_STEPS {
+        let (t_ms, d) = online_detection(k);
+        f.frame::<_, SCRATCH, K>(&mut p, t_ms, &[d], |_| {});
+    }
+    let (t_ms, d) = online_detection(ONLINE_WARM_STEPS);
+    let base = crate::stack::repaint();
+    bench_start();
+    let (forecasts, feedback, hash) =
+        gpecnet_online_step(black_box(&mut f), black_box(&mut p), t_ms, black_box(&[d]));
+    bench_end();
+    let used = crate::stack::high_water().saturating_sub(base);
+    let one = size_of::<Forecaster<1, 2>>();
+    let two = size_of::<Forecaster<2, 2>>();
+    let table_track = size_of::<TimedTrackTable<2>>() - size_of::<TimedTrackTable<1>>();
+    defmt::println!(
+        "online model={=str} forecasts={=u32} feedback={=u32} online_stack={=u32} forecaster_1={=u32} per_track={=u32} loop_per_track={=u32} calibration={=u32} predictor_size={=u32} hash={=u32:08x}",
+        name,
+        forecasts,
+        feedback,
+        used as u32,
+        one as u32,
+        (two - one) as u32,
+        (two - one - table_track) as u32,
+        size_of::<Calibration>() as u32,
+        core::mem::size_of_val(&p) as u32,
+        hash
+    );
+    forecasts == 1 && feedback > 0
+}
+
 #[cfg(prof_extras)]
 /// The measured verification: a signed blob against the compiled-in keys.
 #[inline(never)]
@@ -267,6 +388,14 @@ pub fn run() -> bool {
         ok &= track_table_period();
         crate::watchdog::feed();
         ok &= verify_first_signed();
+    }
+    // `cargo xtask profile`'s online image (GPECNET_PROFILE_EXTRAS=online).
+    #[cfg(prof_online)]
+    for &(name, blob) in crate::models::BLOBS {
+        crate::watchdog::feed();
+        if let Ok(model) = Model::from_blob(blob) {
+            ok &= online_step(name, model);
+        }
     }
     ok
 }

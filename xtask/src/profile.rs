@@ -135,23 +135,31 @@ pub(crate) fn blob_has_point_head(path: &std::path::Path) -> bool {
 
 /// Builds the `profile` firmware for `mcu` with `models` (comma-separated) on the numeric path
 /// `sine` (plus the firmware `features`), copies its ELF to `elf_copy` and reads it.
-/// `extras`: after the models' windows, the image also measures the timed track table and
-/// the signature verification (`cargo xtask profile`'s one-model images; the MCU x model
-/// table's multi-model images leave them out, so their windows are the models' and the
-/// verifier is not linked into a Cortex-M0's flash).
+/// `extras`: what the image measures after the models' windows: [`Extras::Tables`], the
+/// timed track table and the signature verification (`cargo xtask profile`'s one-model
+/// images; the MCU x model table's multi-model images leave them out, so their windows are
+/// the models' and the verifier is not linked into a Cortex-M0's flash);
+/// [`Extras::Online`], one grid step of the online forecaster.
 pub(crate) fn build_profile_image(
     o: &Opts,
     mcu: &mcu::Mcu,
     models: &str,
     sine: &str,
     features: &[&str],
-    extras: bool,
+    extras: Extras,
     elf_copy: &Path,
 ) -> Elf {
     let mut c = fw_cargo(o);
     c.env(gpecnet_mcu_models::ONLY_VAR, models)
         .env("GPECNET_SINE", sine)
-        .env("GPECNET_PROFILE_EXTRAS", if extras { "1" } else { "0" })
+        .env(
+            "GPECNET_PROFILE_EXTRAS",
+            match extras {
+                Extras::None => "0",
+                Extras::Tables => "1",
+                Extras::Online => "online",
+            },
+        )
         .arg("build");
     mcu.firmware_args(&mut c, &root(), "profile", features);
     let (rc, _, err) = output(c);
@@ -165,6 +173,32 @@ pub(crate) fn build_profile_image(
     std::fs::copy(mcu.elf(&root(), "profile"), elf_copy)
         .unwrap_or_else(|e| die(&format!("{}: {e}", elf_copy.display())));
     read_elf(elf_copy)
+}
+
+/// The windows a profile image measures after the models' (`GPECNET_PROFILE_EXTRAS`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Extras {
+    /// None: the MCU x model table's images.
+    None,
+    /// The timed track table and the signature verification.
+    Tables,
+    /// One grid step of one pedestrian through `online::Forecaster<1, 2>` (an image of its
+    /// own: the forecaster's predictor links both engines, which would change how the
+    /// compiler lays out the models' measured call).
+    Online,
+}
+
+/// Whether the online loop forecasts for `model` at K = 20 (the firmware's
+/// `online_step` measures it): a model of 8 past and 12 future steps on a
+/// recorded period whose endpoint set fits 20 samples.
+fn online_takes(model: &Path) -> bool {
+    use gpecnet_core::online::{Config, Forecaster};
+    std::fs::read(model).ok().is_some_and(|b| {
+        gpecnet_core::Model::from_blob(&b).is_ok_and(|m| {
+            Forecaster::<1, 2>::new(&m, Config::metres(), 1_000).is_ok()
+                && gpecnet_core::sampling::max_endpoints_of(&m, 20) > 0
+        })
+    })
 }
 
 /// What one run of a profiling image under the instruction-window plugin left behind.
@@ -257,6 +291,8 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
     // The signature verification's window (the third, in images of signed blobs) and the
     // verifier's code: the functions of ed25519-dalek, curve25519-dalek, sha2 and the trailer.
     let mut verify: Option<(u64, String, u64)> = None;
+    // The online forecaster's window (its own image, for a model the loop takes), per model.
+    let mut online: Vec<(String, u64, String)> = Vec::new();
     for m in &models {
         let blob = blob_path(&dir, m);
         let blob_len = std::fs::metadata(&blob).map_or(0, |md| md.len() as u32);
@@ -267,7 +303,15 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
         let paths: &[&str] = if fixed { &[FIXED_PATH] } else { SINES };
         for &sine in paths {
             let elf_copy = out_dir.join(format!("{m}-{sine}.elf"));
-            let elf = build_profile_image(o, &mcu::M4F, m, sine, &["micromath"], true, &elf_copy);
+            let elf = build_profile_image(
+                o,
+                &mcu::M4F,
+                m,
+                sine,
+                &["micromath"],
+                Extras::Tables,
+                &elf_copy,
+            );
             let log = out_dir.join(format!("{m}-{sine}.plugin.log"));
             let pcprof = out_dir.join(format!("{m}-{sine}.pcprof"));
             let _ = std::fs::remove_file(&pcprof);
@@ -281,6 +325,37 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             );
             let insns = run.windows().first().copied();
             let table_line = run.text.lines().find(|l| l.contains("tracktable tracks="));
+            if sine == FIXED_PATH && online_takes(&blob) {
+                // The online forecaster's window: the second of its own image.
+                let elf_online = out_dir.join(format!("{m}-{sine}-online.elf"));
+                let elf = build_profile_image(
+                    o,
+                    &mcu::M4F,
+                    m,
+                    sine,
+                    &["micromath"],
+                    Extras::Online,
+                    &elf_online,
+                );
+                let log = out_dir.join(format!("{m}-{sine}-online.plugin.log"));
+                let r = run_with_plugin(mcu::M4F.machine, &so, &elf_online, &elf, &log, "");
+                match (
+                    r.windows().get(1),
+                    r.text.lines().find(|l| l.contains("online model=")),
+                ) {
+                    (Some(&n), Some(l)) if r.exit == Some(0) => {
+                        online.push((format!("{m} / {sine}"), n, l.trim().to_string()));
+                    }
+                    _ => {
+                        eprintln!("{}{}", r.text, r.plugin_log);
+                        eprintln!(
+                            "xtask: profile run {m}/{sine} (online) failed (exit {:?})",
+                            r.exit
+                        );
+                        failed = true;
+                    }
+                }
+            }
             if let (Some(&n), Some(l)) = (
                 run.windows().get(2),
                 run.text.lines().find(|l| l.contains("verify model=")),
@@ -451,6 +526,26 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             per_frame = insns / frames,
             size = num("table_size"),
             track = num("track_size"),
+        );
+    }
+    for (what, insns, line) in &online {
+        let num = |k: &str| field(line, k).unwrap_or("-");
+        let _ = writeln!(
+            t,
+            "\nOnline forecaster (`online::Forecaster<1, 2>`, loop on, {what}), one pedestrian, one grid step \
+             in steady state (one camera frame completing a grid point: the track table's update, the new \
+             point fed back to the pending forecasts, {feedback} update(s), then `online::forecast`: \
+             endpoints, probabilities, point forecast, per-step radii): {insns} instructions; {stack} B of \
+             stack on top of the forecaster and the predictor ({predictor} B); RAM: the forecaster {one} B \
+             with one track, {per} B per track of which the loop's {looped} B (the table's the rest), \
+             the calibration {cal} B.",
+            feedback = num("feedback"),
+            stack = num("online_stack"),
+            predictor = num("predictor_size"),
+            one = num("forecaster_1"),
+            per = num("per_track"),
+            looped = num("loop_per_track"),
+            cal = num("calibration"),
         );
     }
     if let Some((insns, line, code)) = &verify {

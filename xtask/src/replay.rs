@@ -617,7 +617,15 @@ fn profile_class(
             .enumerate()
         {
             let elf_copy = out_dir.join(format!("profile-{path}-{i}.elf"));
-            let elf = build_profile_image(o, mcu, &batch.join(","), path, &[], false, &elf_copy);
+            let elf = build_profile_image(
+                o,
+                mcu,
+                &batch.join(","),
+                path,
+                &[],
+                crate::profile::Extras::None,
+                &elf_copy,
+            );
             let log = out_dir.join(format!("profile-{path}-{i}.plugin.log"));
             let run = run_with_plugin(mcu.machine, &so, &elf_copy, &elf, &log, "");
             let _ = std::fs::write(out_dir.join(format!("profile-{path}-{i}.log")), &run.text);
