@@ -197,7 +197,17 @@ impl Calibration {
                 } else {
                     self.up[l]
                 };
-                *c = (*c * f).clamp(lo, hi);
+                // Comparisons, not `f32::clamp`: its check of the bounds' order (which
+                // `Config::validate` already made) links float formatting into a firmware
+                // image, about 12 KB of flash; the result is the same, NaN included.
+                let v = *c * f;
+                *c = if v < lo {
+                    lo
+                } else if v > hi {
+                    hi
+                } else {
+                    v
+                };
             }
             // The median radius never exceeds the 90 % one.
             if cell[0] > cell[1] {

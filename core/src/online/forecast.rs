@@ -97,8 +97,12 @@ impl<const K: usize> Default for TrackForecast<K> {
 /// static radii, then the experts, the aggregate point and the per-horizon
 /// radii under `calibration` (the rules of the parent module). `period_s` is
 /// the model's period in seconds. Fails as [`Predictor::predict_planner`]
-/// does, or with [`PredictError::CapacityExceeded`] for a model that does not
-/// forecast [`HORIZONS`] steps.
+/// does with `N = K` (so a test-time-sampling model whose `tts_samples`
+/// exceed `K`, e.g. the `-tiny-qe` models' 80, fails with
+/// [`PredictError::CapacityExceeded`]: give those a `K` of at least their
+/// samples, or use a learned-proposal model), or with
+/// [`PredictError::CapacityExceeded`] for a model that does not forecast
+/// [`HORIZONS`] steps.
 pub fn forecast<S: Sine, const W: usize, const K: usize>(
     p: &mut Predictor<'_, S, W>,
     calibration: &Calibration,
