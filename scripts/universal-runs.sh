@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 45, protocol (a) of docs/generalisation.md ("One model for every scene"): SDD in metres
+# Protocol (a) of docs/generalisation.md ("One model for every scene"): SDD in metres
 # + four ETH/UCY scenes -> the fifth, the shipped default's recipe (sdd-m-tiny.toml, --mirror,
 # then a learned 8-wide proposal, endpoint scores, endpoint-only fixed point), 3 seeds per
 # target scene. Every choice is made on the combined validation split (the five SDD validation

@@ -446,7 +446,7 @@ fn summarise(scored: &[Scored], metres: f64) -> StreamReport {
     // The oracle: the 90 % quantile of d / scale (nearest rank), times the mean scale.
     let mut ratios: Vec<f64> = scored
         .iter()
-        .map(|s| s.d[end] / (s.scale * 1.0).max(f64::MIN_POSITIVE))
+        .map(|s| s.d[end] / s.scale.max(f64::MIN_POSITIVE))
         .collect();
     ratios.sort_by(f64::total_cmp);
     let c_star = ratios
