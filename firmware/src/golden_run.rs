@@ -43,6 +43,41 @@ pub fn run() -> bool {
     s.ok()
 }
 
+/// The online loop's streamed scene alone ([`crate::golden::online_scene`]
+/// on [`crate::golden::ONLINE_MODEL`], one defmt line per camera frame, the
+/// lines `cargo xtask qemu` compares with the host's): the image of a class
+/// whose golden image leaves the scene out ([`crate::ONLINE_SCENE`]). It
+/// embeds the scene's model alone, without its golden file, so the loop's
+/// code fits the Cortex-M0's flash; `true` when the scene ran to its end.
+pub fn online() -> bool {
+    let model = crate::golden::ONLINE_MODEL;
+    let Some(&(name, blob)) = crate::models::BLOBS.iter().find(|(n, _)| *n == model) else {
+        defmt::error!(
+            "online: model {=str} not embedded (build with GPECNET_MODELS={=str})",
+            model,
+            model
+        );
+        return false;
+    };
+    let mut out = |l: crate::golden::Line<'_>| {
+        crate::watchdog::feed();
+        print(l)
+    };
+    match crate::golden::online_scene::<{ crate::SCRATCH }>(name, blob, &mut out) {
+        Ok(()) => {
+            defmt::println!(
+                "scene: online loop, {=u32} frames",
+                crate::golden::ONLINE_FRAMES
+            );
+            true
+        }
+        Err(what) => {
+            defmt::error!("golden {=str}: {=str}", name, what);
+            false
+        }
+    }
+}
+
 /// One result line as defmt text (the same text as the host's `Line::print`).
 fn print(l: crate::golden::Line<'_>) {
     use crate::golden::Line;

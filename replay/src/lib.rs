@@ -438,8 +438,8 @@ pub fn verify_pack<const W: usize, const ONLINE: bool>(
 /// wider than `W` is reported as [`Line::TooWide`]); `xcheck`: also run the
 /// other compiled-in sines. The firmware takes `W` = 128 (64 on the
 /// Cortex-M0), the host 128. `ONLINE`: after [`ONLINE_MODEL`]'s cases, also
-/// run [`online_scene`] (the Cortex-M0's image leaves it out: see
-/// `firmware/src/lib.rs`).
+/// run [`online_scene`] (the Cortex-M0's golden image leaves it out and
+/// plays it in an image of its own: see `firmware/src/lib.rs`).
 pub fn verify_all<const W: usize, const ONLINE: bool>(
     models: &[EmbeddedModel],
     xcheck: bool,
@@ -663,18 +663,37 @@ fn online_position(id: u32, t: f32) -> Option<[f32; 2]> {
 ///
 /// Out of line, with the predictor built in its own frame (as for the
 /// golden cases): it runs after the model's golden cases, whose predictor
-/// is gone by then. `Err`: why the scene could not run.
+/// is gone by then. This frame holds only the predictor; the forecaster
+/// and the frames' buffers are [`play_scene`]'s, so the construction's
+/// temporaries (`predictor_for`) and the forecasts are never on the stack
+/// together: the scene's peak fits the Cortex-M0's 16 KiB of RAM.
+/// `Err`: why the scene could not run.
 #[inline(never)]
 pub fn online_scene<const W: usize>(
     model: &str,
     blob: &'static [u8],
     out: &mut dyn FnMut(Line<'_>),
 ) -> Result<(), &'static str> {
-    let mut forecaster = online_forecaster(blob)?;
     let mut made = predictor_for::<LibmSine, W>(blob);
     let Some(p) = made.as_mut() else {
         return Err("online scene: no predictor for this blob");
     };
+    play_scene(model, blob, p, out)
+}
+
+/// [`online_scene`]'s camera frames through a forecaster of its own on the
+/// predictor `p` (built by the caller).
+#[inline(never)]
+fn play_scene<const W: usize>(
+    model: &str,
+    blob: &'static [u8],
+    p: &mut Predictor<'static, LibmSine, W>,
+    out: &mut dyn FnMut(Line<'_>),
+) -> Result<(), &'static str> {
+    // Used where `online_forecaster` put it: moved out of the `Result`, a
+    // second copy (about 3.7 KiB) would share this frame.
+    let mut made = online_forecaster(blob);
+    let forecaster = made.as_mut().map_err(|e| *e)?;
     // A 32-bit LCG (Numerical Recipes): jitter, noise, misses, faults.
     let mut state: u32 = 0x0a11_ce55;
     let mut next = move || {
@@ -717,37 +736,53 @@ pub fn online_scene<const W: usize>(
             }
             let _ = seen.push(Observation { id, pos });
         }
-        let mut h = fnv1a([]);
-        let report =
-            forecaster.frame::<LibmSine, W, MAX_K>(p, t_ms, &seen, |fc| h = hash_forecast(h, fc));
-        let d = &report.delta;
-        h = fnv1a_continue(
-            h,
-            [
-                report.forecasts,
-                report.failed,
-                report.feedback,
-                d.rejected,
-                d.duplicates,
-                d.non_finite,
-                d.stale as u32,
-            ]
-            .into_iter()
-            .chain(d.entered.iter().copied())
-            .chain([u32::MAX])
-            .chain(d.left.iter().copied()),
-        );
-        h = hash_state(h, forecaster.calibration());
+        let (forecasts, feedback, hash) = scene_frame(forecaster, p, t_ms, &seen);
         out(Line::Online {
             model,
             frame,
             t_ms,
-            forecasts: report.forecasts,
-            feedback: report.feedback,
-            hash: h,
+            forecasts,
+            feedback,
+            hash,
         });
     }
     Ok(())
+}
+
+/// One camera frame of [`online_scene`] through `forecaster`: the frame's
+/// forecasts and feedback, and the hash over its report, every forecast and
+/// the calibration's state after it. Out of line, so the forecast's buffers
+/// are on the stack only while it runs, not beside the caller's
+/// forecaster.
+#[inline(never)]
+fn scene_frame<const W: usize>(
+    forecaster: &mut Forecaster<ONLINE_TRACKS, ONLINE_PENDING>,
+    p: &mut Predictor<'static, LibmSine, W>,
+    t_ms: u32,
+    seen: &[Observation],
+) -> (u32, u32, u32) {
+    let mut h = fnv1a([]);
+    let report =
+        forecaster.frame::<LibmSine, W, MAX_K>(p, t_ms, seen, |fc| h = hash_forecast(h, fc));
+    let d = &report.delta;
+    h = fnv1a_continue(
+        h,
+        [
+            report.forecasts,
+            report.failed,
+            report.feedback,
+            d.rejected,
+            d.duplicates,
+            d.non_finite,
+            d.stale as u32,
+        ]
+        .into_iter()
+        .chain(d.entered.iter().copied())
+        .chain([u32::MAX])
+        .chain(d.left.iter().copied()),
+    );
+    h = hash_state(h, forecaster.calibration());
+    (report.forecasts, report.feedback, h)
 }
 
 /// [`online_scene`]'s forecaster for `blob`, the `Model` view parsed in

@@ -30,7 +30,8 @@ pub struct Mcu {
     /// Extra rustc flags (the core's own tuning, e.g. `-C target-cpu=cortex-m7`).
     pub rustflags: Option<&'static str>,
     /// Whether the golden image plays the online loop's streamed scene
-    /// (`gpecnet_replay::online_scene`; `ONLINE_SCENE` in firmware/src/lib.rs).
+    /// (`gpecnet_replay::online_scene`; `ONLINE_SCENE` in firmware/src/lib.rs);
+    /// `false`: the scene runs in an image of its own (firmware/src/bin/online.rs).
     pub online: bool,
     /// The golden image's opt-level when not the release profile's 3 (the
     /// profile images keep 3: their instruction counts are the table's).

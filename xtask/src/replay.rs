@@ -372,6 +372,20 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
             started.insert(i, (Some(batch), run));
         }
         let mut runs: Vec<_> = started.into_values().collect();
+        // A class whose golden image has no room for the online loop's scene plays it in
+        // an image of its own (the `online` binary), with the scene's model alone.
+        let online_model = gpecnet_replay::ONLINE_MODEL;
+        if !mcu.online && models.iter().any(|m| m == online_model) {
+            eprintln!("xtask: {} online loop scene", mcu.name);
+            let mut c = fw_cargo(o);
+            c.env(gpecnet_mcu_models::ONLY_VAR, online_model);
+            if let Some(level) = mcu.golden_opt_level {
+                c.env("CARGO_PROFILE_RELEASE_OPT_LEVEL", level);
+            }
+            let copy = log_dir.join("online.elf");
+            let features = mcu.golden_features();
+            runs.push((None, build_and_start(s, c, mcu, "online", &features, &[], copy)));
+        }
         // The tracker demo, its own binary, with the signed metric MCU model only (the
         // demo verifies its signature at boot; more models would not fit the flash beside
         // the verifier).
@@ -446,13 +460,17 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
     }) {
         outln!(log, "firmware| {l}");
     }
-    let keep = ["model ", "golden ", "xcheck ", "online "];
-    let fl = lines_with(&fw_out, &keep);
-    // The host plays the online loop's scene always; a class whose image leaves it out
-    // is compared without it.
-    let hl: Vec<&str> = lines_with(&host_out, &keep)
+    // The golden cases in the host's order, then the online loop's scene: in the golden
+    // image after its model's cases, or (a class with `online: false`) from its own image,
+    // which runs beside the golden images, so its lines are compared on their own.
+    let cases = ["model ", "golden ", "xcheck "];
+    let fl: Vec<&str> = lines_with(&fw_out, &cases)
         .into_iter()
-        .filter(|l| mcu.online || !l.starts_with("online "))
+        .chain(lines_with(&fw_out, &["online "]))
+        .collect();
+    let hl: Vec<&str> = lines_with(&host_out, &cases)
+        .into_iter()
+        .chain(lines_with(&host_out, &["online "]))
         .collect();
     let differ: Vec<(usize, &str, &str)> = (0..fl.len().max(hl.len()))
         .filter_map(|i| {
@@ -487,8 +505,7 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
     // its model (compared line by line above), on every class that embeds that model.
     let online_model = gpecnet_replay::ONLINE_MODEL;
     let online = count(&format!("online {online_model} "));
-    let online_ok = !mcu.online
-        || !models.iter().any(|m| m == online_model)
+    let online_ok = !models.iter().any(|m| m == online_model)
         || online == gpecnet_replay::ONLINE_FRAMES as usize;
     outln!(
         log,
@@ -496,8 +513,8 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
         gpecnet_replay::ONLINE_TRACKS,
         gpecnet_replay::ONLINE_PENDING,
         gpecnet_replay::ONLINE_FRAMES,
-        if !mcu.online {
-            "  (not played on this class: firmware/src/lib.rs ONLINE_SCENE)"
+        if online_ok && !mcu.online {
+            "  (its own image: firmware/src/bin/online.rs)"
         } else if online_ok {
             ""
         } else {
