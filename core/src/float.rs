@@ -13,8 +13,8 @@
 
 use core::marker::PhantomData;
 
+use crate::backend::{Backend, Sealed};
 use crate::blob::{Activation, Layer, NumericKind};
-use crate::engine::{Backend, Sealed};
 use crate::lanes::LaneArith;
 use crate::sine::Sine;
 

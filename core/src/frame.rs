@@ -26,7 +26,8 @@
 //! No trigonometry is involved, so the f32 and the fixed-point engines apply
 //! the same rule, bit for bit, on every target.
 
-use crate::blob::MAX_PAST;
+use crate::backend::in_exp;
+use crate::blob::{pow2, Model, NumericKind, MAX_PAST};
 use crate::output::{PredictError, Trajectory};
 
 /// The largest accepted magnitude of an input coordinate (caller's units).
@@ -73,6 +74,26 @@ pub fn check_output(p: [f32; 2]) -> Result<[f32; 2], PredictError> {
 /// corrupted track (a teleporting detection, a coordinate in the wrong unit) is
 /// refused instead of forecast from.
 pub const MAX_INPUT: f32 = 4096.0;
+
+// A method of the model view, defined here because it is the frame's input
+// guard applied to the model: the blob below knows neither.
+impl Model<'_> {
+    /// The largest accepted magnitude of a normalised network input
+    /// ([`Frame::inputs`]): [`MAX_INPUT`], or less
+    /// for a fixed-point model whose input exponent `e` cannot represent it:
+    /// `2^(15−e)`, beyond which quantisation would saturate by more than one
+    /// step (up to it, the error is at most one step, `2^−e`).
+    pub fn input_limit(&self) -> f32 {
+        let limit = MAX_INPUT;
+        match self.numeric() {
+            NumericKind::F32 => limit,
+            NumericKind::Int16Q15 => {
+                let e = in_exp(self.encoder_past());
+                limit.min(pow2(15 - e as i32))
+            }
+        }
+    }
+}
 
 /// A track's frame: its origin and, when the model asks, its heading.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -15,8 +15,8 @@
 //! time; then the row's activation, lane by lane, for the lanes
 //! `l < used` (0 for the others).
 
+use crate::backend::Backend;
 use crate::blob::{Activation, Layer};
-use crate::engine::Backend;
 
 /// What a backend supplies to the lane skeleton. The sum type is the
 /// backend's [`Backend::Acc`] (f32, or an exact `i64`).

@@ -126,6 +126,7 @@
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
+pub mod backend;
 pub mod batch;
 pub mod blob;
 pub mod camera;

@@ -66,8 +66,9 @@
 
 mod steps;
 
+use crate::backend::{out_exp, Backend};
 use crate::blob::{Model, NumericKind};
-use crate::engine::{out_exp, Backend, Engine};
+use crate::engine::Engine;
 use crate::fixed::Q15;
 use crate::float::Float;
 use crate::frame::Frame;

@@ -4,8 +4,8 @@
 //! and the trajectory networks ([`Batch::run`]), or turn the point head's
 //! output into trajectories ([`Batch::points_out`]).
 
+use crate::backend::{in_exp, out_exp, Backend};
 use crate::blob::{Layer, MAX_PAST};
-use crate::engine::{in_exp, out_exp, Backend};
 use crate::frame::Frame;
 use crate::output::{PredictError, Trajectory};
 use crate::prng::Gaussian;

@@ -1,6 +1,8 @@
 //! One layer: its wire encodings ([`LayerWire`], [`LayerWireQ`]) and the
 //! validated [`Layer`] view of its tensors, still in the blob.
 
+use core::ops::RangeInclusive;
+
 use serde::{Deserialize, Serialize};
 
 use super::Activation;
@@ -57,6 +59,21 @@ pub const MIN_EXP: i8 = -8;
 #[doc(hidden)]
 /// Largest exponent a fixed-point activation vector may use.
 pub const MAX_EXP: i8 = 30;
+#[doc(hidden)]
+/// Allowed shifts of `Linear`/`Relu` channels.
+pub const AFFINE_SHIFTS: RangeInclusive<i8> = 0..=62;
+#[doc(hidden)]
+/// Allowed shifts of `Sine` channels.
+pub const SINE_SHIFTS: RangeInclusive<i8> = -31..=62;
+
+#[doc(hidden)]
+/// `2^e` as f32 (exact for −126 ≤ e ≤ 127): the value of one step of a
+/// fixed-point vector with exponent `−e`.
+#[inline]
+pub fn pow2(e: i32) -> f32 {
+    let e = e.clamp(-126, 127);
+    f32::from_bits(((127 + e) as u32) << 23)
+}
 
 /// A validated layer: dims, activation, and its tensors still in the blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -54,7 +54,7 @@ pub use header::{
 #[doc(hidden)]
 pub use header::{ModelInfo, Preamble, CRC32};
 pub(crate) use layer::read_f32;
-pub use layer::{Layer, TENSOR_ALIGN};
 #[doc(hidden)]
-pub use layer::{LayerWire, LayerWireQ, MAX_EXP, MIN_EXP};
+pub use layer::{pow2, LayerWire, LayerWireQ, AFFINE_SHIFTS, MAX_EXP, MIN_EXP, SINE_SHIFTS};
+pub use layer::{Layer, TENSOR_ALIGN};
 pub use model::{Model, Network};

@@ -334,21 +334,6 @@ impl<'a> Model<'a> {
         let c = &self.config;
         self.max_width().max(c.fdim as usize + c.zdim as usize)
     }
-    /// The largest accepted magnitude of a normalised network input
-    /// ([`crate::frame::Frame::inputs`]): [`crate::frame::MAX_INPUT`], or less
-    /// for a fixed-point model whose input exponent `e` cannot represent it:
-    /// `2^(15−e)`, beyond which quantisation would saturate by more than one
-    /// step (up to it, the error is at most one step, `2^−e`).
-    pub fn input_limit(&self) -> f32 {
-        let limit = crate::frame::MAX_INPUT;
-        match self.numeric {
-            NumericKind::F32 => limit,
-            NumericKind::Int16Q15 => {
-                let e = crate::engine::in_exp(&self.encoder_past);
-                limit.min(crate::fixed::pow2(15 - e as i32))
-            }
-        }
-    }
     /// Number of weights and biases.
     pub fn parameter_count(&self) -> usize {
         self.all_layers().map(|l| l.macs() + l.out_dim).sum()

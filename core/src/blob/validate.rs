@@ -3,8 +3,8 @@
 //! f32 values are finite, fixed-point exponents and shifts are in range.
 
 use super::{
-    Activation, BlobError, Model, Network, NetworkId, NumericKind, MAX_EXP, MAX_FUTURE, MAX_PAST,
-    MAX_PROPOSAL_LATENTS, MAX_TTS_SAMPLES, MIN_EXP,
+    pow2, Activation, BlobError, Model, Network, NetworkId, NumericKind, AFFINE_SHIFTS, MAX_EXP,
+    MAX_FUTURE, MAX_PAST, MAX_PROPOSAL_LATENTS, MAX_TTS_SAMPLES, MIN_EXP, SINE_SHIFTS,
 };
 
 pub(super) fn validate(m: &Model<'_>) -> Result<(), BlobError> {
@@ -142,7 +142,7 @@ fn check_boundary_exps(m: &Model<'_>) -> Result<(), BlobError> {
     // that the format does not say.
     if !m.proposal.is_empty() {
         let (p_in, p_out) = net_exps(&m.proposal);
-        let holds = |e: i8| m.latent_bound <= 32767.0 * crate::fixed::pow2(-(e as i32));
+        let holds = |e: i8| m.latent_bound <= 32767.0 * pow2(-(e as i32));
         if p_in != f || !holds(d_in) || !holds(p_out) {
             return Err(BlobError::BadScale(NetworkId::Proposal));
         }
@@ -166,9 +166,9 @@ fn check_scales(net: &Network<'_>, id: NetworkId) -> Result<(), BlobError> {
                 if l.out_exp != 15 {
                     return bad;
                 }
-                crate::fixed::SINE_SHIFTS
+                SINE_SHIFTS
             }
-            Activation::Linear | Activation::Relu => crate::fixed::AFFINE_SHIFTS,
+            Activation::Linear | Activation::Relu => AFFINE_SHIFTS,
         };
         if !l.shifts.iter().all(|&s| range.contains(&(s as i8))) {
             return bad;

@@ -1,13 +1,8 @@
 //! The boundaries of the networks: f32 to fixed point ([`quantize`]) and
-//! back ([`dequantize`]), through exact powers of two ([`pow2`]).
+//! back ([`dequantize`]), through exact powers of two ([`pow2`], the blob's
+//! own: its validation scales by it too).
 
-#[doc(hidden)]
-/// `2^e` as f32 (exact for −126 ≤ e ≤ 127).
-#[inline]
-pub fn pow2(e: i32) -> f32 {
-    let e = e.clamp(-126, 127);
-    f32::from_bits(((127 + e) as u32) << 23)
-}
+use crate::blob::pow2;
 
 #[doc(hidden)]
 /// f32 → fixed: `clamp(round_ties_even(x · 2^e), −32768, 32767)`; NaN → 0.

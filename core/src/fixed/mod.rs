@@ -99,16 +99,19 @@ mod rows;
 #[cfg(test)]
 mod tests;
 
-use core::ops::RangeInclusive;
-
+use crate::backend::{Backend, Sealed};
 use crate::blob::{Activation, Layer, NumericKind};
-use crate::engine::{Backend, Sealed};
 use crate::lanes::LaneArith;
 
 #[doc(hidden)]
 pub use activation::activate_q;
 #[doc(hidden)]
-pub use convert::{dequantize, pow2, quantize};
+pub use convert::{dequantize, quantize};
+// The exponent scale and the shift ranges are rules of the blob format,
+// which validates them: they live in `blob` and are re-exported here under
+// the names the fixed-point code has always had.
+#[doc(hidden)]
+pub use crate::blob::{pow2, AFFINE_SHIFTS, SINE_SHIFTS};
 use dense::{accumulate, dense_q, latent_with};
 use dot::{dot1, w16};
 
@@ -116,12 +119,6 @@ use dot::{dot1, w16};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Q15;
 
-#[doc(hidden)]
-/// Allowed shifts of `Linear`/`Relu` channels.
-pub const AFFINE_SHIFTS: RangeInclusive<i8> = 0..=62;
-#[doc(hidden)]
-/// Allowed shifts of `Sine` channels.
-pub const SINE_SHIFTS: RangeInclusive<i8> = -31..=62;
 /// Name of this sine in golden files and model cards.
 pub const SINE_NAME: &str = "q15-table";
 
