@@ -29,6 +29,9 @@ pub const MAX_HIDDEN_LAYERS: usize = 7;
 pub const MAX_BATCH: usize = 1 << 20;
 /// Most matmul threads.
 pub const MAX_THREADS: usize = 1024;
+/// Windows evaluated per validation forward pass (times K rows): the training loop's chunk
+/// ([`crate::train::VAL_CHUNK`] is this one), here because [`MAX_VAL_ACTIVATION_BYTES`] bounds it.
+pub const VAL_CHUNK: usize = 512;
 /// Most bytes of one validation layer's activations (`VAL_CHUNK · k · width · 4`): 4 GiB.
 pub const MAX_VAL_ACTIVATION_BYTES: u64 = 4 << 30;
 /// Most parameters of all networks together ([`TrainConfig::total_param_count`]): 2^23 =

@@ -9,6 +9,7 @@ use crate::network::Act;
 use super::{
     mlp_params, TrainConfig, MAX_BATCH, MAX_HIDDEN_LAYERS, MAX_K, MAX_NONLOCAL_POOLS,
     MAX_PARAMETERS, MAX_THREADS, MAX_TRAIN_ACTIVATION_BYTES, MAX_VAL_ACTIVATION_BYTES, MAX_WIDTH,
+    VAL_CHUNK,
 };
 
 impl TrainConfig {
@@ -157,14 +158,14 @@ impl TrainConfig {
                 MAX_TRAIN_ACTIVATION_BYTES >> 30
             );
         }
-        let val_bytes = (crate::train::VAL_CHUNK as u128) * (self.k as u128) * (widest as u128) * 4;
+        let val_bytes = (VAL_CHUNK as u128) * (self.k as u128) * (widest as u128) * 4;
         if val_bytes > u128::from(MAX_VAL_ACTIVATION_BYTES) {
-            let max_k = MAX_VAL_ACTIVATION_BYTES as usize / (crate::train::VAL_CHUNK * widest * 4);
+            let max_k = MAX_VAL_ACTIVATION_BYTES as usize / (VAL_CHUNK * widest * 4);
             bail!(
                 "k = {} is out of range for layers {widest} wide: allowed 1..={} (validation holds {} windows x k samples x {widest} f32 activations per layer, at most {} GiB)",
                 self.k,
                 max_k.max(1),
-                crate::train::VAL_CHUNK,
+                VAL_CHUNK,
                 MAX_VAL_ACTIVATION_BYTES >> 30
             );
         }

@@ -9,12 +9,12 @@ use anyhow::{Context, Result};
 use crate::data::{load_sdd, Dataset, SddSplit};
 use crate::mlp::Mlp;
 
-use super::abscore::{self, filter_by_abscore, Which};
-use super::agent;
-use super::classify::{self, TrajType};
-use super::plot::{self, Panel};
-use super::sample;
-use super::Stats;
+use crate::synthetic::abscore::{self, filter_by_abscore, Which};
+use crate::synthetic::agent;
+use crate::synthetic::classify::{self, TrajType};
+use crate::synthetic::plot::{self, Panel};
+use crate::synthetic::sample;
+use crate::synthetic::Stats;
 
 fn write(out: &Path, name: &str, text: &str) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
@@ -140,7 +140,7 @@ pub fn run_classify(data: &Path, out: &Path) -> Result<String> {
     let ct = classify::type_counts(windows_of(&train));
     let ce = classify::type_counts(windows_of(&test));
     let mut rep = format!(
-        "Trajectory types (rules: host-trainer/train/src/synth/classify.rs)\n\n{}",
+        "Trajectory types (rules: host-trainer/train/src/synthetic/classify.rs)\n\n{}",
         type_table(&[(&train.name, ct), (&test.name, ce)])
     );
     let ht = classify::unique_histogram(windows_of(&train));

@@ -50,8 +50,9 @@ pub use run::{
 pub use trainer::{TrainLoss, Trainer};
 pub use validate::{validate_model, validate_point};
 
-/// Windows evaluated per validation forward pass (times K rows).
-pub const VAL_CHUNK: usize = 512;
+// Defined with the config limits it bounds (`MAX_VAL_ACTIVATION_BYTES`), which sit below the
+// loop.
+pub use crate::config::VAL_CHUNK;
 
 /// Pin candle's CPU matmul parallelism to `n` threads (see the module docs). Must be called
 /// before the first tensor operation of the process to also size rayon's global pool.

@@ -63,7 +63,7 @@ pub fn social_train_groups(
 
 /// The synthetic windows `cfg` adds to `n_real` real training windows: the first
 /// `round(augment_pct / 100 × n_real)` trajectories of `cfg.synthetic_pool`
-/// ([`crate::synth::sample::take_first_pct`]); none when `augment_pct` is 0.
+/// ([`crate::synthetic::sample::take_first_pct`]); none when `augment_pct` is 0.
 pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>> {
     if cfg.augment_pct <= 0.0 {
         return Ok(Vec::new());
@@ -71,9 +71,9 @@ pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>
     let Some(path) = cfg.synthetic_pool.as_deref() else {
         bail!("augment_pct = {} needs synthetic_pool", cfg.augment_pct);
     };
-    let pool = crate::synth::sample::read_pool(Path::new(path))?;
+    let pool = crate::synthetic::sample::read_pool(Path::new(path))?;
     let mut windows =
-        crate::synth::sample::take_first_pct(&pool, f64::from(cfg.augment_pct), n_real)
+        crate::synthetic::sample::take_first_pct(&pool, f64::from(cfg.augment_pct), n_real)
             .with_context(|| format!("augmenting from {path}"))?;
     let s = cfg.synthetic_metres_per_pixel;
     if s > 0.0 {
