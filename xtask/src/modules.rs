@@ -1,17 +1,25 @@
-//! `cargo xtask check-modules`: two rules about the source tree that the
+//! `cargo xtask check-modules`: three rules about the source tree that the
 //! compiler does not enforce.
 //!
-//! 1. **No module imports a module that imports it back.** In each crate's
+//! 1. **Folders are layers: no import cycle between modules.** In each crate's
 //!    `src/`, every `crate::…`, `super::…` and `self::…` path (in `use`
-//!    trees, nested groups included, and inline in code) is an edge from the
-//!    file's module to the deepest file module the path names (`crate::data::spec::X`
-//!    → `data::spec` when `src/data/spec.rs` exists, else `data`). Two modules
-//!    that reach each other, neither inside the other, are a cycle. A module
-//!    and its own submodules may use each other (a `mod.rs` re-exports its
-//!    children; a child uses its parent's types). Cycles that were there when
-//!    the check was introduced are listed in `xtask/known-module-cycles.txt`:
-//!    those are reported, every other one fails the check, and so does a
-//!    listed one that is gone (remove its line).
+//!    trees, nested groups included, and inline in code, unit tests
+//!    included) is an edge from the file's module to the deepest file module
+//!    the path names (`crate::data::spec::X` → `data::spec` when
+//!    `src/data/spec.rs` exists, else `data`). A module and its own
+//!    submodules may use each other (a `mod.rs` re-exports its children; a
+//!    child uses its parent's types; a path through the crate root's
+//!    re-exports, `crate::Model`, names the root and is not counted). Every
+//!    other edge is counted between the two modules it joins right below
+//!    their common parent: `a::x → b::y` is an edge `a → b` between two
+//!    top-level modules (each folder one node, whatever its files import),
+//!    `a::x → a::y` one between two children of `a`. At each level the strongly connected components of those edges
+//!    are the cycles: two modules that import each other, or three or more
+//!    that reach each other round a longer loop. Each is reported with its
+//!    modules and, per edge inside it, the files whose imports make the edge.
+//!    Cycles that were there when the check was introduced are listed in
+//!    `xtask/known-module-cycles.txt`: those are reported, every other one
+//!    fails the check, and so does a listed one that is gone (remove its line).
 //! 2. **Every test file is compiled.** A crate with `tests/it.rs` has one
 //!    integration-test binary (`autotests = false`): each `tests/<name>.rs`
 //!    and `tests/<name>/mod.rs` must be declared `mod <name>;` in `tests/it.rs`,
@@ -29,7 +37,7 @@ use std::path::{Path, PathBuf};
 
 use crate::root;
 
-/// The cycles present when this check was introduced, one `crate: a <-> b` per line.
+/// The cycles present when this check was introduced, one `crate: a, b, …` per line.
 const KNOWN: &str = "xtask/known-module-cycles.txt";
 
 /// Every package of the repository (its own workspace or not), by directory.
@@ -376,8 +384,112 @@ fn contains(a: &[String], b: &[String]) -> bool {
     b.starts_with(a)
 }
 
-/// The mutual imports of one crate's `src/`, as `a <-> b` (a < b).
-fn crate_cycles(src: &Path) -> Vec<String> {
+/// One import cycle of a crate: sibling modules (children of one module, the
+/// crate root for top-level ones; a folder counts as one node) that reach
+/// each other through their imports.
+#[derive(Debug, PartialEq)]
+struct Cycle {
+    /// The modules, full paths (`a::b`), sorted.
+    modules: Vec<String>,
+    /// Each edge inside the cycle, `(from, to, files)`: the files below
+    /// `from` whose imports reach below `to`, sorted.
+    edges: Vec<(String, String, Vec<PathBuf>)>,
+}
+
+impl Cycle {
+    /// The cycle as `xtask/known-module-cycles.txt` lists it (without the crate).
+    fn line(&self) -> String {
+        self.modules.join(", ")
+    }
+}
+
+/// The strongly connected components of `edges` with more than one node,
+/// each sorted (Tarjan's algorithm; the graphs are a crate's modules, small).
+fn components(edges: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
+    let names: Vec<&String> = edges
+        .iter()
+        .flat_map(|(a, bs)| std::iter::once(a).chain(bs))
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let id = |n: &String| names.binary_search(&n).unwrap_or(0);
+    let adj: Vec<Vec<usize>> = names
+        .iter()
+        .map(|n| edges.get(*n).into_iter().flatten().map(id).collect())
+        .collect();
+    struct Tarjan {
+        adj: Vec<Vec<usize>>,
+        index: Vec<Option<usize>>,
+        low: Vec<usize>,
+        on_stack: Vec<bool>,
+        stack: Vec<usize>,
+        next: usize,
+        out: Vec<Vec<usize>>,
+    }
+    impl Tarjan {
+        fn visit(&mut self, v: usize) {
+            self.index[v] = Some(self.next);
+            self.low[v] = self.next;
+            self.next += 1;
+            self.stack.push(v);
+            self.on_stack[v] = true;
+            for k in 0..self.adj[v].len() {
+                let w = self.adj[v][k];
+                match self.index[w] {
+                    None => {
+                        self.visit(w);
+                        self.low[v] = self.low[v].min(self.low[w]);
+                    }
+                    Some(iw) if self.on_stack[w] => self.low[v] = self.low[v].min(iw),
+                    Some(_) => {}
+                }
+            }
+            if Some(self.low[v]) == self.index[v] {
+                let mut comp = Vec::new();
+                while let Some(w) = self.stack.pop() {
+                    self.on_stack[w] = false;
+                    comp.push(w);
+                    if w == v {
+                        break;
+                    }
+                }
+                self.out.push(comp);
+            }
+        }
+    }
+    let n = names.len();
+    let mut t = Tarjan {
+        adj,
+        index: vec![None; n],
+        low: vec![0; n],
+        on_stack: vec![false; n],
+        stack: Vec::new(),
+        next: 0,
+        out: Vec::new(),
+    };
+    for v in 0..n {
+        if t.index[v].is_none() {
+            t.visit(v);
+        }
+    }
+    let mut out: Vec<Vec<String>> = t
+        .out
+        .into_iter()
+        .filter(|c| c.len() > 1)
+        .map(|c| {
+            let mut c: Vec<String> = c.into_iter().map(|i| names[i].clone()).collect();
+            c.sort();
+            c
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// The import cycles of one crate's `src/` (rule 1), at every level: between
+/// its top-level modules (a folder is one node), then between the children
+/// of each folder.
+fn crate_cycles(src: &Path) -> Vec<Cycle> {
     let mut files = Vec::new();
     rust_files(src, &mut files);
     let by_file: Vec<(Vec<String>, &PathBuf)> = files
@@ -385,22 +497,45 @@ fn crate_cycles(src: &Path) -> Vec<String> {
         .filter_map(|f| module_of(src, f).map(|m| (m, f)))
         .collect();
     let modules: BTreeSet<Vec<String>> = by_file.iter().map(|(m, _)| m.clone()).collect();
-    let mut edges: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+    // Per parent module: the edges between its children, each with its files.
+    type Edges = BTreeMap<(String, String), BTreeSet<PathBuf>>;
+    let mut levels: BTreeMap<Vec<String>, Edges> = BTreeMap::new();
     for (me, file) in &by_file {
         let text = std::fs::read_to_string(file).unwrap_or_default();
         for path in references(&text, me) {
             let to = resolve(&path, &modules);
-            if !contains(me, to) && !contains(to, me) {
-                edges.entry(me.clone()).or_default().insert(to.to_vec());
+            if contains(me, to) || contains(to, me) {
+                continue;
             }
+            // Neither contains the other: they differ right below their common parent.
+            let common = me.iter().zip(to).take_while(|(a, b)| a == b).count();
+            let parent = me[..common].to_vec();
+            let node = |m: &[String]| m[..=common].join("::");
+            levels
+                .entry(parent)
+                .or_default()
+                .entry((node(me), node(to)))
+                .or_default()
+                .insert((*file).clone());
         }
     }
     let mut cycles = Vec::new();
-    for (a, tos) in &edges {
-        for b in tos {
-            if a < b && edges.get(b).is_some_and(|back| back.contains(a)) {
-                cycles.push(format!("{} <-> {}", a.join("::"), b.join("::")));
-            }
+    for edges in levels.values() {
+        let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (a, b) in edges.keys() {
+            graph.entry(a.clone()).or_default().insert(b.clone());
+        }
+        for comp in components(&graph) {
+            let inside = |m: &String| comp.binary_search(m).is_ok();
+            let edges = edges
+                .iter()
+                .filter(|((a, b), _)| inside(a) && inside(b))
+                .map(|((a, b), f)| (a.clone(), b.clone(), f.iter().cloned().collect()))
+                .collect();
+            cycles.push(Cycle {
+                modules: comp,
+                edges,
+            });
         }
     }
     cycles
@@ -480,19 +615,28 @@ pub(crate) fn check_modules() -> i32 {
         let rel = dir.strip_prefix(&root).unwrap_or(dir).display().to_string();
         let cycles = crate_cycles(&dir.join("src"));
         for c in &cycles {
-            let line = format!("{name}: {c}");
+            let line = format!("{name}: {}", c.line());
             let is_known = known.contains(line.as_str());
             if !is_known {
                 failed = true;
             }
             println!(
-                "check-modules: {line}{}",
+                "check-modules: {name}: import cycle of {} modules: {}{}",
+                c.modules.len(),
+                c.line(),
                 if is_known {
                     " (known, listed in xtask/known-module-cycles.txt)"
                 } else {
                     "  <- NEW CYCLE"
                 }
             );
+            for (a, b, files) in &c.edges {
+                let files: Vec<String> = files
+                    .iter()
+                    .map(|f| f.strip_prefix(&root).unwrap_or(f).display().to_string())
+                    .collect();
+                println!("check-modules:     {a} -> {b}: {}", files.join(", "));
+            }
             found.insert(line);
         }
         let missing = undeclared_tests(dir);
@@ -506,7 +650,7 @@ pub(crate) fn check_modules() -> i32 {
         }
         failed |= !unrun.is_empty();
         println!(
-            "check-modules: {name:<20} ({rel}) {} mutual import(s){}",
+            "check-modules: {name:<20} ({rel}) {} import cycle(s){}",
             cycles.len(),
             if dir.join("tests/it.rs").is_file() {
                 ", every tests/ file in tests/it.rs"
@@ -570,19 +714,105 @@ mod tests {
         assert_eq!(resolve(&s(&["Error"]), &modules), s(&[]));
     }
 
-    #[test]
-    fn a_mutual_import_is_a_cycle_a_parent_and_child_are_not() {
-        let dir = std::env::temp_dir().join(format!("xtask-modules-{}", std::process::id()));
+    /// Writes `files` (path below `src/`, text) into a fresh crate and returns its cycles.
+    fn cycles_of(tag: &str, files: &[(&str, &str)]) -> (PathBuf, Vec<Cycle>) {
+        let dir = std::env::temp_dir().join(format!("xtask-modules-{tag}-{}", std::process::id()));
         let src = dir.join("src");
-        std::fs::create_dir_all(src.join("p")).unwrap();
-        std::fs::write(src.join("lib.rs"), "mod a; mod b; mod p;").unwrap();
-        std::fs::write(src.join("a.rs"), "use crate::b::B; pub struct A;").unwrap();
-        std::fs::write(src.join("b.rs"), "pub struct B(crate::a::A);").unwrap();
-        std::fs::write(src.join("p/mod.rs"), "mod c; pub use c::C; pub struct P;").unwrap();
-        std::fs::write(src.join("p/c.rs"), "pub struct C(super::P);").unwrap();
+        for (path, text) in files {
+            let f = src.join(path);
+            std::fs::create_dir_all(f.parent().unwrap()).unwrap();
+            std::fs::write(f, text).unwrap();
+        }
         let cycles = crate_cycles(&src);
         let _ = std::fs::remove_dir_all(&dir);
-        assert_eq!(cycles, vec!["a <-> b".to_string()]);
+        (src, cycles)
+    }
+
+    #[test]
+    fn a_mutual_import_is_a_cycle_a_parent_and_child_are_not() {
+        let (src, cycles) = cycles_of(
+            "pair",
+            &[
+                ("lib.rs", "mod a; mod b; mod p;"),
+                ("a.rs", "use crate::b::B; pub struct A;"),
+                ("b.rs", "pub struct B(crate::a::A);"),
+                ("p/mod.rs", "mod c; pub use c::C; pub struct P;"),
+                ("p/c.rs", "pub struct C(super::P);"),
+            ],
+        );
+        assert_eq!(
+            cycles,
+            vec![Cycle {
+                modules: s(&["a", "b"]),
+                edges: vec![
+                    (String::from("a"), String::from("b"), vec![src.join("a.rs")]),
+                    (String::from("b"), String::from("a"), vec![src.join("b.rs")]),
+                ],
+            }]
+        );
+        assert_eq!(cycles[0].line(), "a, b");
+    }
+
+    #[test]
+    fn a_longer_cycle_through_folders_is_one_component_with_its_files() {
+        // blob/model.rs -> engine -> planner -> blob/layer.rs: no two modules
+        // import each other, but the three folders reach each other; `sink`
+        // is imported by all and imports nothing back, so it is outside.
+        let (src, cycles) = cycles_of(
+            "loop",
+            &[
+                ("lib.rs", "mod blob; mod engine; mod planner; mod sink;"),
+                ("blob/mod.rs", "mod layer; mod model;"),
+                ("blob/layer.rs", "pub struct Layer; use crate::sink::S;"),
+                (
+                    "blob/model.rs",
+                    "use crate::engine::E; use super::layer::Layer;",
+                ),
+                ("engine.rs", "use crate::planner::P; use crate::sink::S;"),
+                ("planner.rs", "pub struct P(crate::blob::layer::Layer);"),
+                ("sink.rs", "pub struct S;"),
+            ],
+        );
+        assert_eq!(cycles.len(), 1);
+        assert_eq!(cycles[0].line(), "blob, engine, planner");
+        assert_eq!(
+            cycles[0].edges,
+            vec![
+                (
+                    String::from("blob"),
+                    String::from("engine"),
+                    vec![src.join("blob/model.rs")]
+                ),
+                (
+                    String::from("engine"),
+                    String::from("planner"),
+                    vec![src.join("engine.rs")]
+                ),
+                (
+                    String::from("planner"),
+                    String::from("blob"),
+                    vec![src.join("planner.rs")]
+                ),
+            ]
+        );
+    }
+
+    #[test]
+    fn cycles_inside_a_folder_are_found_among_its_children() {
+        // Inside `f`, `x` and `y` import each other; seen from the crate
+        // root `f` is one node and has no cycle with `g`, which only uses it.
+        let (_, cycles) = cycles_of(
+            "nested",
+            &[
+                ("lib.rs", "mod f; mod g;"),
+                ("f/mod.rs", "mod x; mod y;"),
+                ("f/x.rs", "use super::y::Y; pub struct X;"),
+                ("f/y.rs", "pub struct Y(crate::f::x::X);"),
+                ("g.rs", "use crate::f::x::X;"),
+            ],
+        );
+        assert_eq!(cycles.len(), 1);
+        assert_eq!(cycles[0].line(), "f::x, f::y");
     }
 
     #[test]
