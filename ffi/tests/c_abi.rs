@@ -16,6 +16,8 @@ use std::ptr::{null, null_mut};
 use gpecnet_core::blob::CRC32;
 use gpecnet_ffi::*;
 
+use crate::common::{root, weights};
+
 /// Caller storage as C declares it.
 #[repr(C, align(8))]
 struct Storage([u8; GPECNET_PREDICTOR_SIZE + 16]);
@@ -30,15 +32,6 @@ impl Storage {
     fn p(&mut self) -> *mut GpecnetPredictor {
         self.0.as_mut_ptr().cast()
     }
-}
-
-fn weights(name: &str) -> Vec<u8> {
-    std::fs::read(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../weights")
-            .join(name),
-    )
-    .unwrap()
 }
 
 fn init(s: &mut Storage, blob: &[u8]) -> i32 {
@@ -390,7 +383,7 @@ fn resealed_corruption_is_refused_or_predicts_safely() {
 /// `k = 21` is `GPECNET_E_BAD_SAMPLE_COUNT` (its logit rows are not a 21st latent).
 #[test]
 fn every_shipped_blob_refuses_max_endpoints_plus_one() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights");
+    let dir = root().join("weights");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

@@ -6,27 +6,12 @@
 use std::ptr::{null, null_mut};
 
 use gpecnet_core::camera::{
-    to_observations, BoundingBox, Camera, CameraError, Detection, Distortion, Euler, Intrinsics,
-    Pose, State,
+    to_observations, BoundingBox, Camera, CameraError, Detection, Pose, State,
 };
 use gpecnet_core::tracks::Observation;
 use gpecnet_ffi::*;
 
-/// A gimbal camera with a calibrated lens, 150 m range.
-fn camera() -> GpecnetCamera {
-    GpecnetCamera {
-        fx: 1100.0,
-        fy: 1100.0,
-        cx: 960.0,
-        cy: 540.0,
-        k1: -0.12,
-        k2: 0.03,
-        p1: 0.0,
-        p2: 0.0,
-        mount: GpecnetEuler::default(),
-        max_range: 150.0,
-    }
-}
+use crate::common::camera;
 
 /// 30 m above the origin, level, facing north, the gimbal 45° down.
 fn state() -> GpecnetCameraState {
@@ -39,44 +24,6 @@ fn state() -> GpecnetCameraState {
             yaw: 0.0,
         },
         ground_down: 0.0,
-    }
-}
-
-/// The core's camera of `c`, field by field.
-fn core_camera(c: &GpecnetCamera) -> Camera {
-    Camera {
-        intrinsics: Intrinsics {
-            fx: c.fx,
-            fy: c.fy,
-            cx: c.cx,
-            cy: c.cy,
-        },
-        distortion: Distortion {
-            k1: c.k1,
-            k2: c.k2,
-            p1: c.p1,
-            p2: c.p2,
-        },
-        mount: core_euler(c.mount),
-        max_range: c.max_range,
-    }
-}
-
-fn core_euler(e: GpecnetEuler) -> Euler {
-    Euler {
-        roll: e.roll,
-        pitch: e.pitch,
-        yaw: e.yaw,
-    }
-}
-
-/// The core's state of `s`, field by field.
-fn core_state(s: &GpecnetCameraState) -> State {
-    State {
-        attitude: s.attitude,
-        position: s.position,
-        gimbal: core_euler(s.gimbal),
-        ground_down: s.ground_down,
     }
 }
 
@@ -174,6 +121,55 @@ fn boxes_to_detections(
 
 fn bits(v: [f32; 2]) -> [u32; 2] {
     v.map(f32::to_bits)
+}
+
+/// The tests below compare the C functions with the core through the crate's
+/// conversions of the C structs: those put every field in its place (a value
+/// distinct per field comes out where the core reads it).
+#[test]
+fn conversions_keep_every_field_in_place() {
+    let c = GpecnetCamera {
+        fy: 1101.0,
+        cy: 541.0,
+        p1: 0.001,
+        p2: 0.002,
+        mount: GpecnetEuler {
+            roll: 0.01,
+            pitch: 0.02,
+            yaw: 0.04,
+        },
+        ..camera()
+    };
+    let k = Camera::from(c);
+    let (i, d, m) = (k.intrinsics, k.distortion, k.mount);
+    assert_eq!(
+        [i.fx, i.fy, i.cx, i.cy, d.k1, d.k2, d.p1, d.p2],
+        [c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2]
+    );
+    let cm = c.mount;
+    assert_eq!(
+        [m.roll, m.pitch, m.yaw, k.max_range],
+        [cm.roll, cm.pitch, cm.yaw, c.max_range]
+    );
+    let s = GpecnetCameraState {
+        attitude: [0.5, 0.5, -0.5, 0.5],
+        position: [1.0, 2.0, -3.0],
+        gimbal: GpecnetEuler {
+            roll: 0.1,
+            pitch: 0.2,
+            yaw: 0.3,
+        },
+        ground_down: 4.0,
+    };
+    let (t, g) = (State::from(s), s.gimbal);
+    assert_eq!(
+        (t.attitude, t.position, t.ground_down),
+        (s.attitude, s.position, s.ground_down)
+    );
+    assert_eq!(
+        [t.gimbal.roll, t.gimbal.pitch, t.gimbal.yaw],
+        [g.roll, g.pitch, g.yaw]
+    );
 }
 
 #[test]
@@ -305,7 +301,7 @@ fn hostile_inputs_give_their_status() {
         let (st, p) = pose(c, s);
         assert_eq!(st, want, "{c:?} {s:?}");
         assert_eq!(p.tag, 0);
-        let core = Pose::new(&core_camera(c), &core_state(s)).unwrap_err();
+        let core = Pose::new(&Camera::from(*c), &State::from(*s)).unwrap_err();
         assert_eq!(code(core), want);
     };
     // A NaN quaternion (any component), or an infinite one.
@@ -363,7 +359,7 @@ fn hostile_inputs_give_their_status() {
     sky.gimbal.pitch = 0.5;
     let (st, p) = pose(&c, &sky);
     assert_eq!(st, GPECNET_OK);
-    let core = Pose::new(&core_camera(&c), &core_state(&sky)).unwrap();
+    let core = Pose::new(&Camera::from(c), &State::from(sky)).unwrap();
     for uv in [[960.0, 540.0], [0.0, 1079.0], [1919.0, 1079.0]] {
         assert_eq!(image_to_ground(&p, uv), Err(GPECNET_E_CAMERA_ABOVE_HORIZON));
         assert_eq!(core.image_to_ground(uv), Err(CameraError::AboveHorizon));
@@ -503,7 +499,7 @@ fn c_results_equal_the_cores_bit_for_bit() {
     for (c, s) in poses() {
         let (st, p) = pose(&c, &s);
         assert_eq!(st, GPECNET_OK, "{c:?} {s:?}");
-        let core = Pose::new(&core_camera(&c), &core_state(&s)).unwrap();
+        let core = Pose::new(&Camera::from(c), &State::from(s)).unwrap();
         for v in (-40..=1120).step_by(29) {
             for u in (-40..=1960).step_by(37) {
                 let uv = [u as f32 + 0.25, v as f32 + 0.5];
@@ -575,7 +571,7 @@ fn frame_boxes() -> Vec<GpecnetBox> {
 fn boxes_become_the_cores_observations_with_a_status_each() {
     let (c, s) = (camera(), state());
     let p = pose(&c, &s).1;
-    let core = Pose::new(&core_camera(&c), &core_state(&s)).unwrap();
+    let core = Pose::new(&Camera::from(c), &State::from(s)).unwrap();
     let boxes = frame_boxes();
     let dets: Vec<Detection> = boxes
         .iter()

@@ -8,12 +8,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
+use gpecnet_core::units::CallerUnit;
+use gpecnet_core::{LibmSine, Model, Predictor};
+
+use crate::common::{root, weights_static};
 
 fn staticlib() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
@@ -49,10 +47,21 @@ fn build(compiler: &str, std: &str, src: &str, name: &str) -> PathBuf {
     out
 }
 
-fn replay(bin: &Path, model: &str, golden: &str) -> (bool, String) {
+/// Compiles the C example `ffi/examples/c/<name>.c` as C11; returns the binary.
+fn build_c(name: &str) -> PathBuf {
+    build(
+        "cc",
+        "c11",
+        &format!("ffi/examples/c/{name}.c"),
+        &format!("{name}_c"),
+    )
+}
+
+/// Runs `bin` on the shipped files `weights/<file>`: (whether it exited 0,
+/// its stdout followed by its stderr).
+fn run(bin: &Path, files: &[&str]) -> (bool, String) {
     let r = Command::new(bin)
-        .arg(root().join("weights").join(model))
-        .arg(root().join("weights").join(golden))
+        .args(files.iter().map(|f| root().join("weights").join(f)))
         .output()
         .unwrap();
     let text = format!(
@@ -63,13 +72,21 @@ fn replay(bin: &Path, model: &str, golden: &str) -> (bool, String) {
     (r.status.success(), text)
 }
 
+/// The shipped metric model `weights/<name>` and its predictor, declared in
+/// metres as the C examples declare it.
+fn metric_predictor(name: &str) -> (Model<'static>, Predictor<'static, LibmSine, 128>) {
+    let model = Model::from_blob(weights_static(name)).unwrap();
+    let p = Predictor::with_units(model, CallerUnit::Metres).unwrap();
+    (model, p)
+}
+
 /// Golden files replayed by both examples: the pixel MCU model (fixed point,
 /// point head, test-time sampling), its f32 twin, and the metric MCU model.
 const MODELS: &[&str] = &["sdd-tiny-v2-qe", "sdd-tiny-v2", "sdd-m-tiny-qe"];
 
 fn check(bin: &Path, lang: &str) {
     for m in MODELS {
-        let (ok, text) = replay(bin, &format!("{m}.gpec"), &format!("{m}.golden"));
+        let (ok, text) = run(bin, &[&format!("{m}.gpec"), &format!("{m}.golden")]);
         println!("{lang}: {text}");
         assert!(ok, "{lang} replay of {m} failed:\n{text}");
         assert!(
@@ -78,10 +95,10 @@ fn check(bin: &Path, lang: &str) {
         );
     }
     // A golden file of other weights is refused: the example's exit code means something.
-    let (ok, text) = replay(bin, "sdd-tiny-v2.gpec", "sdd-tiny-v2-qe.golden");
+    let (ok, text) = run(bin, &["sdd-tiny-v2.gpec", "sdd-tiny-v2-qe.golden"]);
     assert!(!ok, "{lang}: mismatched golden file accepted: {text}");
     // A corrupt blob: gpecnet_init's status, exit 1.
-    let (ok, text) = replay(bin, "sdd-tiny-v2.json", "sdd-tiny-v2.golden");
+    let (ok, text) = run(bin, &["sdd-tiny-v2.json", "sdd-tiny-v2.golden"]);
     assert!(
         !ok && text.contains("bad magic"),
         "{lang}: a JSON file as blob: {text}"
@@ -90,7 +107,7 @@ fn check(bin: &Path, lang: &str) {
 
 #[test]
 fn c_example_replays_golden_files_bit_exact() {
-    let bin = build("cc", "c11", "ffi/examples/c/replay.c", "replay_c");
+    let bin = build_c("replay");
     check(&bin, "C");
 }
 
@@ -179,33 +196,13 @@ fn scene_histories(period: core::num::NonZeroU32) -> Vec<(u32, u32, [[f32; 2]; 8
 #[test]
 fn c_metric_tracker_matches_the_core() {
     use gpecnet_core::tracks::period_ms_of;
-    use gpecnet_core::units::CallerUnit;
-    use gpecnet_core::{LibmSine, Model, Predictor};
 
-    let bin = build(
-        "cc",
-        "c11",
-        "ffi/examples/c/metric_tracker.c",
-        "metric_tracker_c",
-    );
-    let run = |blob: &str| {
-        let r = Command::new(&bin)
-            .arg(root().join("weights").join(blob))
-            .arg(root().join("weights/test-signing-key.pub"))
-            .output()
-            .unwrap();
-        let out = String::from_utf8_lossy(&r.stdout).into_owned();
-        (
-            r.status.success(),
-            out + &String::from_utf8_lossy(&r.stderr),
-        )
-    };
+    let bin = build_c("metric_tracker");
+    let run = |blob: &str| run(&bin, &[blob, "test-signing-key.pub"]);
     let (ok, text) = run("sdd-m-tiny-qe.gpec");
     assert!(ok, "{text}");
 
-    let bytes = std::fs::read(root().join("weights/sdd-m-tiny-qe.gpec")).unwrap();
-    let model = Model::from_blob(&bytes).unwrap();
-    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    let (model, mut p) = metric_predictor("sdd-m-tiny-qe.gpec");
     let period = period_ms_of(&model).unwrap();
     let mut want = Vec::new();
     for (end_ms, id, past) in scene_histories(period) {
@@ -238,9 +235,7 @@ fn c_metric_tracker_matches_the_core() {
     // the core's `predict_forecast` bit for bit.
     let (ok, text) = run("sdd-m-lp-qe.gpec");
     assert!(ok, "{text}");
-    let bytes = std::fs::read(root().join("weights/sdd-m-lp-qe.gpec")).unwrap();
-    let model = Model::from_blob(&bytes).unwrap();
-    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    let (_, mut p) = metric_predictor("sdd-m-lp-qe.gpec");
     let mut want = Vec::new();
     for (end_ms, id, past) in scene_histories(period) {
         let fc: gpecnet_core::planner::Forecast<20> = p.predict_forecast(&past, 0).unwrap();
@@ -305,22 +300,7 @@ fn online_scene(f: u32) -> Vec<gpecnet_core::tracks::Observation> {
 
 /// Runs `online_tracker.c` on `sdd-m-lp-qe`: (exit status, stdout + stderr).
 fn run_online_tracker() -> (bool, String) {
-    let bin = build(
-        "cc",
-        "c11",
-        "ffi/examples/c/online_tracker.c",
-        "online_tracker_c",
-    );
-    let r = Command::new(&bin)
-        .arg(root().join("weights/sdd-m-lp-qe.gpec"))
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&r.stdout),
-        String::from_utf8_lossy(&r.stderr)
-    );
-    (r.status.success(), text)
+    run(&build_c("online_tracker"), &["sdd-m-lp-qe.gpec"])
 }
 
 /// The scene of `online_tracker.c` through the core's `online::Forecaster<16,
@@ -329,12 +309,8 @@ fn run_online_tracker() -> (bool, String) {
 /// the forecaster at the end.
 fn online_core() -> (Vec<String>, gpecnet_core::online::Forecaster<16, 2>) {
     use gpecnet_core::online::{Config, Forecaster, MotionState};
-    use gpecnet_core::units::CallerUnit;
-    use gpecnet_core::{LibmSine, Model, Predictor};
 
-    let bytes = std::fs::read(root().join("weights/sdd-m-lp-qe.gpec")).unwrap();
-    let model = Model::from_blob(&bytes).unwrap();
-    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    let (model, mut p) = metric_predictor("sdd-m-lp-qe.gpec");
     let mut f: Forecaster<16, 2> = Forecaster::new(&model, Config::metres(), 1_000).unwrap();
     let mut want = Vec::new();
     let mut motions = std::collections::BTreeSet::new();
@@ -484,34 +460,15 @@ fn drone_noise(seed: u32) -> f32 {
 /// r90 | the endpoint's pixel or the status of why it has none), then the
 /// summary line; and each forecast's endpoint error with its end time.
 fn drone_core() -> (Vec<String>, String, Vec<(u32, f32)>) {
-    use gpecnet_core::camera::{
-        to_observations, BoundingBox, Camera, Detection, Distortion, Euler, Intrinsics, Pose,
-    };
+    use gpecnet_core::camera::{to_observations, BoundingBox, Camera, Detection, Pose};
     use gpecnet_core::online::{Config, Forecaster};
     use gpecnet_core::tracks::Observation;
-    use gpecnet_core::units::CallerUnit;
-    use gpecnet_core::{LibmSine, Model, Predictor};
     use gpecnet_ffi::camera_status;
 
-    let camera = Camera {
-        intrinsics: Intrinsics {
-            fx: 1100.0,
-            fy: 1100.0,
-            cx: 960.0,
-            cy: 540.0,
-        },
-        distortion: Distortion {
-            k1: -0.12,
-            k2: 0.03,
-            p1: 0.0,
-            p2: 0.0,
-        },
-        mount: Euler::ZERO,
-        max_range: 150.0,
-    };
-    let bytes = std::fs::read(root().join("weights/sdd-m-lp-qe.gpec")).unwrap();
-    let model = Model::from_blob(&bytes).unwrap();
-    let mut p = Predictor::<LibmSine, 128>::with_units(model, CallerUnit::Metres).unwrap();
+    // The C program's camera, through the crate's conversion of the C struct
+    // (`c_camera.rs` checks that conversion field by field).
+    let camera = Camera::from(crate::common::camera());
+    let (model, mut p) = metric_predictor("sdd-m-lp-qe.gpec");
     let mut f: Forecaster<16, 2> = Forecaster::new(&model, Config::metres(), 1_000).unwrap();
     let (mut lines, mut errors, mut refused, mut sum) = (Vec::new(), Vec::new(), 0u32, 0.0f32);
     for frame in 0..600u32 {
@@ -600,22 +557,8 @@ fn drone_core() -> (Vec<String>, String, Vec<(u32, f32)>) {
 /// no worse than the others.
 #[test]
 fn c_drone_camera_matches_the_core() {
-    let bin = build(
-        "cc",
-        "c11",
-        "ffi/examples/c/drone_camera.c",
-        "drone_camera_c",
-    );
-    let r = Command::new(&bin)
-        .arg(root().join("weights/sdd-m-lp-qe.gpec"))
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&r.stdout),
-        String::from_utf8_lossy(&r.stderr)
-    );
-    assert!(r.status.success(), "{text}");
+    let (ok, text) = run(&build_c("drone_camera"), &["sdd-m-lp-qe.gpec"]);
+    assert!(ok, "{text}");
     let got: Vec<String> = text
         .lines()
         .filter(|l| l.starts_with("t="))

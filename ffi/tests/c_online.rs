@@ -12,6 +12,8 @@ use gpecnet_core::units::CallerUnit;
 use gpecnet_core::{LibmSine, Model, Predictor};
 use gpecnet_ffi::*;
 
+use crate::common::weights_static as weights;
+
 /// Predictor storage as C declares it.
 #[repr(C, align(8))]
 struct PredMem([u8; GPECNET_PREDICTOR_SIZE]);
@@ -27,13 +29,6 @@ impl FcMem {
     fn f(&mut self) -> *mut GpecnetForecaster {
         self.0.as_mut_ptr().cast()
     }
-}
-
-fn weights(name: &str) -> &'static [u8] {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../weights")
-        .join(name);
-    std::fs::read(path).unwrap().leak()
 }
 
 /// A predictor of `blob` in metres.

@@ -9,17 +9,10 @@ use gpecnet_core::blob::signed::{split, trailer_head, TrustedKey};
 use gpecnet_core::blob::CRC32;
 use gpecnet_ffi::*;
 
+use crate::common::weights;
+
 #[repr(C, align(8))]
 struct Storage([u8; GPECNET_PREDICTOR_SIZE]);
-
-fn weights(name: &str) -> Vec<u8> {
-    std::fs::read(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../weights")
-            .join(name),
-    )
-    .unwrap()
-}
 
 fn test_key() -> GpecnetTrustedKey {
     let hex = String::from_utf8(weights("test-signing-key.pub")).unwrap();

@@ -8,18 +8,13 @@ use std::ptr::{null, null_mut};
 use gpecnet_core::tracks::{Observation, TimedTrackTable};
 use gpecnet_ffi::*;
 
+use crate::common::weights_static as weights;
+
 #[repr(C, align(8))]
 struct Storage([u8; GPECNET_PREDICTOR_SIZE]);
 
 #[repr(C, align(8))]
 struct TableMem([u8; GPECNET_TRACKS_SIZE]);
-
-fn weights(name: &str) -> &'static [u8] {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../weights")
-        .join(name);
-    std::fs::read(path).unwrap().leak()
-}
 
 fn init_units(s: &mut Storage, blob: &[u8], unit: u32, mpp: f32) -> i32 {
     // SAFETY: test: storage and blob valid for their lengths; the blob is leaked ('static).

@@ -8,4 +8,5 @@ mod c_examples;
 mod c_online;
 mod c_signed;
 mod c_units_tracks;
+mod common;
 mod header;

@@ -25,8 +25,8 @@
 #include <stdalign.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 
+#include "common.h"
 #include "gpecnet.h"
 
 enum { FRAMES = 600, PEDESTRIANS = 5, MAX_BOXES = 8, GLITCH = 98, KITE = 99 };
@@ -107,53 +107,12 @@ static float noise(uint32_t seed) {
     return (float)(h >> 8) / 8388608.0f - 1.0f;
 }
 
-static uint32_t bits(float v) {
-    uint32_t u;
-    memcpy(&u, &v, sizeof u);
-    return u;
-}
-
-static unsigned char *read_file(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = n > 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
-}
-
-static int fail(const char *what, int32_t s) {
-    fprintf(stderr, "%s: %s (%d)\n", what, gpecnet_status_str(s), (int)s);
-    return 1;
-}
-
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s MODEL.gpec\n", argv[0]);
-        return 2;
-    }
-    size_t blob_len = 0;
-    unsigned char *blob = read_file(argv[1], &blob_len); /* read in place: keep it */
-    if (!blob) {
-        fprintf(stderr, "cannot read %s\n", argv[1]);
-        return 2;
-    }
-    int32_t s = gpecnet_init_units(predictor_mem, sizeof predictor_mem, blob, blob_len,
-                                   GPECNET_UNIT_METRES, 0.0f);
-    if (s != GPECNET_OK) return fail("gpecnet_init_units", s);
-    GpecnetPredictor *p = (GpecnetPredictor *)predictor_mem;
-    GpecnetOnlineConfig cfg;
-    gpecnet_online_config_default(&cfg);
-    s = gpecnet_forecaster_init(forecaster_mem, sizeof forecaster_mem, p, &cfg, 1000);
-    if (s != GPECNET_OK) return fail("gpecnet_forecaster_init", s);
-    GpecnetForecaster *fc = (GpecnetForecaster *)forecaster_mem;
+    /* The model in metres and the online forecaster with its defaults. */
+    OnlineExample ex;
+    int rc = online_start(argc, argv, predictor_mem, sizeof predictor_mem, forecaster_mem,
+                          sizeof forecaster_mem, &ex);
+    if (rc != 0) return rc;
 
     /* The camera, fixed for the flight: 1920 x 1080, a calibrated lens, the
      * gimbal's base along the body's axes, ground points up to 150 m away. */
@@ -173,7 +132,7 @@ int main(int argc, char **argv) {
         float t = (float)t_ms / 1000.0f;
         const GpecnetCameraState state = flight(t);
         GpecnetPose pose;
-        s = gpecnet_camera_pose(&camera, &state, &pose);
+        int32_t s = gpecnet_camera_pose(&camera, &state, &pose);
         if (s != GPECNET_OK) return fail("gpecnet_camera_pose", s);
 
         /* The detector: each pedestrian's box, feet at the bottom centre. */
@@ -212,11 +171,7 @@ int main(int argc, char **argv) {
         }
 
         size_t n = 0;
-        GpecnetOnlineReport rep;
-        s = gpecnet_forecaster_frame(fc, p, t_ms, dets, n_dets, out, GPECNET_ONLINE_TRACKS, &n,
-                                     &rep);
-        if (s != GPECNET_OK) return fail("gpecnet_forecaster_frame", s);
-        if (rep.failed > 0) return fail("a track's forecast", rep.first_error);
+        if (online_frame(ex.fc, ex.p, t_ms, dets, n_dets, out, &n) != 0) return 1;
         for (size_t i = 0; i < n; i++) {
             const GpecnetTrackForecast *o = &out[i];
             const float *end = o->point[GPECNET_ONLINE_HORIZONS - 1];
@@ -246,6 +201,6 @@ int main(int argc, char **argv) {
     float mean = sum_err / (float)(forecasts > 0 ? forecasts : 1);
     printf("%u forecasts, mean endpoint error %.3f m (4.8 s ahead) [%08x], %u boxes refused\n",
            (unsigned)forecasts, mean, (unsigned)bits(mean), (unsigned)refused);
-    free(blob);
+    free(ex.blob);
     return forecasts > 0 ? 0 : 1;
 }

@@ -24,8 +24,8 @@
 #include <stdalign.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 
+#include "common.h"
 #include "gpecnet.h"
 
 enum { PEDESTRIANS = 6, FRAMES = 150 };
@@ -43,28 +43,6 @@ static int camera(uint32_t f, uint32_t id, uint32_t *t_ms, float pos[2]) {
     pos[0] = 2.0f * k + (1.1f + 0.05f * k) * t;
     pos[1] = -3.0f + k + (0.3f - 0.1f * k) * t + 0.05f * t * t;
     return 1;
-}
-
-static uint32_t bits(float v) {
-    uint32_t u;
-    memcpy(&u, &v, sizeof u);
-    return u;
-}
-
-static unsigned char *read_file(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = n > 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
 }
 
 /* A public key file: 64 hex digits. */
@@ -87,11 +65,8 @@ int main(int argc, char **argv) {
         return 2;
     }
     size_t blob_len = 0;
-    unsigned char *blob = read_file(argv[1], &blob_len); /* read in place: keep it */
-    if (!blob) {
-        fprintf(stderr, "cannot read %s\n", argv[1]);
-        return 2;
-    }
+    unsigned char *blob = read_model(argv[1], &blob_len); /* read in place: keep it */
+    if (!blob) return 2;
     /* Metres in, metres out; with a key, only a blob signed by it (version >= 1). */
     int32_t s;
     if (argc == 3) {
@@ -108,20 +83,14 @@ int main(int argc, char **argv) {
         s = gpecnet_init_units(predictor_mem, sizeof predictor_mem, blob, blob_len,
                                GPECNET_UNIT_METRES, 0.0f);
     }
-    if (s != GPECNET_OK) {
-        fprintf(stderr, "gpecnet_init: %s (%d)\n", gpecnet_status_str(s), (int)s);
-        return 1;
-    }
+    if (s != GPECNET_OK) return fail("gpecnet_init", s);
     GpecnetPredictor *p = (GpecnetPredictor *)predictor_mem;
     GpecnetModelInfo info;
     gpecnet_model_info(p, &info);
     uint32_t period_ms = (uint32_t)lroundf(info.period_s * 1000.0f);
     /* 1 s without a detection ends a track. */
     s = gpecnet_tracks_init(table_mem, sizeof table_mem, period_ms, 1000);
-    if (s != GPECNET_OK) {
-        fprintf(stderr, "gpecnet_tracks_init: %s (%d)\n", gpecnet_status_str(s), (int)s);
-        return 1;
-    }
+    if (s != GPECNET_OK) return fail("gpecnet_tracks_init", s);
     GpecnetTracks *table = (GpecnetTracks *)table_mem;
     printf("%s: unit %s, period %u ms\n", info.name,
            info.unit == GPECNET_POSITION_METRE ? "m" : "?", (unsigned)period_ms);
@@ -138,25 +107,16 @@ int main(int argc, char **argv) {
             }
         }
         s = gpecnet_tracks_update(table, t_ms, dets, n, NULL);
-        if (s != GPECNET_OK) {
-            fprintf(stderr, "gpecnet_tracks_update: %s (%d)\n", gpecnet_status_str(s), (int)s);
-            return 1;
-        }
+        if (s != GPECNET_OK) return fail("gpecnet_tracks_update", s);
         size_t n_fresh = 0;
         s = gpecnet_tracks_fresh(table, fresh, GPECNET_TRACKS_CAPACITY, &n_fresh);
-        if (s != GPECNET_OK) {
-            fprintf(stderr, "gpecnet_tracks_fresh: %s (%d)\n", gpecnet_status_str(s), (int)s);
-            return 1;
-        }
+        if (s != GPECNET_OK) return fail("gpecnet_tracks_fresh", s);
         for (size_t i = 0; i < n_fresh; i++) {
             float forecast[GPECNET_MAX_FUTURE][2];
             size_t len = 0;
             s = gpecnet_predict_point(p, &fresh[i].past_xy[0][0], GPECNET_HISTORY,
                                       &forecast[0][0], GPECNET_MAX_FUTURE, &len);
-            if (s != GPECNET_OK || len == 0) {
-                fprintf(stderr, "gpecnet_predict_point: %s (%d)\n", gpecnet_status_str(s), (int)s);
-                return 1;
-            }
+            if (s != GPECNET_OK || len == 0) return fail("gpecnet_predict_point", s);
             const float *end = forecast[len - 1];
             printf("t=%5u ms id=%u endpoint at %5u ms: (%.3f, %.3f) m [%08x %08x]\n",
                    (unsigned)fresh[i].end_ms, (unsigned)fresh[i].id,
@@ -171,11 +131,7 @@ int main(int argc, char **argv) {
             size_t k = info.max_endpoints;
             s = gpecnet_predict_forecast(p, &fresh[i].past_xy[0][0], GPECNET_HISTORY, 0,
                                          &ends[0][0], probs, k, &plan);
-            if (s != GPECNET_OK) {
-                fprintf(stderr, "gpecnet_predict_forecast: %s (%d)\n", gpecnet_status_str(s),
-                        (int)s);
-                return 1;
-            }
+            if (s != GPECNET_OK) return fail("gpecnet_predict_forecast", s);
             size_t top = 0;
             for (size_t j = 1; j < k; j++) {
                 if (probs[j] > probs[top]) top = j;

@@ -20,8 +20,8 @@
 #include <stdalign.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 
+#include "common.h"
 #include "gpecnet.h"
 
 enum { FRAMES = 300, MAX_DETS = 3 };
@@ -46,28 +46,6 @@ static size_t scene(uint32_t f, GpecnetDetection dets[MAX_DETS]) {
     return n;
 }
 
-static uint32_t bits(float v) {
-    uint32_t u;
-    memcpy(&u, &v, sizeof u);
-    return u;
-}
-
-static unsigned char *read_file(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = n > 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
-}
-
 static const char *motion_name(uint8_t m) {
     switch (m) {
     case GPECNET_MOTION_STANDING: return "standing";
@@ -77,44 +55,20 @@ static const char *motion_name(uint8_t m) {
     }
 }
 
-static int fail(const char *what, int32_t s) {
-    fprintf(stderr, "%s: %s (%d)\n", what, gpecnet_status_str(s), (int)s);
-    return 1;
-}
-
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s MODEL.gpec\n", argv[0]);
-        return 2;
-    }
-    size_t blob_len = 0;
-    unsigned char *blob = read_file(argv[1], &blob_len); /* read in place: keep it */
-    if (!blob) {
-        fprintf(stderr, "cannot read %s\n", argv[1]);
-        return 2;
-    }
-    int32_t s = gpecnet_init_units(predictor_mem, sizeof predictor_mem, blob, blob_len,
-                                   GPECNET_UNIT_METRES, 0.0f);
-    if (s != GPECNET_OK) return fail("gpecnet_init_units", s);
-    GpecnetPredictor *p = (GpecnetPredictor *)predictor_mem;
-
-    /* The loop's defaults in metres; 1 s without a detection ends a track. */
-    GpecnetOnlineConfig cfg;
-    gpecnet_online_config_default(&cfg);
-    s = gpecnet_forecaster_init(forecaster_mem, sizeof forecaster_mem, p, &cfg, 1000);
-    if (s != GPECNET_OK) return fail("gpecnet_forecaster_init", s);
-    GpecnetForecaster *fc = (GpecnetForecaster *)forecaster_mem;
+    /* The model in metres and the loop's defaults; 1 s without a detection
+     * ends a track. */
+    OnlineExample ex;
+    int rc = online_start(argc, argv, predictor_mem, sizeof predictor_mem, forecaster_mem,
+                          sizeof forecaster_mem, &ex);
+    if (rc != 0) return rc;
 
     static GpecnetTrackForecast out[GPECNET_ONLINE_TRACKS];
     for (uint32_t f = 0; f < FRAMES; f++) {
         GpecnetDetection dets[MAX_DETS];
         size_t n_dets = scene(f, dets);
         size_t n = 0;
-        GpecnetOnlineReport rep;
-        s = gpecnet_forecaster_frame(fc, p, f * 100u, dets, n_dets, out, GPECNET_ONLINE_TRACKS,
-                                     &n, &rep);
-        if (s != GPECNET_OK) return fail("gpecnet_forecaster_frame", s);
-        if (rep.failed > 0) return fail("a track's forecast", rep.first_error);
+        if (online_frame(ex.fc, ex.p, f * 100u, dets, n_dets, out, &n) != 0) return 1;
         for (size_t i = 0; i < n; i++) {
             const GpecnetTrackForecast *o = &out[i];
             const float *end = o->point[GPECNET_ONLINE_HORIZONS - 1];
@@ -129,13 +83,13 @@ int main(int argc, char **argv) {
 
     /* What the loop learned, as a drone would keep it across flights. */
     uint32_t counts[GPECNET_ONLINE_MOTION_STATES];
-    s = gpecnet_forecaster_feedback(fc, counts, GPECNET_ONLINE_MOTION_STATES);
+    int32_t s = gpecnet_forecaster_feedback(ex.fc, counts, GPECNET_ONLINE_MOTION_STATES);
     if (s != GPECNET_OK) return fail("gpecnet_forecaster_feedback", s);
     printf("feedback: standing %u, slow %u, walking %u, fast %u\n", (unsigned)counts[0],
            (unsigned)counts[1], (unsigned)counts[2], (unsigned)counts[3]);
     static uint8_t state[GPECNET_ONLINE_STATE_LEN];
     size_t len = 0;
-    s = gpecnet_forecaster_state(fc, state, sizeof state, &len);
+    s = gpecnet_forecaster_state(ex.fc, state, sizeof state, &len);
     if (s != GPECNET_OK) return fail("gpecnet_forecaster_state", s);
     /* The state ends with its CRC-32, little endian. */
     uint32_t crc = (uint32_t)state[len - 4] | (uint32_t)state[len - 3] << 8 |
@@ -143,7 +97,7 @@ int main(int argc, char **argv) {
     printf("state: %u bytes, crc %08x\n", (unsigned)len, (unsigned)crc);
 
     /* Next flight: a fresh forecaster starts from the saved calibration. */
-    s = gpecnet_forecaster_init(restored_mem, sizeof restored_mem, p, &cfg, 1000);
+    s = gpecnet_forecaster_init(restored_mem, sizeof restored_mem, ex.p, &ex.cfg, 1000);
     if (s != GPECNET_OK) return fail("gpecnet_forecaster_init", s);
     GpecnetForecaster *next = (GpecnetForecaster *)restored_mem;
     s = gpecnet_forecaster_restore(next, state, len);
@@ -152,6 +106,6 @@ int main(int argc, char **argv) {
     state[100] ^= 0x01u;
     s = gpecnet_forecaster_restore(next, state, len);
     printf("restored; a damaged copy: %s\n", gpecnet_status_str(s));
-    free(blob);
+    free(ex.blob);
     return s == GPECNET_E_ONLINE_STATE_CRC ? 0 : 1;
 }

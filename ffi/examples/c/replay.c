@@ -12,26 +12,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common.h"
 #include "gpecnet.h"
 
 /* The predictor lives here: no malloc inside the library. */
 static alignas(GPECNET_PREDICTOR_ALIGN) unsigned char storage[GPECNET_PREDICTOR_SIZE];
-
-static unsigned char *read_file(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = n > 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
-}
 
 static int same_bits(const float *a, const float *b, size_t n_floats) {
     return memcmp(a, b, n_floats * sizeof(float)) == 0;
@@ -52,10 +37,7 @@ int main(int argc, char **argv) {
     }
 
     int32_t s = gpecnet_init(storage, sizeof storage, blob, blob_len);
-    if (s != GPECNET_OK) {
-        fprintf(stderr, "gpecnet_init: %s (%d)\n", gpecnet_status_str(s), (int)s);
-        return 1;
-    }
+    if (s != GPECNET_OK) return fail("gpecnet_init", s);
     GpecnetPredictor *p = (GpecnetPredictor *)storage;
     GpecnetModelInfo info;
     gpecnet_model_info(p, &info);
