@@ -8,7 +8,7 @@
 //! rounded once (separate multiply and add: Rust never fuses them). `Relu` is
 //! `if v < 0 { 0 } else { v }` (NaN passes through); `Sine` is `S::sin`.
 //! The decoder's first layer is split at its feature columns
-//! ([`crate::engine::Backend::partial`] then [`crate::engine::Backend::latent`]),
+//! ([`crate::backend::Backend::partial`] then [`crate::backend::Backend::latent`]),
 //! which continues the same left-to-right sum: the result equals one pass.
 
 use core::marker::PhantomData;

@@ -1,5 +1,5 @@
 //! The dense layer on `L` lanes side by side
-//! ([`crate::engine::Backend::dense_lanes`]), one skeleton for both
+//! ([`crate::backend::Backend::dense_lanes`]), one skeleton for both
 //! backends: the f32 ([`crate::float`]) and Q15 ([`crate::fixed`]) ones
 //! supply only their weight width, the multiply-add of one weight into
 //! every lane and the bias and activation of a row ([`LaneArith`]).

@@ -80,7 +80,7 @@
 //! # Files
 //!
 //! The backend is split by job: this file holds [`Q15`], the shift ranges,
-//! the sine table and [`sin_q15`], and the [`crate::engine::Backend`]
+//! the sine table and [`sin_q15`], and the [`crate::backend::Backend`]
 //! implementation; `convert.rs` the f32 boundaries ([`quantize`],
 //! [`dequantize`]), `activation.rs` one channel's rounding shift, `Sine`
 //! phase and activation ([`activate_q`]), `dot.rs` the portable dot
