@@ -6,6 +6,7 @@
 //! ```text
 //! cargo run --release -p gpecnet-trainer --example peer_bench -- dump --blob weights/sdd-small.gpec --out target/peers/sdd-small
 //! cargo run --release -p gpecnet-trainer --example peer_bench -- infer --blob weights/sdd-small.gpec
+//! cargo run --release -p gpecnet-trainer --example peer_bench -- forecast --blob weights/sdd-m-lp.gpec --out target/peers/sdd-m-lp
 //! cargo run --release -p gpecnet-trainer --example peer_bench -- train-data --config host-trainer/configs/sdd-small.toml --out target/peers/train-sdd-small
 //! cargo run --release -p gpecnet-trainer --example peer_bench -- train --config host-trainer/configs/sdd-small.toml --threads 1
 //! ```
@@ -91,6 +92,30 @@ enum Cmd {
         /// same bits): reported as `gpecnet-batch-sse2`.
         #[arg(long)]
         sse2: bool,
+    },
+    /// The whole forecast of a proposal model (`Predictor::predict_forecast`: its K endpoints,
+    /// probabilities, point forecast, radii) on a data set's test split: writes the graph's
+    /// inputs (x, pos) and the core's outputs as raw f32 + manifest.json, then times the core
+    /// on one pedestrian, 16 pedestrians and the whole test split; one JSON line.
+    Forecast {
+        /// Proposal blob (f32: the ONNX graph is checked against it).
+        #[arg(long)]
+        blob: PathBuf,
+        /// Data set (default: `sdd-m` for a metre blob, `sdd` for a pixel one).
+        #[arg(long)]
+        dataset: Option<String>,
+        /// Output folder of the dump.
+        #[arg(long)]
+        out: PathBuf,
+        /// Data root.
+        #[arg(long, default_value_os_t = data::default_data_root())]
+        data: PathBuf,
+        /// Minimum time of one repetition of a case.
+        #[arg(long, default_value_t = 300)]
+        min_ms: u64,
+        /// Repetitions per case (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        reps: usize,
     },
     /// Write a config's training samples (obs, dest, future, initial_pos) + the config.
     TrainData {
@@ -285,6 +310,112 @@ fn dump(blob: &Path, out: &Path, root: &Path) -> Result<()> {
         "wrote {} ({} windows x K = {SET_K}, single pedestrian K = {kmax})",
         out.display(),
         n
+    );
+    Ok(())
+}
+
+/// Pedestrians of the "several pedestrians" case of `forecast` (one drone frame's tracks).
+const CROWD: usize = 16;
+
+/// `peer_bench forecast`: see [`Cmd::Forecast`].
+fn forecast(
+    blob: &Path,
+    dataset: Option<&str>,
+    out: &Path,
+    root: &Path,
+    min_ms: u64,
+    reps: usize,
+) -> Result<()> {
+    use gpecnet_trainer::data::{DatasetSpec, Split};
+    let bytes = read(blob)?;
+    let model = Model::from_blob(&bytes).map_err(|e| anyhow!("{}: {e}", blob.display()))?;
+    if !model.has_proposal() {
+        bail!(
+            "{}: not a proposal model (use `dump` and `infer`)",
+            model.name()
+        );
+    }
+    let metres = matches!(
+        gpecnet_core::blob::Meta::of_blob(&bytes).map(|m| m.unit),
+        Ok(gpecnet_core::blob::PositionUnit::Metre)
+    );
+    let name = dataset.unwrap_or(if metres { "sdd-m" } else { "sdd" });
+    let ds = DatasetSpec::parse(name).map_err(|e| anyhow!("--dataset {name}: {e}"))?;
+    let windows = data::load(root, &ds, Split::Test, &[])
+        .map_err(|e| anyhow!("{name} test split: {e}"))?
+        .windows;
+    if windows.len() < CROWD {
+        bail!("{name}: {} test windows, fewer than {CROWD}", windows.len());
+    }
+    let c = *model.config();
+    let pasts: Vec<_> = windows.iter().map(Window::obs).collect();
+    let n = pasts.len();
+    let mut p = predictor(model)?;
+    let one = |p: &mut Predictor<'_, LibmSine, WIDTH>, i: usize| {
+        p.predict_forecast::<64>(&pasts[i], i as u64)
+            .map_err(|e| anyhow!("window {i}: {e}"))
+    };
+    let f0 = one(&mut p, 0)?;
+    let k = f0.endpoints.len();
+    let (mut x, mut pos, mut origin, mut rot) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut ends, mut probs, mut point, mut radii) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (i, past) in pasts.iter().enumerate() {
+        let (frame, pts) = Frame::inputs(past, &model).map_err(|e| anyhow!("window {i}: {e}"))?;
+        x.extend(pts.iter().take(past.len()).flatten());
+        let q = frame.predictor_position(past[past.len() - 1]);
+        pos.extend([q[0] / c.initial_pos_divisor, q[1] / c.initial_pos_divisor]);
+        origin.extend(frame.origin());
+        rot.extend(frame.rotation().unwrap_or([1.0, 0.0]));
+        let f = one(&mut p, i)?;
+        ends.extend(f.endpoints.iter().flatten());
+        probs.extend(f.probabilities.iter().copied());
+        point.extend(f.point.unwrap_or([f32::NAN; 2]));
+        let r = f.radii.map_or([f32::NAN; 2], |r| [r.r50, r.r90]);
+        radii.extend(r);
+    }
+    let mut a = Arrays::new(out)?;
+    a.put("x", &[n, 2 * c.past_len as usize], &x)?;
+    a.put("pos", &[n, 2], &pos)?;
+    a.put("origin", &[n, 2], &origin)?;
+    a.put("rot", &[n, 2], &rot)?;
+    a.put("core_endpoints", &[n, k, 2], &ends)?;
+    a.put("core_prob", &[n, k], &probs)?;
+    a.put("core_point_end", &[n, 2], &point)?;
+    a.put("core_radii", &[n, 2], &radii)?;
+    a.finish(json!({
+        "model": model.name(),
+        "blob": blob.display().to_string(),
+        "dataset": name,
+        "unit": if metres { "m" } else { "px" },
+        "sine": "libm",
+        "data_scale": c.data_scale,
+        "n_windows": n,
+        "k": k,
+        "learned": f0.learned,
+        "crowd": CROWD,
+    }))?;
+    let mut cases = serde_json::Map::new();
+    let s = time_case(min_ms, reps, || one(&mut p, 0).map(|_| ()))?;
+    cases.insert("ped".into(), json!(s));
+    let s = time_case(min_ms, reps, || {
+        (0..CROWD).try_for_each(|i| one(&mut p, i).map(|_| ()))
+    })?;
+    cases.insert(format!("crowd{CROWD}"), json!(s));
+    let s = time_case(min_ms, reps, || {
+        (0..n).try_for_each(|i| one(&mut p, i).map(|_| ()))
+    })?;
+    cases.insert("set".into(), json!(s));
+    println!(
+        "{}",
+        json!({
+            "impl": "gpecnet",
+            "model": model.name(),
+            "api": "Predictor::predict_forecast (K endpoints, probabilities, point forecast, radii), one window at a time; libm sine, 1 thread",
+            "dataset": name,
+            "n_windows": n,
+            "seconds_per_call": cases,
+        })
     );
     Ok(())
 }
@@ -510,6 +641,14 @@ fn main() -> Result<()> {
             };
             infer(&blob, &data, &timing)
         }
+        Cmd::Forecast {
+            blob,
+            dataset,
+            out,
+            data,
+            min_ms,
+            reps,
+        } => forecast(&blob, dataset.as_deref(), &out, &data, min_ms, reps),
         Cmd::TrainData { config, out, data } => train_data(&config, &out, &data),
         Cmd::Train {
             config,

@@ -16,7 +16,9 @@
 //!   heading frame first when the blob's `heading_steps > 0`
 //!   (`gpecnet_core::frame::Frame::inputs`).
 //! * `z`, float `[n, k, zdim]`: the latent samples, already multiplied by `sigma` (the core draws
-//!   them from `gpecnet_core::prng::Gaussian` seeded with the caller's seed).
+//!   them from `gpecnet_core::prng::Gaussian` seeded with the caller's seed). Not with a
+//!   learned latent proposal (format version 5 and later): the graph computes its `K` latents
+//!   itself (below), and `k` = `K`.
 //! * `pos`, float `[n, 2]`, only when the blob has a trajectory predictor: the last observed point
 //!   as the predictor sees it, `Frame::predictor_position(p_last) / initial_pos_divisor`.
 //!
@@ -27,6 +29,23 @@
 //! * `point`, float `[n, 2·future_len]`, only with a point-forecast head: the point forecast.
 //! * `traj`, float `[n, k, 2·(future_len − 1)]`, only with a trajectory predictor: the
 //!   intermediate points of every sample (step 6; the last point of a trajectory is `d`).
+//! * `prob`, float `[n, K]`, only with endpoint probabilities (format version 6): each
+//!   endpoint's probability, `Softmax` of the proposal's logit rows.
+//! * `radii`, float `[n, 2]`, with probabilities and a point head: `r50`, `r90` around the
+//!   point forecast's endpoint `q` in the blob's unit (not the normalised frame):
+//!   `[c50, c90] · sqrt(Σ_i prob_i · |d_i − q|²) / data_scale` (the frame only rotates and
+//!   shifts, so a distance in it is the caller's times `data_scale`).
+//!
+//! # The learned latent proposal
+//!
+//! A proposal model (the shipped defaults `sdd-m-lp`, `sdd-m-lp-host`) runs the proposal's
+//! hidden layers on `f = encoder_past(x)` once per window (`proposal.h`), then the last
+//! layer's `K·zdim` latent rows (`proposal.<last>.weight.z`, `[hidden, K·zdim]`), reshaped to
+//! `[n, K, zdim]` and clamped to `±latent_bound` (`Clip`): the decoder's `z`. With
+//! probabilities, the last layer's `K` logit rows (`proposal.<last>.weight.logits`) give
+//! `prob`. The whole forecast the core's `Predictor::predict_forecast` returns (20
+//! endpoints, probabilities, point forecast, radii) is then one call of the graph with a
+//! batch dimension.
 //!
 //! The first layer of the decoder (`[f, z]`) and of the predictor (`[f, g, pos]`) is split by
 //! input columns, `W [f, z] = W_f f + W_z z`, so that the feature part is computed once per
@@ -186,6 +205,58 @@ impl Builder {
         }
     }
 
+    /// Rows `rows` of the layer `l` named `layer` (`<net>.<i>`) as their own dense layer
+    /// `act(input · W_rowsᵀ + b_rows)`: initializers `<layer>.weight.<part>` `[in_dim,
+    /// rows.len()]` and `<layer>.bias.<part>`.
+    fn dense_rows(
+        &mut self,
+        layer: &str,
+        l: &Layer,
+        rows: std::ops::Range<usize>,
+        part: &str,
+        input: &str,
+        out: &str,
+    ) -> String {
+        let n_in = l.in_dim;
+        let name = format!("{layer}.weight.{part}");
+        let data = (0..n_in)
+            .flat_map(|c| rows.clone().map(move |j| (j, c)))
+            .map(|(j, c)| l.w.get(j * n_in + c).copied().unwrap_or(0.0));
+        self.f32_tensor(&name, &[n_in, rows.len()], data);
+        let b = format!("{layer}.bias.{part}");
+        self.f32_tensor(
+            &b,
+            &[rows.len()],
+            rows.clone().map(|j| l.b.get(j).copied().unwrap_or(0.0)),
+        );
+        let mm = self.node("MatMul", &[input, &name], &format!("{layer}.mm.{part}"));
+        let pre = self.node("Add", &[&mm, &b], &format!("{layer}.pre.{part}"));
+        self.activation(l.act, &pre, out)
+    }
+
+    /// A constant int64 tensor `name` of shape `[values.len()]`.
+    fn i64s(&mut self, name: &str, values: &[i64]) -> String {
+        self.init.push(TensorProto {
+            dims: vec![values.len() as i64],
+            data_type: INT64,
+            name: name.to_string(),
+            raw_data: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        });
+        name.to_string()
+    }
+
+    /// A constant f32 tensor `name` of shape `dims` (a setting of the blob, not a
+    /// parameter: it is not counted in [`OnnxSummary::parameters`]); `dims` empty: a scalar.
+    fn f32_const(&mut self, name: &str, dims: &[usize], values: &[f32]) -> String {
+        self.init.push(TensorProto {
+            dims: dims.iter().map(|&d| d as i64).collect(),
+            data_type: FLOAT,
+            name: name.to_string(),
+            raw_data: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        });
+        name.to_string()
+    }
+
     /// One whole dense layer `act(input · Wᵀ + b)`.
     fn dense(&mut self, net: &str, i: usize, l: &Layer, input: &str, out: &str) -> String {
         let w = self.weight_t(&format!("{net}.{i}.weight"), l, 0..l.in_dim);
@@ -279,6 +350,40 @@ impl Builder {
     }
 }
 
+/// The radii of a model with probabilities and a point head (`weights/FORMAT.md`, "Format
+/// version 6"), from the graph's `d`, `prob` and `point`: the point forecast's last point
+/// `q` (`point[:, 2F−2 .. 2F]`), `s² = Σ_i prob_i · |d_i − q|²` over the K endpoints, `radii =
+/// [c50, c90] · sqrt(s²) / data_scale`. In the network's frame distances are the caller's
+/// times `data_scale` (the frame only rotates and shifts), hence the division.
+fn radii_nodes(b: &mut Builder, c: &network::RefConfig, point_head: &[Layer]) -> Result<()> {
+    let w = point_head.last().map_or(0, |l| l.out_dim) as i64;
+    if w < 2 {
+        bail!("the point head gives {w} values, expected 2·future_len");
+    }
+    let starts = b.i64s("radii.q_start", &[w - 2]);
+    let ends = b.i64s("radii.q_end", &[w]);
+    let axes = b.i64s("radii.q_axis", &[1]);
+    let q = b.node("Slice", &["point", &starts, &ends, &axes], "radii.q");
+    let one = b.i64s("radii.k_axis", &[1]);
+    let qk = b.node("Unsqueeze", &[&q, &one], "radii.q_k");
+    let diff = b.node("Sub", &["d", &qk], "radii.diff");
+    let sq = b.node("Mul", &[&diff, &diff], "radii.sq");
+    let last = b.i64s("radii.xy_axis", &[2]);
+    // ReduceSum keeps the reduced axes (keepdims = 1, the default): [n, K, 1].
+    let d2 = b.node("ReduceSum", &[&sq, &last], "radii.d2");
+    let pk = b.node("Unsqueeze", &["prob", &last], "radii.prob_k");
+    let wd = b.node("Mul", &[&pk, &d2], "radii.weighted");
+    let s2 = b.node("ReduceSum", &[&wd, &one], "radii.s2");
+    let s = b.node("Sqrt", &[&s2], "radii.s_net");
+    let scale = b.f32_const("radii.data_scale", &[], &[c.data_scale]);
+    let su = b.node("Div", &[&s, &scale], "radii.s");
+    let mult = b.f32_const("radii.scales", &[2], &c.radius_scales);
+    let r = b.node("Mul", &[&su, &mult], "radii.r");
+    let shape = b.i64s("radii.shape", &[0, 2]);
+    b.node("Reshape", &[&r, &shape], "radii");
+    Ok(())
+}
+
 /// The graph of `model` (an f32 model read from a blob): see the module docs. With
 /// `endpoint_only`, only `x`, `z` → `d` (no point head, no trajectory predictor).
 pub fn model_proto(
@@ -302,19 +407,30 @@ pub fn model_proto(
             n.encoder_past[0].in_dim
         );
     }
-    let (nn, kk) = (Dim::Named("n"), Dim::Named("k"));
-    let mut inputs = vec![
-        Port {
-            name: "x",
-            shape: vec![nn.clone(), Dim::Fixed(in_x)],
-            doc: "observed past as the core's frame input: x[2t+c] = (p_t[c] - p_0[c]) * data_scale (rotated into the heading frame when heading_steps > 0)",
-        },
-        Port {
+    // A proposal model computes its K latents from the past: no `z` input, `k` = K.
+    let latents = model.proposal_latents();
+    let proposal = !n.proposal.is_empty();
+    if proposal && latents == 0 {
+        bail!("{}: a proposal with no latent rows", model.name);
+    }
+    let nn = Dim::Named("n");
+    let kk = if proposal {
+        Dim::Fixed(latents)
+    } else {
+        Dim::Named("k")
+    };
+    let mut inputs = vec![Port {
+        name: "x",
+        shape: vec![nn.clone(), Dim::Fixed(in_x)],
+        doc: "observed past as the core's frame input: x[2t+c] = (p_t[c] - p_0[c]) * data_scale (rotated into the heading frame when heading_steps > 0)",
+    }];
+    if !proposal {
+        inputs.push(Port {
             name: "z",
             shape: vec![nn.clone(), kk.clone(), Dim::Fixed(c.zdim)],
             doc: "latent samples, already multiplied by sigma",
-        },
-    ];
+        });
+    }
     let dec_out = n.decoder.last().map_or(0, |l| l.out_dim);
     if dec_out != 2 {
         bail!("{}: decoder gives {dec_out} values, expected 2", model.name);
@@ -334,11 +450,44 @@ pub fn model_proto(
             c.fdim
         );
     }
+    // The proposal: its hidden layers on f once per window, then the last layer's latent
+    // rows (reshaped to [n, K, zdim], clamped to ±latent_bound) and, with probabilities,
+    // its K logit rows.
+    let mut logits = None;
+    let z = if proposal {
+        let last = n.proposal.len() - 1;
+        let lz = &n.proposal[last];
+        if n.proposal[0].in_dim != fdim {
+            bail!(
+                "{}: the proposal takes {} inputs, expected fdim = {fdim}",
+                model.name,
+                n.proposal[0].in_dim
+            );
+        }
+        let h = if last == 0 {
+            f.clone()
+        } else {
+            b.chain("proposal", &n.proposal[..last], 0, &f, "proposal.h")
+        };
+        let rows = latents * c.zdim;
+        let layer = format!("proposal.{last}");
+        let flat = b.dense_rows(&layer, lz, 0..rows, "z", &h, "proposal.z_flat");
+        let shape = b.i64s("proposal.z_shape", &[0, latents as i64, c.zdim as i64]);
+        let zk = b.node("Reshape", &[&flat, &shape], "proposal.z_raw");
+        let lo = b.f32_const("proposal.bound_lo", &[], &[-c.latent_bound]);
+        let hi = b.f32_const("proposal.bound_hi", &[], &[c.latent_bound]);
+        if model.is_scored() {
+            logits = Some(b.dense_rows(&layer, lz, rows..rows + latents, "logits", &h, "logits"));
+        }
+        b.node("Clip", &[&zk, &lo, &hi], "z")
+    } else {
+        "z".to_string()
+    };
     let single = n.decoder.len() == 1;
     let h = b.split_first(
         "decoder",
         &n.decoder[0],
-        &[("f", fdim, &f, false), ("z", c.zdim, "z", true)],
+        &[("f", fdim, &f, false), ("z", c.zdim, &z, true)],
         if single { "d" } else { "" },
     )?;
     if !single {
@@ -355,6 +504,22 @@ pub fn model_proto(
             bail!("{}: point_head does not take x", model.name);
         }
         b.chain("point_head", &n.point_head, 0, "x", "point");
+    }
+    if let Some(logits) = logits.filter(|_| !endpoint_only) {
+        outputs.push(Port {
+            name: "prob",
+            shape: vec![nn.clone(), kk.clone()],
+            doc: "probability of each endpoint: the softmax of the proposal's logit rows",
+        });
+        b.node("Softmax", &[&logits], "prob");
+        if !n.point_head.is_empty() {
+            outputs.push(Port {
+                name: "radii",
+                shape: vec![nn.clone(), Dim::Fixed(2)],
+                doc: "r50, r90 around the point forecast's endpoint, in the blob's unit: [c50, c90] * sqrt(sum_i prob_i * |d_i - point_end|^2) / data_scale",
+            });
+            radii_nodes(&mut b, c, &n.point_head)?;
+        }
     }
     if !n.predictor.is_empty() && !endpoint_only {
         if n.encoder_dest.is_empty() {
@@ -454,12 +619,6 @@ pub fn blob_to_onnx(blob: &[u8], endpoint_only: bool) -> Result<(Vec<u8>, OnnxSu
     if m.numeric() != gpecnet_core::NumericKind::F32 {
         bail!(
             "{} is a fixed-point (Int16Q15) blob: its integer activations, per-channel shifts and integer sine have no ONNX float equivalent, so it is not exported; export the f32 blob it was quantised from (e.g. weights/sdd-small.gpec for sdd-small-q)",
-            m.name()
-        );
-    }
-    if m.has_proposal() {
-        bail!(
-            "{} computes its latents with a learned proposal (format version 5), which this ONNX graph (latents as the input z) does not carry; export the blob without it (e.g. weights/sdd-m-tiny.gpec for sdd-m-lp)",
             m.name()
         );
     }

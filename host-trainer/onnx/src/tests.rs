@@ -174,6 +174,11 @@ fn refuses_fixed_point_and_garbage_without_panicking() {
 type T = (Vec<usize>, Vec<f64>);
 
 fn broadcast_add(a: &T, b: &T) -> T {
+    broadcast(a, b, |x, y| x + y)
+}
+
+/// `f` element by element under numpy broadcasting.
+fn broadcast(a: &T, b: &T, f: impl Fn(f64, f64) -> f64) -> T {
     let r = a.0.len().max(b.0.len());
     let pad = |s: &[usize]| {
         let mut v = vec![1; r - s.len()];
@@ -196,7 +201,7 @@ fn broadcast_add(a: &T, b: &T) -> T {
         idx
     };
     let v = (0..n)
-        .map(|f| a.1[index(&sa, f)] + b.1[index(&sb, f)])
+        .map(|i| f(a.1[index(&sa, i)], b.1[index(&sb, i)]))
         .collect();
     (shape, v)
 }
@@ -243,6 +248,76 @@ fn run(g: &GraphProto, feeds: Vec<(&str, T)>) -> HashMap<String, T> {
                 let mut s = a.0.clone();
                 s.insert(ax, 1);
                 (s, a.1.clone())
+            }
+            "Sub" => broadcast(a, &env[&n.input[1]], |x, y| x - y),
+            "Mul" => broadcast(a, &env[&n.input[1]], |x, y| x * y),
+            "Div" => broadcast(a, &env[&n.input[1]], |x, y| x / y),
+            "Sqrt" => (a.0.clone(), a.1.iter().map(|v| v.sqrt()).collect()),
+            "Clip" => {
+                let (lo, hi) = (env[&n.input[1]].1[0], env[&n.input[2]].1[0]);
+                (a.0.clone(), a.1.iter().map(|v| v.clamp(lo, hi)).collect())
+            }
+            "Reshape" => {
+                // 0 keeps the input's size of that axis (the graph uses no -1).
+                let want = &env[&n.input[1]].1;
+                let s = want
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &d)| if d == 0.0 { a.0[i] } else { d as usize })
+                    .collect::<Vec<_>>();
+                assert_eq!(s.iter().product::<usize>(), a.1.len(), "{}", n.name);
+                (s, a.1.clone())
+            }
+            "Softmax" => {
+                // The last axis (the default axis of opset 13 and later).
+                let w = *a.0.last().unwrap();
+                let v =
+                    a.1.chunks(w)
+                        .flat_map(|r| {
+                            let m = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                            let e: Vec<f64> = r.iter().map(|x| (x - m).exp()).collect();
+                            let sum: f64 = e.iter().sum();
+                            e.into_iter().map(move |x| x / sum)
+                        })
+                        .collect();
+                (a.0.clone(), v)
+            }
+            "Slice" => {
+                // One axis, positive starts and ends.
+                let (st, en) = (
+                    env[&n.input[1]].1[0] as usize,
+                    env[&n.input[2]].1[0] as usize,
+                );
+                let ax = env[&n.input[3]].1[0] as usize;
+                let inner: usize = a.0[ax + 1..].iter().product();
+                let outer: usize = a.0[..ax].iter().product();
+                let mut v = Vec::new();
+                for o in 0..outer {
+                    for i in st..en {
+                        let at = (o * a.0[ax] + i) * inner;
+                        v.extend_from_slice(&a.1[at..at + inner]);
+                    }
+                }
+                let mut s = a.0.clone();
+                s[ax] = en - st;
+                (s, v)
+            }
+            "ReduceSum" => {
+                // One axis, kept (keepdims = 1, the default).
+                let ax = env[&n.input[1]].1[0] as usize;
+                let inner: usize = a.0[ax + 1..].iter().product();
+                let outer: usize = a.0[..ax].iter().product();
+                let mut v = vec![0.0; outer * inner];
+                for o in 0..outer {
+                    for i in 0..a.0[ax] {
+                        for j in 0..inner {
+                            v[o * inner + j] += a.1[(o * a.0[ax] + i) * inner + j];
+                        }
+                    }
+                }
+                let mut s = a.0.clone();
+                s[ax] = 1;
+                (s, v)
             }
             op => panic!("unexpected op {op}"),
         };
@@ -310,5 +385,92 @@ fn graph_computes_what_the_core_computes() {
                 }
             }
         }
+    }
+}
+
+/// A proposal model's graph (no `z` input; `prob` and `radii` outputs) against the core's
+/// whole forecast (`Predictor::predict_forecast`) on 40 walkers in metres:
+/// every output within 1e-5 of the blob's unit (metres), in f64. `sdd-m-lp` has
+/// probabilities and radii; `sdd-m-lp-host` has neither.
+#[test]
+fn proposal_graph_computes_the_cores_forecast() {
+    for name in ["sdd-m-lp", "sdd-m-lp-host"] {
+        let b = blob(name);
+        let (m, r) = decode(name);
+        let g = m.graph.unwrap();
+        let names = |v: &[ValueInfoProto]| v.iter().map(|p| p.name.clone()).collect::<Vec<_>>();
+        let traj = !r.nets.predictor.is_empty();
+        let scored = r.is_scored();
+        let mut want_out = vec!["d", "point"];
+        if scored {
+            want_out.extend(["prob", "radii"]);
+        }
+        let want_in = ["x", "pos"];
+        if traj {
+            want_out.push("traj");
+        }
+        assert_eq!(names(&g.input), want_in[..1 + traj as usize], "{name}");
+        assert_eq!(names(&g.output), want_out, "{name}");
+        let k = r.proposal_latents();
+        assert_eq!(dims(&g.output[0]), ["n", &k.to_string(), "2"]);
+        let model = gpecnet_core::Model::from_blob(&b).unwrap();
+        let c = *model.config();
+        let mut p = Box::new(Predictor::<LibmSine, 256>::new(model).unwrap());
+        let mut worst = 0.0f64;
+        for w in 0..40u64 {
+            // Walkers at 0.3-1.8 m/s on gentle curves, as the model sees in metres.
+            let v = 0.3 + 0.04 * w as f32;
+            let past: Vec<[f32; 2]> = (0..c.past_len as usize)
+                .map(|t| {
+                    let t = t as f32 * 0.4;
+                    let a = 0.05 * (w % 7) as f32 * t;
+                    [
+                        3.0 + v * t * a.cos(),
+                        -7.0 + v * t * a.sin() * (w % 3) as f32,
+                    ]
+                })
+                .collect();
+            let (frame, pts) = Frame::inputs(&past, &model).unwrap();
+            let x: Vec<f64> = pts[..past.len()]
+                .iter()
+                .flatten()
+                .map(|&v| f64::from(v))
+                .collect();
+            let q = frame.predictor_position(past[past.len() - 1]);
+            let pos = vec![
+                f64::from(q[0] / c.initial_pos_divisor),
+                f64::from(q[1] / c.initial_pos_divisor),
+            ];
+            let env = run(
+                &g,
+                vec![("x", (vec![1, x.len()], x)), ("pos", (vec![1, 2], pos))],
+            );
+            let want = p.predict_forecast::<64>(&past, w).unwrap();
+            assert_eq!(want.endpoints.len(), k);
+            let out = |v: &[f64], i: usize| {
+                frame.output([v[2 * i] as f32, v[2 * i + 1] as f32], c.data_scale)
+            };
+            let mut diff = |a: f32, b: f32| worst = worst.max(f64::from((a - b).abs()));
+            for (i, e) in want.endpoints.iter().enumerate() {
+                let got = out(&env["d"].1, i);
+                diff(got[0], e[0]);
+                diff(got[1], e[1]);
+            }
+            assert_eq!(want.learned, scored);
+            if scored {
+                for (i, q) in want.probabilities.iter().enumerate() {
+                    diff(env["prob"].1[i] as f32, *q);
+                }
+                let radii = want.radii.unwrap();
+                assert_eq!(env["radii"].0, vec![1, 2]);
+                diff(env["radii"].1[0] as f32, radii.r50);
+                diff(env["radii"].1[1] as f32, radii.r90);
+            }
+            let pt = want.point.unwrap();
+            let got = out(&env["point"].1, c.future_len as usize - 1);
+            diff(got[0], pt[0]);
+            diff(got[1], pt[1]);
+        }
+        assert!(worst <= 1e-5, "{name}: worst difference {worst}");
     }
 }
