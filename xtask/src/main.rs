@@ -15,7 +15,7 @@
 //! | [`defmt`] | the defmt stream decoded in-process (`defmt-decoder`) |
 //! | [`ffi`] | `ffi-arm`: the C golden replay on the Cortex-M4F |
 //! | [`fuzz`] | `fuzz-smoke`: every fuzz target of core/fuzz for a minute, without cargo-fuzz |
-//! | [`modules`] | `check-modules`: no mutual imports between modules, every test file compiled |
+//! | [`modules`] | `check-modules`: no import cycle between a crate's folders and modules, every test file compiled |
 use std::path::PathBuf;
 use std::process::exit;
 
@@ -91,9 +91,10 @@ enum Cmd {
         #[arg(long)]
         target: Option<String>,
     },
-    /// No module of a crate's src/ imports a module that imports it back (known cycles:
-    /// xtask/known-module-cycles.txt), and every file of a tests/ folder with a tests/it.rs is
-    /// compiled into that binary.
+    /// No chain of imports in a crate's src/ leads back to where it started: a folder or
+    /// top-level module is one node, and so is each child of a folder among its siblings
+    /// (strongly connected components; known cycles: xtask/known-module-cycles.txt, empty),
+    /// and every file of a tests/ folder with a tests/it.rs is compiled into that binary.
     CheckModules,
     /// Decode a raw defmt stream (stdin) with ELF's table; used by firmware/qemu-run.sh.
     DefmtDecode {

@@ -697,12 +697,12 @@ mod tests {
     fn dense_functions_are_recognised() {
         assert!(is_dense("gpecnet_core::fixed::dense_q"));
         assert!(is_dense(
-            "<gpecnet_core::float::Float<S> as gpecnet_core::engine::Backend>::partial"
+            "<gpecnet_core::float::Float<S> as gpecnet_core::backend::Backend>::partial"
         ));
         assert!(is_dense("gpecnet_core::kernels::smlald_rows"));
         assert!(is_dense("gpecnet_core::float::accumulate"));
         assert!(is_dense(
-            "gpecnet_core::fixed::latent16::<&<gpecnet_core::fixed::Q15 as gpecnet_core::engine::Backend>::latent::{closure#2}>"
+            "gpecnet_core::fixed::latent16::<&<gpecnet_core::fixed::Q15 as gpecnet_core::backend::Backend>::latent::{closure#2}>"
         ));
         assert!(!is_dense("gpecnet_core::sine::sin_q15"));
         assert!(!is_dense(
