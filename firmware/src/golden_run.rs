@@ -79,6 +79,9 @@ pub fn online() -> bool {
 }
 
 /// One result line as defmt text (the same text as the host's `Line::print`).
+/// The variants' fields are named again here, not shared with the host's
+/// printer: defmt's format strings take typed arguments at the call, and the
+/// host's `format_args!` text would pull `core::fmt` onto the Cortex-M0's stack.
 fn print(l: crate::golden::Line<'_>) {
     use crate::golden::Line;
     match l {

@@ -146,6 +146,9 @@ impl Line<'_> {
     /// error level by defmt); a golden case that differs from its sidecar is
     /// followed by the error line `MISMATCH <model> case <case>`.
     pub fn print(&self, print: &mut dyn FnMut(fmt::Arguments<'_>, bool)) {
+        // `firmware/src/golden_run.rs` names every variant's fields again to
+        // print the same text with defmt: defmt takes typed arguments, and the
+        // Cortex-M0 has no stack for the `core::fmt` of these format strings.
         match *self {
             Line::Model {
                 model,
@@ -736,17 +739,28 @@ fn play_scene<const W: usize>(
             }
             let _ = seen.push(Observation { id, pos });
         }
-        let (forecasts, feedback, hash) = scene_frame(forecaster, p, t_ms, &seen);
+        let counted = scene_frame(forecaster, p, t_ms, &seen);
         out(Line::Online {
             model,
             frame,
             t_ms,
-            forecasts,
-            feedback,
-            hash,
+            forecasts: counted.forecasts,
+            feedback: counted.feedback,
+            hash: counted.hash,
         });
     }
     Ok(())
+}
+
+/// What one camera frame of [`online_scene`] counts, for its [`Line::Online`].
+struct FrameCounts {
+    /// Forecasts the frame issued.
+    forecasts: u32,
+    /// Feedback updates it applied to the calibration.
+    feedback: u32,
+    /// FNV-1a over the frame's report, every forecast and the calibration's
+    /// state after the frame.
+    hash: u32,
 }
 
 /// One camera frame of [`online_scene`] through `forecaster`: the frame's
@@ -760,7 +774,7 @@ fn scene_frame<const W: usize>(
     p: &mut Predictor<'static, LibmSine, W>,
     t_ms: u32,
     seen: &[Observation],
-) -> (u32, u32, u32) {
+) -> FrameCounts {
     let mut h = fnv1a([]);
     let report =
         forecaster.frame::<LibmSine, W, MAX_K>(p, t_ms, seen, |fc| h = hash_forecast(h, fc));
@@ -781,8 +795,11 @@ fn scene_frame<const W: usize>(
         .chain([u32::MAX])
         .chain(d.left.iter().copied()),
     );
-    h = hash_state(h, forecaster.calibration());
-    (report.forecasts, report.feedback, h)
+    FrameCounts {
+        forecasts: report.forecasts,
+        feedback: report.feedback,
+        hash: hash_state(h, forecaster.calibration()),
+    }
 }
 
 /// [`online_scene`]'s forecaster for `blob`, the `Model` view parsed in

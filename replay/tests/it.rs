@@ -1,4 +1,5 @@
 //! The replay's integration tests, one binary (each file a module).
+mod common;
 mod lines;
 mod online;
 mod pack;

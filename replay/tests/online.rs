@@ -4,35 +4,32 @@
 //! lines after the model's golden cases in `verify_all`.
 use gpecnet_replay::{online_scene, verify_all, EmbeddedModel, Line, ONLINE_FRAMES, ONLINE_MODEL};
 
-fn read(name: &str) -> &'static [u8] {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../weights/").to_string() + name;
-    Box::leak(
-        std::fs::read(&path)
-            .unwrap_or_else(|e| panic!("{path}: {e}"))
-            .into_boxed_slice(),
-    )
-}
+use crate::common::read;
 
-/// (frame, t_ms, forecasts, feedback, hash) of every line of the scene at width `W`.
+/// (frame, t_ms, forecasts, feedback, hash) of every line of the scene at width `W`,
+/// read back from the text the host prints, `online <model> <frame> <t_ms> <forecasts>
+/// <feedback> <hash>`.
 fn scene<const W: usize>() -> Vec<(u32, u32, u32, u32, u32)> {
     let blob = read(&format!("{ONLINE_MODEL}.gpec"));
-    let mut lines = Vec::new();
-    online_scene::<W>(ONLINE_MODEL, blob, &mut |l| match l {
-        Line::Online {
-            model,
-            frame,
-            t_ms,
-            forecasts,
-            feedback,
-            hash,
-        } => {
-            assert_eq!(model, ONLINE_MODEL);
-            lines.push((frame, t_ms, forecasts, feedback, hash))
-        }
-        _ => panic!("only online lines"),
+    let mut text = Vec::new();
+    online_scene::<W>(ONLINE_MODEL, blob, &mut |l| {
+        assert!(matches!(l, Line::Online { .. }), "only online lines");
+        l.print(&mut |line, error| {
+            assert!(!error, "{line}");
+            text.push(line.to_string())
+        })
     })
     .unwrap();
-    lines
+    text.iter()
+        .map(|line| {
+            let words: Vec<&str> = line.split(' ').collect();
+            assert_eq!(words[..2], ["online", ONLINE_MODEL], "{line}");
+            let n = |i: usize| words[i].parse::<u32>().unwrap();
+            let hash = u32::from_str_radix(words[6], 16).unwrap();
+            assert_eq!(words.len(), 7, "{line}");
+            (n(2), n(3), n(4), n(5), hash)
+        })
+        .collect()
 }
 
 #[test]

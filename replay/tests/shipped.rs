@@ -3,14 +3,7 @@
 //! a pass.
 use gpecnet_replay::{verify_all, EmbeddedModel, Line};
 
-fn read(name: &str) -> &'static [u8] {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../weights/").to_string() + name;
-    Box::leak(
-        std::fs::read(&path)
-            .unwrap_or_else(|e| panic!("{path}: {e}"))
-            .into_boxed_slice(),
-    )
-}
+use crate::common::read;
 
 /// Runs `models` with scratch width 128; (summary, golden lines, error lines).
 fn run(models: &[EmbeddedModel]) -> (gpecnet_replay::Summary, usize, Vec<String>) {
