@@ -117,6 +117,20 @@ fn link(lib: &Path, model: &str, golden: &str, dir: &Path) -> Result<PathBuf, St
     Ok(elf)
 }
 
+/// Runs `c` to its end: its exit code (1 when a signal ended it) and its
+/// stdout followed by its stderr; `Err` when it could not start.
+/// `toolchain::output` keeps the two streams apart and stops xtask when a
+/// program cannot start; here the caller reports that as a failed check.
+pub(crate) fn combined_output(c: &mut Command) -> std::io::Result<(i32, String)> {
+    let o = c.output()?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    Ok((o.status.code().unwrap_or(1), text))
+}
+
 /// Runs `elf` in QEMU; returns (exit code, output).
 fn run(elf: &Path) -> (i32, String) {
     let mut c = Command::new("timeout");
@@ -138,17 +152,7 @@ fn run(elf: &Path) -> (i32, String) {
         .arg("-kernel")
         .arg(elf);
     eprintln!("xtask: $ {c:?}");
-    match c.output() {
-        Ok(o) => (
-            o.status.code().unwrap_or(1),
-            format!(
-                "{}{}",
-                String::from_utf8_lossy(&o.stdout),
-                String::from_utf8_lossy(&o.stderr)
-            ),
-        ),
-        Err(e) => (1, e.to_string()),
-    }
+    combined_output(&mut c).unwrap_or_else(|e| (1, e.to_string()))
 }
 
 /// `cargo xtask ffi-arm`.

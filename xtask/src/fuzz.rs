@@ -16,6 +16,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::ffi::combined_output;
 use crate::root;
 use crate::toolchain::{host_cargo, status};
 
@@ -143,20 +144,12 @@ pub(crate) fn fuzz_smoke(seconds: u32, only: Option<&str>) -> i32 {
             .arg("-print_final_stats=1")
             .arg(&corpus);
         eprintln!("xtask: $ {c:?}");
-        let (rc, log) = match c.output() {
-            Ok(o) => (
-                o.status.code().unwrap_or(1),
-                format!(
-                    "{}{}",
-                    String::from_utf8_lossy(&o.stdout),
-                    String::from_utf8_lossy(&o.stderr)
-                ),
-            ),
-            Err(e) => (
+        let (rc, log) = combined_output(&mut c).unwrap_or_else(|e| {
+            (
                 1,
                 format!("cannot start {}: {e}", bins.join(target).display()),
-            ),
-        };
+            )
+        });
         let log_file = out.join(format!("{target}.log"));
         let _ = std::fs::write(&log_file, &log);
         let ok = rc == 0;
