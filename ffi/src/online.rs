@@ -98,39 +98,37 @@ pub struct GpecnetOnlineConfig {
     pub multiplier_bounds: [f32; 2],
 }
 
+/// The configuration `$c` as a `$to`: the fields the two structs share by
+/// name and type copied as they are, the two flags (`bool` in the core, `u8`
+/// in C) converted by `$flag`. Both directions list the fields here once; a
+/// field added to either struct fails to compile until it is mapped.
+macro_rules! convert_config {
+    ($c:ident => $to:ident, $flag:expr) => {
+        $to {
+            adapt: $flag($c.adapt),
+            alpha: $c.alpha,
+            gamma: $c.gamma,
+            eta: $c.eta,
+            forgetting: $c.forgetting,
+            expert_prior: $c.expert_prior,
+            speed_thresholds: $c.speed_thresholds,
+            motion_bins: $flag($c.motion_bins),
+            min_scale: $c.min_scale,
+            loss_cap: $c.loss_cap,
+            multiplier_bounds: $c.multiplier_bounds,
+        }
+    };
+}
+
 impl From<Config> for GpecnetOnlineConfig {
     fn from(c: Config) -> Self {
-        GpecnetOnlineConfig {
-            adapt: c.adapt.into(),
-            alpha: c.alpha,
-            gamma: c.gamma,
-            eta: c.eta,
-            forgetting: c.forgetting,
-            expert_prior: c.expert_prior,
-            speed_thresholds: c.speed_thresholds,
-            motion_bins: c.motion_bins.into(),
-            min_scale: c.min_scale,
-            loss_cap: c.loss_cap,
-            multiplier_bounds: c.multiplier_bounds,
-        }
+        convert_config!(c => GpecnetOnlineConfig, u8::from)
     }
 }
 
 impl From<GpecnetOnlineConfig> for Config {
     fn from(c: GpecnetOnlineConfig) -> Self {
-        Config {
-            adapt: c.adapt != 0,
-            alpha: c.alpha,
-            gamma: c.gamma,
-            eta: c.eta,
-            forgetting: c.forgetting,
-            expert_prior: c.expert_prior,
-            speed_thresholds: c.speed_thresholds,
-            motion_bins: c.motion_bins != 0,
-            min_scale: c.min_scale,
-            loss_cap: c.loss_cap,
-            multiplier_bounds: c.multiplier_bounds,
-        }
+        convert_config!(c => Config, |flag: u8| flag != 0)
     }
 }
 

@@ -437,10 +437,10 @@ fn drone_flight(t: f32) -> gpecnet_core::camera::State {
             cr * cp * sy - sr * sp * cy,
         ],
         position: [1.0 * t - 6.0, 0.8 * t, -30.0 - 0.2 * t],
+        // 70° down, compensating the vehicle's pitch; no roll, no yaw.
         gimbal: Euler {
-            roll: 0.0,
             pitch: -1.22 - pitch,
-            yaw: 0.0,
+            ..Euler::ZERO
         },
         ground_down: 0.0,
     }
