@@ -64,12 +64,9 @@ pub unsafe extern "C" fn gpecnet_init_signed(
     // SAFETY: the caller's contract, passed on unchanged.
     let status = unsafe {
         init_with(
-            storage,
-            storage_len,
-            blob,
-            blob_len,
-            unit,
-            metres_per_pixel,
+            (storage, storage_len),
+            (blob, blob_len),
+            (unit, metres_per_pixel),
             |bytes| {
                 let (m, v) =
                     Model::from_signed_blob(bytes, trusted, min_version).map_err(sign_status)?;

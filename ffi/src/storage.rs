@@ -133,29 +133,25 @@ pub unsafe extern "C" fn gpecnet_init_units(
     // SAFETY: the caller's contract, passed on unchanged.
     unsafe {
         init_with(
-            storage,
-            storage_len,
-            blob,
-            blob_len,
-            unit,
-            metres_per_pixel,
+            (storage, storage_len),
+            (blob, blob_len),
+            (unit, metres_per_pixel),
             |bytes| Model::from_blob(bytes).map_err(blob_status),
         )
     }
 }
 
 /// The body of the init functions: checks the storage, reads the model with
-/// `model` and builds the predictor for `unit` in the storage.
+/// `model` and builds the predictor for `unit` in the storage. The C
+/// arguments come in pairs as the init functions take them: `(storage,
+/// storage_len)`, `(blob, blob_len)` and `(unit, metres_per_pixel)`.
 ///
 /// # Safety
 /// As [`gpecnet_init`].
 pub(crate) unsafe fn init_with(
-    storage: *mut c_void,
-    storage_len: usize,
-    blob: *const u8,
-    blob_len: usize,
-    unit: u32,
-    metres_per_pixel: f32,
+    (storage, storage_len): (*mut c_void, usize),
+    (blob, blob_len): (*const u8, usize),
+    (unit, metres_per_pixel): (u32, f32),
     model: impl FnOnce(&'static [u8]) -> Result<Model<'static>, i32>,
 ) -> i32 {
     guard(|| {
