@@ -179,8 +179,9 @@ pub(crate) struct ExportArgs {
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct EvalArgs {
-    /// The blob to evaluate.
-    #[arg(long, value_name = "FILE", default_value = "weights/sdd-small.gpec")]
+    /// The blob to evaluate: by default the shipped default model, the one the firmware
+    /// embeds (SDD in metres, learned endpoint probabilities and radii, fixed point).
+    #[arg(long, value_name = "FILE", default_value = gpecnet_trainer::blob_eval::DEFAULT_BLOB)]
     blob: PathBuf,
     /// Where the BENCHMARK data lives: the root holding sdd/ and eth_ucy/ (shared/data/README.md).
     /// Only the built-in data sets read it; your own folder goes in --dataset, not here.
@@ -189,13 +190,17 @@ pub(crate) struct EvalArgs {
     /// WHICH data set's test split is evaluated: `sdd` (pixels), `sdd-m` (SDD in metres
     /// through the per-scene scales; also prints the pixel-equivalent numbers),
     /// `eth_ucy:<eth|hotel|univ|zara1|zara2>` (metres), or your own data-set folder with a '/'
-    /// in its path (`./mydrone`: dataset.toml and test/; docs/own-data.md). A folder without
-    /// val/ is evaluated zero-shot, the constant-velocity window fixed at 2 steps (the report
-    /// says so). A blob whose unit differs from the data set's is refused before anything runs.
-    #[arg(long, value_name = "SPEC", default_value = "sdd", value_parser = parse_dataset)]
-    dataset: data::DatasetSpec,
+    /// in its path (`./mydrone`: dataset.toml and test/; docs/own-data.md). Default: the
+    /// blob's own data set, the one its model card names (<blob>.json), else the one its unit
+    /// and recorded training data say (SDD in metres: `sdd-m`; the default model's is
+    /// `sdd-m`). A folder without val/ is evaluated zero-shot, the constant-velocity window
+    /// fixed at 2 steps (the report says so). A blob whose unit differs from the data set's
+    /// is refused before anything runs.
+    #[arg(long, value_name = "SPEC", value_parser = parse_dataset)]
+    dataset: Option<data::DatasetSpec>,
     /// The unit of a blob that does not state one (format version < 4). Without it such a
-    /// blob is taken as SDD pixels (what every shipped one is) and refused on metre data.
+    /// blob is taken as SDD pixels (what every shipped blob of those versions is) and
+    /// refused on metre data.
     #[arg(long, value_enum, value_name = "UNIT")]
     assume_unit: Option<UnitArg>,
     /// Sine to run (default: the one the blob's golden file names, else libm).
@@ -223,7 +228,8 @@ pub(crate) struct EvalArgs {
     json: bool,
     /// Add the distribution metrics (kde_nll, hit20, hit40) to the blob's existing model card
     /// (.json and .md) if it lacks them; nothing else in the card, the blob or the golden file
-    /// changes. The card's ADE/FDE must be reproduced first.
+    /// changes. The card's ADE/FDE must be reproduced first. SDD pixel cards only (the data
+    /// set `sdd`).
     #[arg(long)]
     update_card: bool,
 }
@@ -292,8 +298,12 @@ pub(crate) fn parse_dataset(s: &str) -> std::result::Result<data::DatasetSpec, S
 }
 
 pub(crate) fn cmd_eval(a: EvalArgs) -> Result<()> {
+    let dataset = match &a.dataset {
+        Some(d) => d.clone(),
+        None => gpecnet_trainer::blob_eval::own_dataset(&a.blob)?,
+    };
     let target = gpecnet_trainer::blob_eval::EvalTarget {
-        dataset: a.dataset.clone(),
+        dataset: dataset.clone(),
         assume_unit: a.assume_unit.map(Into::into),
     };
     // A data-set folder given as the benchmark root would be read as sdd/ and eth_ucy/.
@@ -306,7 +316,7 @@ pub(crate) fn cmd_eval(a: EvalArgs) -> Result<()> {
             a.data.display()
         );
     }
-    if a.update_card && a.dataset != data::DatasetSpec::Sdd {
+    if a.update_card && dataset != data::DatasetSpec::Sdd {
         anyhow::bail!("--update-card applies to the SDD pixel cards only");
     }
     let mut r = gpecnet_trainer::blob_eval::eval_blob(

@@ -65,7 +65,9 @@ enum Command {
     /// This is what runs on the drone, on the real test set: best-of-K and K = 1 errors in
     /// the data's unit, the constant-velocity baseline, hit rates at the unit's radii, the
     /// same per scene, whether the model card is reproduced exactly, and (with --draw) an
-    /// SVG of predicted vs. true trajectories. Writes no file unless asked.
+    /// SVG of predicted vs. true trajectories. Writes no file unless asked. With no options:
+    /// the shipped default model (weights/sdd-m-lp-qe.gpec) on its own data set, SDD in
+    /// metres (`sdd-m`), with the pixel equivalents and what a planner gets.
     Eval(EvalArgs),
     /// Quantize an f32 blob to the fixed-point kind (Int16Q15); writes <out>.gpec, .golden,
     /// .json and .md with f32 vs fixed ADE/FDE on the SDD test set through gpecnet-core.

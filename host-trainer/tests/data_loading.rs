@@ -437,3 +437,31 @@ fn eth_ucy_file_on_another_clock_is_refused() {
     );
     assert!(msg.contains("tenhz.txt:3"), "{msg}");
 }
+
+#[test]
+fn validation_read_by_scene_is_the_training_split_cut_by_scene() {
+    // Validation reads only its scenes' files; the windows, their order and the set's name
+    // are those of the whole training split cut by scene, in pixels and in metres.
+    let r = root();
+    let val_scenes = default_sdd_val_scenes();
+    let (_, cut) = split_by_scene(load_sdd(&r, SddSplit::Train).unwrap(), &val_scenes);
+    let val = load(&r, &DatasetSpec::Sdd, Split::Val, &val_scenes).unwrap();
+    assert_eq!(val.name, cut.name);
+    assert_eq!(val.len(), 846);
+    assert_eq!(val.windows, cut.windows);
+    let metres = load(&r, &DatasetSpec::SddMetres, Split::Val, &val_scenes).unwrap();
+    let converted = sdd_in_metres(&r, cut).unwrap();
+    assert_eq!(metres.name, converted.name);
+    assert!(metres
+        .windows
+        .iter()
+        .zip(&converted.windows)
+        .all(|(a, b)| a.scene == b.scene
+            && a.frames == b.frames
+            && a.pos.iter().flatten().map(|v| v.to_bits()).eq(b
+                .pos
+                .iter()
+                .flatten()
+                .map(|v| v.to_bits()))));
+    assert_eq!(metres.len(), converted.len());
+}

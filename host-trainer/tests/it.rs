@@ -11,6 +11,7 @@ mod data_errors;
 mod data_loading;
 mod data_range_eval;
 mod eval_metrics;
+mod eval_once;
 mod own_data;
 mod propose;
 mod run_folder;

@@ -50,7 +50,7 @@ pub use recording::{read_recording, recordings, RecordedFrame, Recording};
 pub use rows::{default_data_root, read_rows, Row};
 pub use scales::sdd_metres_per_pixel;
 pub use sdd::{load_sdd, parse_sdd_file, SddSplit};
-pub use spec::{load, DatasetSpec, LoadError, Split, DATASET_NAMES};
+pub use spec::{load, sdd_in_metres, DatasetSpec, LoadError, Split, DATASET_NAMES};
 pub use window::{
     default_sdd_val_scenes, denormalize_point, mirrored, normalize, split_by_scene, time_reversed,
     Dataset, Sample, Unit, Window,

@@ -219,8 +219,20 @@ pub(super) fn load_split(
     name: String,
     unit: Unit,
 ) -> Result<Dataset, DataError> {
+    load_split_where(dir, what, parse, name, unit, |_| true)
+}
+
+/// [`load_split`] of the files `keep` accepts only (the others are not read).
+pub(super) fn load_split_where(
+    dir: &Path,
+    what: &str,
+    parse: fn(&Path) -> Result<Vec<Window>, DataError>,
+    name: String,
+    unit: Unit,
+    keep: impl Fn(&Path) -> bool,
+) -> Result<Dataset, DataError> {
     let mut windows = Vec::new();
-    for f in &sorted_txt_files(dir, what)? {
+    for f in sorted_txt_files(dir, what)?.iter().filter(|f| keep(f)) {
         windows.extend(parse(f)?);
     }
     Ok(Dataset {

@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::rows::{id_key, load_split, scene_name};
+use super::rows::{id_key, load_split, load_split_where, scene_name};
 use super::*;
 
 /// The SDD splits shipped in `shared/data/sdd/`.
@@ -109,5 +109,24 @@ pub fn load_sdd(root: &Path, split: SddSplit) -> Result<Dataset, DataError> {
         parse_sdd_file,
         format!("sdd/{}", split.dir_name()),
         Unit::Pixels,
+    )
+}
+
+/// The windows of the scenes `scenes` of an SDD split, exactly as they sit in
+/// [`load_sdd`]'s data set (same order, same name), reading only those scenes' files: the
+/// validation scenes without parsing the whole training split.
+pub(crate) fn load_sdd_scenes(
+    root: &Path,
+    split: SddSplit,
+    scenes: &[String],
+) -> Result<Dataset, DataError> {
+    let dir = root.join("sdd").join(split.dir_name());
+    load_split_where(
+        &dir,
+        &format!("SDD {} directory", split.dir_name()),
+        parse_sdd_file,
+        format!("sdd/{}", split.dir_name()),
+        Unit::Pixels,
+        |f| scenes.contains(&scene_name(f)),
     )
 }

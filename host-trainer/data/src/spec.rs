@@ -313,11 +313,7 @@ pub fn load(
 ) -> Result<Dataset, LoadError> {
     match spec {
         DatasetSpec::Sdd => load_sdd_split(root, split, val_scenes),
-        DatasetSpec::SddMetres => {
-            let px = load_sdd_split(root, split, val_scenes)?;
-            let scales = sdd_metres_per_pixel(root)?;
-            to_metres(px, &scales, root)
-        }
+        DatasetSpec::SddMetres => sdd_in_metres(root, load_sdd_split(root, split, val_scenes)?),
         DatasetSpec::EthUcy(scene) => {
             let s = match split {
                 Split::Train => EthUcySplit::Train,
@@ -351,7 +347,11 @@ fn load_sdd_split(root: &Path, split: Split, val_scenes: &[String]) -> Result<Da
     if split == Split::Test {
         return Ok(load_sdd(root, SddSplit::Test)?);
     }
-    let all = load_sdd(root, SddSplit::Train)?;
+    // Validation reads only its scenes' files: the windows `split_by_scene` would keep.
+    let all = match split {
+        Split::Val => super::sdd::load_sdd_scenes(root, SddSplit::Train, val_scenes)?,
+        _ => load_sdd(root, SddSplit::Train)?,
+    };
     for s in val_scenes {
         if !all.windows.iter().any(|w| &w.scene == s) {
             // The scene's file is there but gives no window (empty, or no track long
@@ -374,6 +374,14 @@ fn load_sdd_split(root: &Path, split: Split, val_scenes: &[String]) -> Result<Da
     }
     let (train, val) = split_by_scene(all, val_scenes);
     Ok(if split == Split::Train { train } else { val })
+}
+
+/// The `sdd-m` windows of `px`, windows of the pixel SDD (`sdd`) read under `root`: every
+/// window times its scene's metres per pixel (`sdd/scales/`), exactly as [`load`] gives
+/// `sdd-m`. A caller that needs a split in both units parses it once, in pixels, and converts.
+pub fn sdd_in_metres(root: &Path, px: Dataset) -> Result<Dataset, LoadError> {
+    let scales = sdd_metres_per_pixel(root)?;
+    to_metres(px, &scales, root)
 }
 
 /// Every window of a pixel SDD set times its scene's metres per pixel.

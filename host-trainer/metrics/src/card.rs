@@ -124,6 +124,13 @@ pub fn validation_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Datase
 /// The test windows of `spec`, refusing an empty set.
 pub fn test_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Dataset> {
     let test = data::load(data_root, spec, Split::Test, &[])?;
+    refuse_empty_test(data_root, spec, &test)?;
+    Ok(test)
+}
+
+/// An error when `test`, the test windows of `spec` under `data_root` however they were
+/// read, is empty, as [`test_windows`] refuses it (naming where they were looked for).
+pub fn refuse_empty_test(data_root: &Path, spec: &DatasetSpec, test: &Dataset) -> Result<()> {
     if test.windows.is_empty() {
         // A folder's own test/ is named, not the benchmark data root it does not use.
         if let DatasetSpec::Folder { dir, .. } = spec {
@@ -138,7 +145,7 @@ pub fn test_windows(data_root: &Path, spec: &DatasetSpec) -> Result<Dataset> {
             spec.location(data_root)
         );
     }
-    Ok(test)
+    Ok(())
 }
 
 /// The inference settings a format-2 blob carries (see `gpecnet_core::blob::Extensions`).
@@ -201,8 +208,13 @@ pub struct CvBaseline {
 /// [`CvBaseline`] on `test`, `n` chosen on the validation windows of `spec` under
 /// `data_root` ([`validation_windows`]).
 pub fn cv_baseline(data_root: &Path, spec: &DatasetSpec, test: &Dataset) -> Result<CvBaseline> {
-    let val = validation_windows(data_root, spec)?;
-    let (n, _) = select_cv_n(&val).with_context(|| format!("no {spec} validation window"))?;
+    cv_baseline_of(spec, &validation_windows(data_root, spec)?, test)
+}
+
+/// [`CvBaseline`] on `test`, `n` chosen on `val`: the validation windows of `spec`
+/// ([`validation_windows`]) that the caller has already read.
+pub fn cv_baseline_of(spec: &DatasetSpec, val: &Dataset, test: &Dataset) -> Result<CvBaseline> {
+    let (n, _) = select_cv_n(val).with_context(|| format!("no {spec} validation window"))?;
     Ok(CvBaseline {
         n,
         test: evaluate_baseline_with(test, |w| constant_velocity_n(w, n)),

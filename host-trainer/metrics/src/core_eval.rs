@@ -462,3 +462,133 @@ pub fn planner_metrics(
 ) -> Result<crate::planner_metrics::PlannerMetrics> {
     Ok(planner_accumulator(windows, outs, unit)?.finish())
 }
+
+/// What an evaluation reads from a model with endpoint probabilities, every window computed
+/// once ([`forecasts_core`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Forecasts {
+    /// The `k` samples of every window: what [`evaluate_core`] gives.
+    pub samples: Vec<Prediction>,
+    /// The point forecast of every window, for a model with a point head: what
+    /// [`evaluate_point_core`] gives.
+    pub points: Option<Vec<Prediction>>,
+    /// The planner outputs of every window: what [`planner_core`] gives.
+    pub planner: Vec<PlannerOut>,
+}
+
+/// One pass through `gpecnet-core` for a model with endpoint probabilities (window `i` with
+/// seed `base_seed + i`): per window the endpoints and trajectories, their probabilities,
+/// the point forecast and its radii, each computed once. The same bits as
+/// [`evaluate_core`] (`k` samples), [`evaluate_point_core`] and [`planner_core`] give one
+/// by one: a proposal model's sample stream is one sequence whose first `k` elements are
+/// the `k` samples and whose first [`HOST_MAX_K`]-bounded elements are the planner's
+/// endpoints ([`gpecnet_core::sampling::max_endpoints_of`]), and the probabilities, the
+/// point forecast and the radii follow in the planner's order
+/// ([`gpecnet_core::Predictor::predict_planner`]). `None` for a model without
+/// probabilities or with test-time sampling, whose outputs these functions give separately.
+/// `sine` is ignored for fixed-point blobs.
+pub fn forecasts_core(
+    blob: &[u8],
+    sine: SineKind,
+    ds: &Dataset,
+    k: usize,
+    base_seed: u64,
+) -> Result<Option<Forecasts>> {
+    let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
+    if !model.has_probabilities() || model.extensions().tts_samples > 0 {
+        return Ok(None);
+    }
+    check_k("k", &model, k)?;
+    type One = (Prediction, Option<Prediction>, PlannerOut);
+    fn block<S: Sine>(
+        model: Model<'_>,
+        ws: &[Window],
+        seed: impl Fn(usize) -> u64,
+        k: usize,
+    ) -> Result<Vec<One>> {
+        let mut p =
+            gpecnet_core::Predictor::<S, HOST_WIDTH>::new(model).map_err(|e| anyhow!("{e}"))?;
+        // The planner's endpoints: as many as `predict_forecast::<HOST_MAX_K>` gives.
+        let n = gpecnet_core::sampling::max_endpoints_of(&model, HOST_MAX_K);
+        let drawn = n.max(k);
+        let (trajectories, head) = (model.has_predictor(), model.has_point_head());
+        let scales = model.radius_scales();
+        let mut t = vec![Trajectory::new(); drawn];
+        let mut ends = vec![[0.0f32; 2]; drawn];
+        let mut probs = vec![0.0f32; n];
+        ws.iter()
+            .enumerate()
+            .map(|(i, w)| {
+                let at = |e: gpecnet_core::PredictError| anyhow!("{}#{}: {e}", w.scene, w.ped_id);
+                let past = w.obs();
+                let samples = if trajectories {
+                    p.predict_trajectories(&past, seed(i), &mut t).map_err(at)?;
+                    for (e, t) in ends.iter_mut().zip(&t) {
+                        *e = *t.last().ok_or_else(|| {
+                            anyhow!(
+                                "{}#{}: the model gave an empty trajectory",
+                                w.scene,
+                                w.ped_id
+                            )
+                        })?;
+                    }
+                    t[..k].iter().map(|t| to_fixed(t)).collect()
+                } else {
+                    p.predict_samples(&past, seed(i), &mut ends).map_err(at)?;
+                    ends[..k]
+                        .iter()
+                        .map(|e| linear_fill(past[PAST - 1], *e))
+                        .collect()
+                };
+                let learned = p.probabilities(&mut probs).map_err(at)?;
+                let point = if head {
+                    Some(p.predict_point(&past).map_err(at)?)
+                } else {
+                    None
+                };
+                let point_end = point.as_ref().and_then(|t| t.last().copied());
+                let radii = match point_end {
+                    Some(pt) if learned => Some(
+                        gpecnet_core::planner::radii(pt, &ends[..n], &probs, scales).map_err(at)?,
+                    ),
+                    _ => None,
+                };
+                Ok((
+                    Prediction {
+                        trajectories: samples,
+                    },
+                    point.as_ref().map(|t| Prediction::single(to_fixed(t))),
+                    PlannerOut {
+                        endpoints: ends[..n].to_vec(),
+                        probs: probs.clone(),
+                        point: point_end,
+                        radii: radii.map(|r| [r.r50, r.r90]),
+                    },
+                ))
+            })
+            .collect()
+    }
+    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
+        let lo = b * BLOCK;
+        let hi = (lo + BLOCK).min(ds.windows.len());
+        let seed = |i: usize| base_seed.wrapping_add((lo + i) as u64);
+        match sine {
+            SineKind::Libm => block::<LibmSine>(model, &ds.windows[lo..hi], seed, k),
+            SineKind::Fast => block::<FastSine>(model, &ds.windows[lo..hi], seed, k),
+        }
+    })?;
+    let n = ds.windows.len();
+    let mut out = Forecasts {
+        samples: Vec::with_capacity(n),
+        points: model.has_point_head().then(|| Vec::with_capacity(n)),
+        planner: Vec::with_capacity(n),
+    };
+    for (s, point, planner) in blocks.into_iter().flatten() {
+        out.samples.push(s);
+        if let (Some(all), Some(pt)) = (out.points.as_mut(), point) {
+            all.push(pt);
+        }
+        out.planner.push(planner);
+    }
+    Ok(Some(out))
+}

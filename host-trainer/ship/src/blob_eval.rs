@@ -13,7 +13,8 @@ use crate::baseline::{
     constant_velocity, constant_velocity_n, evaluate_baseline, evaluate_baseline_with, select_cv_n,
 };
 use crate::card::{
-    card_dataset, cv_baseline, model_card_dist_rows, test_windows, validation_windows, ModelCard,
+    card_dataset, cv_baseline_of, model_card_dist_rows, refuse_empty_test, test_windows,
+    validation_windows, ModelCard,
 };
 use crate::core_eval::evaluate_core;
 use crate::data::{self, Dataset, DatasetSpec, Unit};
@@ -181,13 +182,66 @@ pub struct EvalTarget {
     pub assume_unit: Option<Unit>,
 }
 
+/// The data set of the default model ([`DEFAULT_BLOB`]): SDD in metres.
 impl Default for EvalTarget {
     fn default() -> Self {
         Self {
-            dataset: DatasetSpec::Sdd,
+            dataset: DatasetSpec::SddMetres,
             assume_unit: None,
         }
     }
+}
+
+/// The blob `gpecnet eval` evaluates when none is named: the shipped default model, the one
+/// the firmware embeds (metres, trained on SDD in metres).
+pub const DEFAULT_BLOB: &str = "weights/sdd-m-lp-qe.gpec";
+
+/// The data set a blob is about, for an evaluation that names none: its model card's
+/// `dataset` (`<blob>.json`, the set its shipped numbers are on), else what the blob itself
+/// records (format version 4: its unit and training data; SDD in metres is `sdd-m`, SDD in
+/// pixels `sdd`, an ETH/UCY leave-one-out split its scene), else `sdd` for a blob before
+/// version 4 (every such shipped blob is in SDD pixels). An error, asking for `--dataset`,
+/// when neither says.
+pub fn own_dataset(blob_path: &Path) -> Result<DatasetSpec> {
+    let card = crate::inpath::read_limited(
+        &blob_path.with_extension("json"),
+        crate::inpath::FileKind::Text,
+    )
+    .ok()
+    .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok());
+    if let Some(spec) = card.and_then(|c| {
+        c.get("dataset")
+            .and_then(|d| d.as_str())
+            .and_then(|d| DatasetSpec::parse(d).ok())
+    }) {
+        return Ok(spec);
+    }
+    let blob = crate::inpath::read_limited(blob_path, crate::inpath::FileKind::Blob)?;
+    let meta = gpecnet_core::blob::Meta::of_blob(&blob)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
+    use gpecnet_core::blob::PositionUnit;
+    let eth_ucy = meta
+        .data
+        .strip_prefix("ETH/UCY leave-one-scene-out split of ")
+        .and_then(|rest| rest.split(':').next())
+        .filter(|scene| !scene.contains(' '));
+    let spec = match (meta.unit, eth_ucy) {
+        (PositionUnit::Unknown, _) if meta.data.is_empty() => Some(DatasetSpec::Sdd),
+        (PositionUnit::Metre, Some(scene)) => DatasetSpec::parse(&format!("eth_ucy:{scene}")).ok(),
+        (PositionUnit::Metre, None) if meta.data.starts_with("SDD ") => {
+            Some(DatasetSpec::SddMetres)
+        }
+        (PositionUnit::Pixel, None) if meta.data.starts_with("SDD ") => Some(DatasetSpec::Sdd),
+        _ => None,
+    };
+    spec.with_context(|| {
+        format!(
+            "{}: no model card names its data set and its recorded training data ({:?}) is \
+             none of sdd, sdd-m or eth_ucy:<scene>; name the data set with --dataset",
+            blob_path.display(),
+            meta.data
+        )
+    })
 }
 
 /// Evaluates a blob through `gpecnet-core` on the test split of `target`'s data set (after
@@ -228,7 +282,6 @@ pub fn eval_blob(
         .map_err(|e| anyhow::anyhow!("{}: {e}", blob_path.display()))?;
     let unit = check_unit(&model, &meta, spec, target.assume_unit)
         .with_context(|| format!("evaluating {}", blob_path.display()))?;
-    let test = test_windows(data_root, spec)?;
     // A folder without val/ is evaluated zero-shot: nothing to choose the constant-velocity
     // window on, so it is fixed (and the report says so).
     let no_val = match spec {
@@ -237,12 +290,12 @@ pub fn eval_blob(
         }
         _ => None,
     };
-    let (cv_n, cv_val, n_val) = match &no_val {
-        Some(_) => (FIXED_CV_N, Vec::new(), 0),
-        None => {
-            let val = validation_windows(data_root, spec)?;
+    let Splits { test, val, pixels } = read_splits(data_root, spec, no_val.is_none())?;
+    let (cv_n, cv_val, n_val) = match &val {
+        None => (FIXED_CV_N, Vec::new(), 0),
+        Some(val) => {
             let empty = spec.empty_files(data::Split::Val);
-            let (n, sweep) = select_cv_n(&val).with_context(|| match spec {
+            let (n, sweep) = select_cv_n(val).with_context(|| match spec {
                 // Empty files are named as such, not as tracks too short.
                 _ if !empty.is_empty() => format!(
                     "no {spec} validation window: these data files are empty: {}",
@@ -276,18 +329,56 @@ pub fn eval_blob(
         .as_ref()
         .is_some_and(|c| card_dataset(c).ok().as_ref() != Some(spec));
     let card = card.filter(|_| !card_on_other_data);
-    let (metrics, (dist, dist_acc), preds, matches_card, point_preds) = if model.numeric()
-        == gpecnet_core::NumericKind::F32
-    {
-        let sine = sine
-            .or_else(|| crate::export::sine_of_blob(blob_path))
-            .unwrap_or(SineKind::Libm);
-        let (metrics, preds) = evaluate_core(&blob, sine, &test, k, base_seed)?;
-        let acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
-        let dist = acc.finish().context("empty test set")?;
-        let point = crate::core_eval::evaluate_point_core(&blob, sine, &test)?;
-        let point_m = point.as_ref().map(|p| p.0);
-        let matches = card.map(|v| {
+    let fixed = model.numeric() != gpecnet_core::NumericKind::F32;
+    if fixed && sine.is_some() {
+        bail!(
+            "--sine applies to f32 blobs; {} is fixed point (integer table sine)",
+            blob_path.display()
+        );
+    }
+    // The sine every pass runs with (a fixed-point blob ignores it: integer table sine).
+    let run_sine = sine
+        .or_else(|| crate::export::sine_of_blob(blob_path))
+        .unwrap_or(SineKind::Libm);
+    // A model with endpoint probabilities: samples, point forecasts and planner outputs in
+    // one pass, each window computed once; any other model in the separate passes.
+    let (preds, point_preds, planner_outs) =
+        match crate::core_eval::forecasts_core(&blob, run_sine, &test, k, base_seed)? {
+            Some(f) => {
+                let points = match f.points {
+                    Some(p) => Some((crate::core_eval::accumulate(&test, &p)?, p)),
+                    None => None,
+                };
+                (f.samples, points, Some(f.planner))
+            }
+            None => {
+                let preds = if fixed {
+                    crate::fixed_eval::evaluate_core_fixed(&blob, &test, k, base_seed)?.1
+                } else {
+                    evaluate_core(&blob, run_sine, &test, k, base_seed)?.1
+                };
+                (
+                    preds,
+                    crate::core_eval::evaluate_point_core(&blob, run_sine, &test)?,
+                    crate::core_eval::planner_core(&blob, run_sine, &test, base_seed)?,
+                )
+            }
+        };
+    let metrics = crate::core_eval::accumulate(&test, &preds)?;
+    let dist_acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
+    let dist = dist_acc.finish().context("empty test set")?;
+    let point_m = point_preds.as_ref().map(|p| p.0);
+    let matches_card = card.map(|v| {
+        if fixed {
+            let want_point: Option<Metrics> = card_field(&v, "test_fixed_point");
+            let want: Option<Metrics> = card_field(&v, "test_fixed");
+            let want_dist: Option<DistMetrics> = card_field(&v, "test_fixed_dist");
+            v.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
+                && v.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
+                && want == Some(metrics)
+                && want_dist == Some(dist)
+                && want_point == point_m
+        } else {
             let want_point: Option<Metrics> = card_field(&v, "test_point");
             let want_dist: Option<DistMetrics> = card_field(&v, "test_dist");
             let c: Option<ModelCard> = serde_json::from_value(v).ok();
@@ -295,46 +386,22 @@ pub fn eval_blob(
                 c.blob_crc == model.crc()
                     && c.k == k
                     && c.base_seed == base_seed
-                    && c.sine == sine
+                    && c.sine == run_sine
                     && c.test == metrics
             }) && want_dist == Some(dist)
                 && want_point == point_m
-        });
-        (metrics, (dist, acc), preds, matches, point)
-    } else {
-        if sine.is_some() {
-            bail!(
-                "--sine applies to f32 blobs; {} is fixed point (integer table sine)",
-                blob_path.display()
-            );
         }
-        let (metrics, preds) = crate::fixed_eval::evaluate_core_fixed(&blob, &test, k, base_seed)?;
-        let acc = dist_accumulator(&test, &preds).context("one prediction per test window")?;
-        let dist = acc.finish().context("empty test set")?;
-        let point = crate::core_eval::evaluate_point_core(&blob, SineKind::Libm, &test)?;
-        let point_m = point.as_ref().map(|p| p.0);
-        let matches = card.map(|c| {
-            let want_point: Option<Metrics> = card_field(&c, "test_fixed_point");
-            let want: Option<Metrics> = card_field(&c, "test_fixed");
-            let want_dist: Option<DistMetrics> = card_field(&c, "test_fixed_dist");
-            c.get("k").and_then(|v| v.as_u64()) == Some(k as u64)
-                && c.get("base_seed").and_then(|v| v.as_u64()) == Some(base_seed)
-                && want == Some(metrics)
-                && want_dist == Some(dist)
-                && want_point == point_m
-        });
-        (metrics, (dist, acc), preds, matches, point)
-    };
+    });
     let point = point_preds.as_ref().map(|p| (p.0.ade_k1, p.0.fde_k1));
-    let pixels = if *spec == DatasetSpec::SddMetres {
-        Some(pixel_equivalent(
+    let pixels = match &pixels {
+        Some(px) => Some(pixel_equivalent(
             data_root,
             &test,
             &preds,
             point_preds.as_ref().map(|p| p.1.as_slice()),
-        )?)
-    } else {
-        None
+            px,
+        )?),
+        None => None,
     };
     let hit_radii = crate::dist::hit_radii(unit);
     let hits = hit_radii.map(|r| (r, dist_acc.within(r)));
@@ -345,10 +412,6 @@ pub fn eval_blob(
         cv_n,
         hit_radii,
     )?;
-    let run_sine = sine
-        .or_else(|| crate::export::sine_of_blob(blob_path))
-        .unwrap_or(SineKind::Libm);
-    let planner_outs = crate::core_eval::planner_core(&blob, run_sine, &test, base_seed)?;
     let planner = match &planner_outs {
         Some(outs) => Some(crate::card::planner_pair(data_root, spec, &test, outs)?),
         None => None,
@@ -427,14 +490,66 @@ pub fn eval_blob(
     })
 }
 
-/// [`PixelEquivalent`] of SDD-in-metres predictions: each window's errors divided by its
-/// scene's metres per pixel; constant velocity (window chosen on the SDD validation scenes)
-/// on the pixel test set itself.
+/// The SDD windows behind an `sdd-m` evaluation, in pixels: each split parsed once and
+/// converted to metres for the evaluation itself ([`data::sdd_in_metres`]).
+#[derive(Clone, Debug)]
+pub struct SddPixels {
+    /// The SDD test windows (pixels).
+    pub test: Dataset,
+    /// The SDD validation windows (pixels; [`validation_windows`]).
+    pub val: Dataset,
+}
+
+/// The windows `gpecnet eval` reads, every data file parsed once.
+struct Splits {
+    /// The test windows (not empty).
+    test: Dataset,
+    /// The validation windows; `None` when not asked for (a folder without `val/`).
+    val: Option<Dataset>,
+    /// SDD in metres only: the same windows in pixels.
+    pixels: Option<SddPixels>,
+}
+
+/// The test windows of `spec` and, with `with_val`, its validation windows; for SDD in
+/// metres both are read once, in pixels, and converted, the pixel windows kept for the
+/// pixel-equivalent numbers.
+fn read_splits(data_root: &Path, spec: &DatasetSpec, with_val: bool) -> Result<Splits> {
+    if *spec != DatasetSpec::SddMetres {
+        let test = test_windows(data_root, spec)?;
+        let val = match with_val {
+            true => Some(validation_windows(data_root, spec)?),
+            false => None,
+        };
+        return Ok(Splits {
+            test,
+            val,
+            pixels: None,
+        });
+    }
+    let px_test = data::load(data_root, &DatasetSpec::Sdd, data::Split::Test, &[])?;
+    let test = data::sdd_in_metres(data_root, px_test.clone())?;
+    refuse_empty_test(data_root, spec, &test)?;
+    let px_val = validation_windows(data_root, &DatasetSpec::Sdd)?;
+    let val = data::sdd_in_metres(data_root, px_val.clone())?;
+    Ok(Splits {
+        test,
+        val: with_val.then_some(val),
+        pixels: Some(SddPixels {
+            test: px_test,
+            val: px_val,
+        }),
+    })
+}
+
+/// [`PixelEquivalent`] of SDD-in-metres predictions on `test`: each window's errors divided
+/// by its scene's metres per pixel; constant velocity (window chosen on the SDD validation
+/// scenes) on the pixel test set itself, both from `px` (the same windows in pixels).
 pub fn pixel_equivalent(
     data_root: &Path,
     test: &Dataset,
     preds: &[crate::eval::Prediction],
     point: Option<&[crate::eval::Prediction]>,
+    px: &SddPixels,
 ) -> Result<PixelEquivalent> {
     let scales = data::sdd_metres_per_pixel(data_root)?;
     let convert = |preds: &[crate::eval::Prediction]| -> Result<Metrics> {
@@ -447,8 +562,8 @@ pub fn pixel_equivalent(
         }
         Ok(acc.finish())
     };
-    let px_test = test_windows(data_root, &DatasetSpec::Sdd)?;
-    let cv = cv_baseline(data_root, &DatasetSpec::Sdd, &px_test)?;
+    refuse_empty_test(data_root, &DatasetSpec::Sdd, &px.test)?;
+    let cv = cv_baseline_of(&DatasetSpec::Sdd, &px.val, &px.test)?;
     Ok(PixelEquivalent {
         metrics: convert(preds)?,
         point: match point {

@@ -1,0 +1,120 @@
+//! `gpecnet eval` computes each window once and reads each data file once: the one-pass
+//! evaluation of a model with endpoint probabilities gives exactly the bits of the three
+//! separate passes (samples, point forecasts, planner outputs), for any K; and with no
+//! options it evaluates the shipped default model on its own data set.
+
+use std::path::{Path, PathBuf};
+
+use crate::common::{run, s};
+
+use gpecnet_trainer::blob_eval::own_dataset;
+use gpecnet_trainer::core_eval::{
+    evaluate_core, evaluate_point_core, forecasts_core, planner_core,
+};
+use gpecnet_trainer::data::{default_data_root, Dataset, DatasetSpec};
+use gpecnet_trainer::reference::SineKind;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn weights(name: &str) -> PathBuf {
+    repo().join("weights").join(format!("{name}.gpec"))
+}
+
+/// Every 7th SDD-in-metres test window (about 400): enough for every code path.
+fn some_test_windows() -> Dataset {
+    let mut test =
+        gpecnet_trainer::card::test_windows(&default_data_root(), &DatasetSpec::SddMetres).unwrap();
+    test.windows = test.windows.into_iter().step_by(7).collect();
+    test
+}
+
+#[test]
+fn one_pass_equals_the_three_passes_bit_for_bit() {
+    let test = some_test_windows();
+    for (name, sine) in [
+        ("sdd-m-lp-qe", SineKind::Libm),
+        ("sdd-m-lp", SineKind::Libm),
+        ("sdd-m-lp", SineKind::Fast),
+    ] {
+        let blob = std::fs::read(weights(name)).unwrap();
+        for (k, seed) in [(20, 0), (7, 3)] {
+            let f = forecasts_core(&blob, sine, &test, k, seed)
+                .unwrap()
+                .unwrap_or_else(|| panic!("{name} has endpoint probabilities"));
+            let (_, samples) = evaluate_core(&blob, sine, &test, k, seed).unwrap();
+            assert!(f.samples == samples, "{name} K = {k}: samples");
+            let points = evaluate_point_core(&blob, sine, &test)
+                .unwrap()
+                .map(|p| p.1);
+            assert!(f.points == points, "{name}: point forecasts");
+            let planner = planner_core(&blob, sine, &test, seed).unwrap().unwrap();
+            assert!(f.planner == planner, "{name} seed {seed}: planner outputs");
+        }
+    }
+    // A model without probabilities is left to the separate passes.
+    let blob = std::fs::read(weights("sdd-m-tiny-qe")).unwrap();
+    assert!(forecasts_core(&blob, SineKind::Libm, &test, 20, 0)
+        .unwrap()
+        .is_none());
+}
+
+#[test]
+fn the_blobs_own_data_set_is_its_cards_else_what_the_blob_records() {
+    for (name, want) in [
+        ("sdd-m-lp-qe", "sdd-m"),
+        ("ethucy-zara1-qe", "eth_ucy:zara1"),
+        ("sdd-small", "sdd"),
+    ] {
+        let want = DatasetSpec::parse(want).unwrap();
+        assert_eq!(
+            own_dataset(&weights(name)).unwrap(),
+            want,
+            "{name} with its card"
+        );
+        // Without its card: the blob's unit and recorded training data.
+        let tmp = tempfile::tempdir().unwrap();
+        let copy = tmp.path().join(format!("{name}.gpec"));
+        std::fs::copy(weights(name), &copy).unwrap();
+        assert_eq!(own_dataset(&copy).unwrap(), want, "{name} without its card");
+    }
+}
+
+#[test]
+fn eval_with_no_options_is_the_default_model_on_its_own_data_set() {
+    let data = default_data_root();
+    let (ok, text) = {
+        let o = crate::common::gpecnet()
+            .current_dir(repo())
+            .args(["eval", "--data", s(&data)])
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            ),
+        )
+    };
+    assert!(ok, "{text}");
+    assert!(
+        text.starts_with("model sdd-m-lp-qe on the sdd-m test set (2829 windows)"),
+        "{text}"
+    );
+    assert!(text.contains("model card: reproduced exactly"), "{text}");
+    // The default data set is the blob's, so a pixel model is evaluated in pixels.
+    let (ok, text) = run(&[
+        "eval",
+        "--blob",
+        s(&weights("sdd-tiny-v2-qe")),
+        "--data",
+        s(&data),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(j["dataset"], "sdd", "{text}");
+}
