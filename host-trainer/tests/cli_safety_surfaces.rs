@@ -8,23 +8,7 @@ use crate::common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{run, s, temp_dir};
-
-fn weights() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights")
-}
-
-/// Copies the shipped set `name` (blob, golden file, cards) into `dir`; returns the blob.
-fn copy_set(dir: &Path, name: &str) -> PathBuf {
-    for ext in ["gpec", "golden", "json", "md"] {
-        std::fs::copy(
-            weights().join(format!("{name}.{ext}")),
-            dir.join(format!("{name}.{ext}")),
-        )
-        .unwrap();
-    }
-    dir.join(format!("{name}.gpec"))
-}
+use common::{copy_set, own_data_refusal, quantize, run, s, temp_dir, weights};
 
 /// A link planted at the temp name earlier versions used for `target` in its folder
 /// (`.<name>.tmp.<pid>` of the process about to start: the shell's pid, which `exec`
@@ -62,7 +46,7 @@ fn a_link_planted_at_the_temp_name_is_never_written_through() {
     let victim = dir.join("victim");
     std::fs::write(&victim, b"precious").unwrap();
     let svg = dir.join("d.svg");
-    let blob = weights().join("sdd-m-tiny-qe.gpec");
+    let blob = weights("sdd-m-tiny-qe.gpec");
     let (ok, text) = exec_with_planted_links(
         &svg,
         &victim,
@@ -91,7 +75,7 @@ fn k_above_a_proposal_models_latents_is_refused_up_front() {
     let (ok, text) = run(&[
         "eval",
         "--blob",
-        s(&weights().join("sdd-m-lp-qe.gpec")),
+        s(&weights("sdd-m-lp-qe.gpec")),
         "--data",
         s(&empty),
         "--k",
@@ -101,17 +85,7 @@ fn k_above_a_proposal_models_latents_is_refused_up_front() {
     assert!(text.contains("--k 21") && text.contains("1..=20"), "{text}");
     let src = copy_set(&dir, "sdd-m-lp");
     let out = dir.join("q.gpec");
-    let (ok, text) = run(&[
-        "quantize",
-        "--blob",
-        s(&src),
-        "--out",
-        s(&out),
-        "--data",
-        s(&empty),
-        "--k",
-        "21",
-    ]);
+    let (ok, text) = quantize(&src, &out, &["--data", s(&empty), "--k", "21"]);
     assert!(!ok, "{text}");
     assert!(text.contains("--k 21") && text.contains("1..=20"), "{text}");
     assert!(!out.exists() && !dir.join("q.golden").exists());
@@ -192,17 +166,11 @@ fn key_files_are_refused_in_the_wrong_role() {
     std::fs::set_permissions(&disguised, std::fs::Permissions::from_mode(0o600)).unwrap();
     let (ok, text) = sign(&blob, &disguised, &out);
     assert!(!ok && text.contains("holds the public key"), "{text}");
-    let (ok, text) = run(&[
-        "quantize",
-        "--blob",
-        s(&weights().join("sdd-tiny.gpec")),
-        "--out",
-        s(&dir.join("q.gpec")),
-        "--sign-key",
-        s(&pk),
-        "--sign-version",
-        "2",
-    ]);
+    let (ok, text) = quantize(
+        &weights("sdd-tiny.gpec"),
+        &dir.join("q.gpec"),
+        &["--sign-key", s(&pk), "--sign-version", "2"],
+    );
     assert!(!ok && text.contains("public key file"), "{text}");
     assert!(!out.exists() && !dir.join("q.gpec").exists());
     // The private key is not a public key.
@@ -283,7 +251,7 @@ fn a_second_score_into_the_same_folder_is_refused_at_once() {
         String::from("busy")
     })
     .unwrap();
-    let blob = weights().join("sdd-m-lp-host.gpec");
+    let blob = weights("sdd-m-lp-host.gpec");
     let (ok, text) = run(&["score", "--blob", s(&blob), "--out", s(&out)]);
     assert!(!ok && text.contains("another gpecnet score"), "{text}");
     assert!(!out.join("score.json").exists());
@@ -297,7 +265,7 @@ fn a_second_score_into_the_same_folder_is_refused_at_once() {
 fn propose_options_are_bounded_before_any_work() {
     let dir = temp_dir("propose-bounds");
     let out = dir.join("run");
-    let blob = weights().join("sdd-m-tiny.gpec");
+    let blob = weights("sdd-m-tiny.gpec");
     for (args, want) in [
         (
             &["--k", "1000000"][..],
@@ -351,7 +319,7 @@ fn propose_options_are_bounded_before_any_work() {
 fn unit_and_clock_are_checked_wherever_a_blob_meets_data() {
     let dir = temp_dir("clock");
     let retimed = |name: &str, period: f32| {
-        let bytes = std::fs::read(weights().join(format!("{name}.gpec"))).unwrap();
+        let bytes = std::fs::read(weights(&format!("{name}.gpec"))).unwrap();
         let mut m = gpecnet_trainer::export::read_blob(&bytes).unwrap();
         m.config.meta.as_mut().unwrap().period_s = period;
         let p = dir.join(format!("{name}-{period}.gpec"));
@@ -378,8 +346,8 @@ fn unit_and_clock_are_checked_wherever_a_blob_meets_data() {
     assert!(!q.exists() && !out.join("score.json").exists());
     assert!(!out.join("proposal.json").exists());
     // The shipped clock is accepted (a pixel model at 0.4 s on SDD pixels gets further).
-    let metric = weights().join("sdd-m-tiny.gpec");
-    let host = weights().join("sdd-m-lp-host.gpec");
+    let metric = weights("sdd-m-tiny.gpec");
+    let host = weights("sdd-m-lp-host.gpec");
     for args in [
         vec![
             "propose",
@@ -422,30 +390,27 @@ fn run_and_fit_folders_are_never_among_the_data() {
         !inside.exists(),
         "the run folder was created among the data"
     );
-    let blob = weights().join("sdd-m-lp-host.gpec");
     let fit = r.dir.join("sdd/fit");
-    let (ok, text) = run(&[
-        "score",
-        "--blob",
-        s(&blob),
-        "--data",
-        s(&r.dir),
-        "--out",
-        s(&fit),
-    ]);
-    assert!(!ok && text.contains("inside the input folder"), "{text}");
-    assert!(!fit.exists());
-    let (ok, text) = run(&[
-        "propose",
-        "--blob",
-        s(&weights().join("sdd-m-tiny.gpec")),
-        "--data",
-        s(&r.dir),
-        "--out",
-        s(&fit),
-    ]);
-    assert!(!ok && text.contains("inside the input folder"), "{text}");
-    assert!(!fit.exists());
+    for (command, blob) in [
+        ("score", "sdd-m-lp-host.gpec"),
+        ("propose", "sdd-m-tiny.gpec"),
+    ] {
+        let blob = weights(blob);
+        let (ok, text) = run(&[
+            command,
+            "--blob",
+            s(&blob),
+            "--data",
+            s(&r.dir),
+            "--out",
+            s(&fit),
+        ]);
+        assert!(
+            !ok && text.contains("inside the input folder"),
+            "{command}: {text}"
+        );
+        assert!(!fit.exists(), "{command}");
+    }
 }
 
 /// An own data folder's metres per pixel must survive the conversion to f32: 1e-300 (0 as
@@ -453,24 +418,16 @@ fn run_and_fit_folders_are_never_among_the_data() {
 #[test]
 fn own_data_scales_are_checked_as_f32() {
     for bad in ["1e-300", "1e-40", "1e300"] {
-        let dir = temp_dir("scale-f32");
-        std::fs::write(
-            dir.join("dataset.toml"),
-            format!(
+        let e = own_data_refusal(
+            "scale-f32",
+            &format!(
                 "unit = \"px\"\nseconds_per_frame = 0.4\n[metres_per_pixel]\nflight_01 = {bad}\n"
             ),
-        )
-        .unwrap();
-        for split in ["train", "val", "test"] {
-            std::fs::create_dir_all(dir.join(split)).unwrap();
-        }
-        let e =
-            gpecnet_trainer::data::DatasetSpec::parse(&format!("{}/", dir.display())).unwrap_err();
+        );
         assert!(
             e.contains("metres_per_pixel.flight_01") && e.contains("normal f32"),
             "{bad}: {e}"
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 
@@ -511,19 +468,15 @@ fn a_second_checkpoint_fallback_keeps_the_first_corrupt_file() {
 /// read, naming the key and the limit, not at export.
 #[test]
 fn an_own_data_licence_too_long_for_a_blob_is_refused_up_front() {
-    let dir = temp_dir("licence");
     let licence = "x".repeat(600);
-    std::fs::write(
-        dir.join("dataset.toml"),
-        format!("unit = \"m\"\nseconds_per_frame = 0.4\nlicence = \"{licence}\"\n"),
-    )
-    .unwrap();
-    let e = gpecnet_trainer::data::DatasetSpec::parse(&format!("{}/", dir.display())).unwrap_err();
+    let e = own_data_refusal(
+        "licence",
+        &format!("unit = \"m\"\nseconds_per_frame = 0.4\nlicence = \"{licence}\"\n"),
+    );
     assert!(
         e.contains("licence is 600 bytes") && e.contains("at most 512"),
         "{e}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A run killed before its first checkpoint was written (its folder holds the lock of a
@@ -643,7 +596,7 @@ fn an_empty_validation_file_is_reported_as_empty() {
     let (ok, text) = run(&[
         "eval",
         "--blob",
-        s(&weights().join("sdd-m-tiny.gpec")),
+        s(&weights("sdd-m-tiny.gpec")),
         "--dataset",
         &format!("{}/", dir.join("ds").display()),
     ]);
@@ -660,8 +613,10 @@ fn an_empty_validation_file_is_reported_as_empty() {
 fn tts_below_k_names_both_options_and_the_rule() {
     let r = common::TinyRun::trained("tts-below-k", 1);
     let weights_out = r.dir.join("w");
-    for args in [
-        vec![
+    // Both commands end with the same data and the same refused pair.
+    let refused = ["--data", s(&r.dir), "--tts", "5", "--k", "20"];
+    for command in [
+        &[
             "export",
             "--run",
             s(&r.out),
@@ -669,25 +624,10 @@ fn tts_below_k_names_both_options_and_the_rule() {
             "m",
             "--out",
             s(&weights_out),
-            "--data",
-            s(&r.dir),
-            "--tts",
-            "5",
-            "--k",
-            "20",
-        ],
-        vec![
-            "select",
-            "--run",
-            s(&r.out),
-            "--data",
-            s(&r.dir),
-            "--tts",
-            "5",
-            "--k",
-            "20",
-        ],
+        ][..],
+        &["select", "--run", s(&r.out)],
     ] {
+        let args = [command, &refused].concat();
         let (ok, text) = run(&args);
         assert!(!ok, "{args:?}: {text}");
         assert!(

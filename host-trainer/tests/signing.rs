@@ -8,13 +8,7 @@ use crate::common;
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
 
-use common::{run, s, temp_dir};
-
-fn weights(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../weights")
-        .join(name)
-}
+use common::{copy_set, quantize, run, s, temp_dir, weights};
 
 #[test]
 fn keygen_sign_verify_and_every_refusal() {
@@ -150,37 +144,12 @@ fn quantize_signs_as_it_writes() {
     let dir = temp_dir("sign-quantize");
     let keys = dir.join("keys");
     assert!(run(&["keygen", "--out", s(&keys)]).0);
-    let src = dir.join("sdd-tiny.gpec");
-    for ext in ["gpec", "golden", "json", "md"] {
-        std::fs::copy(
-            weights(&format!("sdd-tiny.{ext}")),
-            dir.join(format!("sdd-tiny.{ext}")),
-        )
-        .unwrap();
-    }
+    let src = copy_set(&dir, "sdd-tiny");
     let out = dir.join("q.gpec");
     let key = keys.join("gpecnet-signing.key");
-    let (ok, text) = run(&[
-        "quantize",
-        "--blob",
-        s(&src),
-        "--out",
-        s(&out),
-        "--sign-key",
-        s(&key),
-    ]);
+    let (ok, text) = quantize(&src, &out, &["--sign-key", s(&key)]);
     assert!(!ok && text.contains("--sign-version"), "{text}");
-    let (ok, text) = run(&[
-        "quantize",
-        "--blob",
-        s(&src),
-        "--out",
-        s(&out),
-        "--sign-key",
-        s(&key),
-        "--sign-version",
-        "4",
-    ]);
+    let (ok, text) = quantize(&src, &out, &["--sign-key", s(&key), "--sign-version", "4"]);
     assert!(ok, "{text}");
     let (ok, text) = run(&[
         "verify",

@@ -187,6 +187,41 @@ pub fn train(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
     )
 }
 
+/// `gpecnet quantize --blob <blob> --out <out> ...`.
+pub fn quantize(blob: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
+    run_with(&["quantize", "--blob", s(blob), "--out", s(out)], extra)
+}
+
+/// The shipped file `weights/<name>`.
+pub fn weights(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../weights")
+        .join(name)
+}
+
+/// Copies the shipped set `name` (blob, golden file, cards) into `dir`; returns the blob.
+pub fn copy_set(dir: &Path, name: &str) -> PathBuf {
+    for ext in ["gpec", "golden", "json", "md"] {
+        let file = format!("{name}.{ext}");
+        std::fs::copy(weights(&file), dir.join(&file)).unwrap();
+    }
+    dir.join(format!("{name}.gpec"))
+}
+
+/// The refusal `DatasetSpec::parse` gives for an own data folder whose `dataset.toml` is
+/// `toml`, beside empty `train`, `val` and `test` folders (a fresh temp folder `name`,
+/// removed afterwards); panics when the folder is accepted.
+pub fn own_data_refusal(name: &str, toml: &str) -> String {
+    let dir = temp_dir(name);
+    std::fs::write(dir.join("dataset.toml"), toml).unwrap();
+    for split in ["train", "val", "test"] {
+        std::fs::create_dir_all(dir.join(split)).unwrap();
+    }
+    let e = gpecnet_trainer::data::DatasetSpec::parse(&format!("{}/", dir.display())).unwrap_err();
+    let _ = std::fs::remove_dir_all(&dir);
+    e
+}
+
 /// The pid of a process that has exited (and been reaped): provably dead.
 pub fn dead_pid() -> u32 {
     let mut c = Command::new("true").spawn().unwrap();
