@@ -8,6 +8,9 @@
 //! path where the host takes AVX2 (`gpecnet_core::batch::set_wide_vectors`).
 //! The scalar side runs once per blob, sine and set of windows (a [`Record`]
 //! of every entry point's output) and each lane width is checked against it.
+//! The planner's batched call (`predict_forecasts`: endpoints, probabilities,
+//! point forecast, radii) against `Predictor::predict_planner` on the whole
+//! test set of every shipped proposal blob, the latents computed in lanes.
 
 use gpecnet_core::batch::{set_wide_vectors, BatchPredictor, Query};
 use gpecnet_core::blob::MAX_TTS_SAMPLES;
@@ -359,4 +362,86 @@ fn batched_refuses_what_scalar_refuses() {
         PredictError::BadSampleCount
     );
     assert!(batch.predict_samples(&good, 0, &mut []).is_err());
+}
+
+/// What a planner gets ([`BatchPredictor::predict_forecasts`]: endpoints,
+/// probabilities, point forecast, radii) equals the scalar sequence
+/// (`Predictor::predict_planner`) bit for bit on the **whole** test set of
+/// every shipped proposal blob (the latents in lanes: the shipped defaults),
+/// at K = 20 with 8 lanes, and at K = 7 with 3 lanes (chunks that split
+/// tracks) on every 11th window.
+#[test]
+fn batched_forecasts_equal_scalar_on_the_whole_test_set() {
+    let blobs: Vec<_> = shipped_blobs()
+        .into_iter()
+        .filter(|p| {
+            let b = std::fs::read(p).unwrap();
+            Model::from_blob(&b).unwrap().has_proposal()
+        })
+        .collect();
+    assert!(blobs.len() >= 3, "{blobs:?}");
+    for path in blobs {
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        let blob = std::fs::read(&path).unwrap();
+        let model = Model::from_blob(&blob).unwrap();
+        let test = card_test_set(&path);
+        let all: Vec<Past> = test.windows.iter().map(|w| w.obs()).collect();
+        let every11: Vec<Past> = all.iter().step_by(11).copied().collect();
+        forecasts_match::<8>(&name, model, &all, 20);
+        forecasts_match::<3>(&name, model, &every11, 7);
+    }
+}
+
+/// [`batched_forecasts_equal_scalar_on_the_whole_test_set`] for `L` lanes, `k` endpoints.
+fn forecasts_match<const L: usize>(name: &str, model: Model<'_>, pasts: &[Past], k: usize) {
+    let n = pasts.len();
+    let queries: Vec<Query<'_>> = pasts
+        .iter()
+        .enumerate()
+        .map(|(t, p)| Query {
+            past: p,
+            seed: t as u64,
+        })
+        .collect();
+    let mut bp = Box::new(BatchPredictor::<LibmSine, 256, L>::new(model).unwrap());
+    let (mut ends, mut probs) = (vec![[0.0f32; 2]; n * k], vec![0.0f32; n * k]);
+    let mut outs = vec![
+        gpecnet_core::planner::PlannerOutput {
+            learned: false,
+            point: None,
+            radii: None,
+        };
+        n
+    ];
+    bp.predict_forecasts::<64>(&queries, k, &mut ends, &mut probs, &mut outs)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let mut p = Box::new(Predictor::<LibmSine, 256>::new(model).unwrap());
+    let (mut e1, mut p1) = (vec![[0.0f32; 2]; k], vec![0.0f32; k]);
+    for (t, past) in pasts.iter().enumerate() {
+        let want = p
+            .predict_planner::<64>(past, t as u64, &mut e1, &mut p1)
+            .unwrap_or_else(|e| panic!("{name} window {t}: {e}"));
+        let r = t * k..(t + 1) * k;
+        assert_eq!(
+            bits(&ends[r.clone()]),
+            bits(&e1),
+            "{name} L={L} k={k} window {t}"
+        );
+        let pb = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            pb(&probs[r]),
+            pb(&p1),
+            "{name} L={L} window {t} probabilities"
+        );
+        let got = &outs[t];
+        assert_eq!(got.learned, want.learned, "{name} window {t}");
+        assert_eq!(
+            got.point.as_ref().map(|t| bits(t)),
+            want.point.as_ref().map(|t| bits(t)),
+            "{name} window {t} point"
+        );
+        let rb =
+            |r: Option<gpecnet_core::planner::Radii>| r.map(|r| [r.r50, r.r90].map(f32::to_bits));
+        assert_eq!(rb(got.radii), rb(want.radii), "{name} window {t} radii");
+    }
 }

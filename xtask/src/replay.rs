@@ -384,7 +384,10 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
             }
             let copy = log_dir.join("online.elf");
             let features = mcu.golden_features();
-            runs.push((None, build_and_start(s, c, mcu, "online", &features, &[], copy)));
+            runs.push((
+                None,
+                build_and_start(s, c, mcu, "online", &features, &[], copy),
+            ));
         }
         // The tracker demo, its own binary, with the signed metric MCU model only (the
         // demo verifies its signature at boot; more models would not fit the flash beside

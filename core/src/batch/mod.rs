@@ -31,7 +31,14 @@
 //!    `l` of chunk `c` is sample `s` of track `t` with `c·L + l = t·k + s`;
 //!    its latent is the next `zdim` normals of track `t`'s own sampler
 //!    ([`crate::prng::Gaussian`] seeded with its seed, times `sigma`), so
-//!    sample `s` sees the same normals as in the scalar stream. The
+//!    sample `s` sees the same normals as in the scalar stream. A model with
+//!    a learned proposal (format version 5) computes instead the proposal's
+//!    hidden layers on each track's features once per group (scalar rows,
+//!    the scalar engine's arithmetic), and lane `l`'s latent is rows
+//!    `s·zdim ..` of the proposal's last layer on its track's `h`, each
+//!    value clamped to `±latent_bound` as in
+//!    [`crate::Engine::next_endpoint`] (the scalar engine recomputes `h`
+//!    per sample for the Cortex-M0's RAM; its rows are the same numbers). The
 //!    decoder's first layer runs over `[f, z]` in one left-to-right pass,
 //!    which is what the scalar engine's split sum
 //!    ([`crate::engine::Backend::partial`] then
@@ -48,8 +55,10 @@
 //!
 //! # Memory
 //!
-//! [`Batch`]`<B, W, L>` holds three `W × L` activation matrices (f32:
-//! `12·W·L` bytes, 96 KiB for `W = 1024, L = 8`; Q15: `6·W·L` bytes), `L`
+//! [`Batch`]`<B, W, L>` holds four `W × L` activation matrices (f32:
+//! `16·W·L` bytes, 128 KiB for `W = 1024, L = 8`; Q15: `8·W·L` bytes; the
+//! fourth holds a proposal model's hidden layer per track) and two scalar
+//! rows, `L`
 //! frames, last points and samplers (about 40 bytes each), the model view
 //! and a scalar [`crate::Engine`] (`20·W` bytes; one track's calls of at
 //! most `L / 4` samples run on it, where lanes would compute mostly
@@ -73,6 +82,7 @@ use crate::fixed::Q15;
 use crate::float::Float;
 use crate::frame::Frame;
 use crate::output::{PredictError, Trajectory};
+use crate::planner::PlannerOutput;
 use crate::predictor::{on_kind, ByKind};
 use crate::prng::Gaussian;
 use crate::sine::Sine;
@@ -160,9 +170,18 @@ pub struct Batch<'a, B: Backend, const W: usize, const L: usize> {
     frames: [Frame; L],
     lasts: [[f32; 2]; L],
     gauss: [Gaussian; L],
+    /// A proposal model's hidden activations per track of the group (row
+    /// `t` = track `t`'s `h`, its first `hidden_dim` values): the input of
+    /// every latent row of that track.
+    hidden: [[B::Act; W]; L],
+    /// The width of [`Batch::hidden`]'s rows.
+    hidden_dim: usize,
+    /// Two scalar rows: the proposal's hidden layers ping-pong here, and a
+    /// latent's `zdim` rows land in the first.
+    row_a: [B::Act; W],
+    row_b: [B::Act; W],
     /// The scalar engine, for one track's calls of at most `L / 4` samples
-    /// (where lanes would mostly compute on padding) and for every call of a
-    /// proposal model (its latents are computed per track).
+    /// (where lanes would mostly compute on padding).
     scalar: Engine<'a, B, W>,
 }
 
@@ -192,6 +211,10 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             frames: [Frame::raw(); L],
             lasts: [[0.0; 2]; L],
             gauss: core::array::from_fn(|_| Gaussian::new(0)),
+            hidden: [[B::Act::default(); W]; L],
+            hidden_dim: 0,
+            row_a: [B::Act::default(); W],
+            row_b: [B::Act::default(); W],
             scalar: Engine::new(model)?,
         })
     }
@@ -394,6 +417,82 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
     }
 }
 
+impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
+    /// What a planner gets for each of `queries`, `k` endpoints each:
+    /// `endpoints[t·k..(t + 1)·k]` and `probabilities[t·k..(t + 1)·k]` for
+    /// track `t`, and `out[t]` (point forecast, radii), equal to
+    /// [`crate::Predictor::predict_planner`]`::<N>` on that track alone.
+    /// The endpoint sets go through the lanes
+    /// ([`Batch::predict_endpoint_sets`]), the point forecasts too
+    /// ([`Batch::predict_points`], `L` tracks at a time); each track's
+    /// probabilities are the scalar engine's (a model's logit rows on its
+    /// track: a few hundred multiply-adds) and its radii
+    /// [`crate::planner::radii`]. On an error, the lowest failing track and
+    /// the error the scalar sequence gives it (endpoints, then
+    /// probabilities, point, radii); the tracks before it are filled.
+    pub fn predict_forecasts<const N: usize>(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        endpoints: &mut [[f32; 2]],
+        probabilities: &mut [f32],
+        out: &mut [PlannerOutput],
+    ) -> Result<(), QueryError> {
+        check_len(queries.len(), k, endpoints.len())?;
+        check_len(queries.len(), k, probabilities.len())?;
+        check_len(queries.len(), 1, out.len())?;
+        let ends_failed = self.predict_endpoint_sets::<N>(queries, k, endpoints).err();
+        // Tracks before the first failing one have their endpoints.
+        let done = ends_failed.map_or(queries.len(), |e| e.index.min(queries.len()));
+        let (head, scales) = (self.model.has_point_head(), self.model.radius_scales());
+        let mut points: [Trajectory; L] = core::array::from_fn(|_| Trajectory::new());
+        for (ci, chunk) in queries[..done].chunks(L).enumerate() {
+            let base = ci * L;
+            let point_failed = if head {
+                self.predict_points(chunk, &mut points[..chunk.len()]).err()
+            } else {
+                None
+            };
+            for (j, q) in chunk.iter().enumerate() {
+                let t = base + j;
+                let fail = |error| QueryError { index: t, error };
+                let range = t * k..(t + 1) * k;
+                let (Some(probs), Some(ends), Some(o)) = (
+                    probabilities.get_mut(range.clone()),
+                    endpoints.get(range),
+                    out.get_mut(t),
+                ) else {
+                    return Err(fail(PredictError::CapacityExceeded));
+                };
+                let learned = if self.model.has_probabilities() {
+                    self.scalar.start(q.past, q.seed).map_err(fail)?;
+                    self.scalar.probabilities(probs).map_err(fail)?
+                } else {
+                    crate::planner::uniform(probs);
+                    false
+                };
+                let point = match point_failed {
+                    Some(e) if e.index == j => return Err(fail(e.error)),
+                    _ if head => points.get(j).cloned(),
+                    _ => None,
+                };
+                let radii = match point.as_ref().and_then(|p| p.last()) {
+                    Some(&pt) if learned => {
+                        Some(crate::planner::radii(pt, ends, probs, scales).map_err(fail)?)
+                    }
+                    _ => None,
+                };
+                *o = PlannerOutput {
+                    learned,
+                    point,
+                    radii,
+                };
+            }
+        }
+        ends_failed.map_or(Ok(()), Err)
+    }
+}
+
 /// Whether one track's `n` samples are few enough (at most `L / 4`) for
 /// the scalar engine to be faster than mostly empty lanes (same bits).
 fn few<const L: usize>(n: usize) -> bool {
@@ -418,7 +517,7 @@ fn check_len(n: usize, k: usize, out_len: usize) -> Result<(), QueryError> {
 /// use gpecnet_core::batch::{BatchPredictor, Query};
 /// use gpecnet_core::{LibmSine, Model};
 /// let model = Model::from_blob(blob)?;
-/// // 1024 = scratch width, 8 = lanes; ~100 KiB, so box it on a host.
+/// // 1024 = scratch width, 8 = lanes; ~140 KiB, so box it on a host.
 /// let mut p = BatchPredictor::<LibmSine, 1024, 8>::new(model)?;
 /// let mut ends = [[0.0f32; 2]; 20];
 /// p.predict_samples(past, 7, &mut ends)?; // == Predictor::predict_samples
@@ -519,5 +618,19 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         out: &mut [Trajectory],
     ) -> Result<(), QueryError> {
         on_kind!(&mut self.0, e => e.predict_points(queries, out))
+    }
+
+    /// [`Batch::predict_forecasts`]: what a planner gets for each track
+    /// ([`crate::Predictor::predict_planner`]`::<N>`, same bits), `k`
+    /// endpoints and probabilities each, track-major.
+    pub fn predict_forecasts<const N: usize>(
+        &mut self,
+        queries: &[Query<'_>],
+        k: usize,
+        endpoints: &mut [[f32; 2]],
+        probabilities: &mut [f32],
+        out: &mut [PlannerOutput],
+    ) -> Result<(), QueryError> {
+        on_kind!(&mut self.0, e => e.predict_forecasts::<N>(queries, k, endpoints, probabilities, out))
     }
 }

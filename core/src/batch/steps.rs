@@ -98,12 +98,9 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         if trajectories && !self.model.has_predictor() {
             return Err(QueryError::of_call(PredictError::NoPredictor));
         }
-        if self.model.has_proposal() {
-            // The stream has K latents: more is refused before any track runs.
-            if k > crate::sampling::stream_bound(&self.model) {
-                return Err(QueryError::of_call(PredictError::BadSampleCount));
-            }
-            return self.run_scalar(queries, k, trajectories, emit);
+        // A proposal's stream has K latents: more is refused before any track runs.
+        if self.model.has_proposal() && k > crate::sampling::stream_bound(&self.model) {
+            return Err(QueryError::of_call(PredictError::BadSampleCount));
         }
         for (gi, group) in queries.chunks(L).enumerate() {
             let base = gi * L;
@@ -127,36 +124,6 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         Ok(())
     }
 
-    /// [`Batch::run`] for a proposal model, track by track on the scalar
-    /// engine: its `k ≤ K` latents are computed per track (the proposal's
-    /// last layer, `zdim` rows per latent), which lanes would not share.
-    fn run_scalar(
-        &mut self,
-        queries: &[Query<'_>],
-        k: usize,
-        trajectories: bool,
-        mut emit: impl FnMut(usize, usize, LaneOut<'_>) -> Result<(), PredictError>,
-    ) -> Result<(), QueryError> {
-        for (index, q) in queries.iter().enumerate() {
-            let fail = |error| QueryError { index, error };
-            self.scalar.start(q.past, q.seed).map_err(fail)?;
-            for sample in 0..k {
-                let endpoint = self.scalar.next_endpoint().map_err(fail)?;
-                let traj = if trajectories {
-                    Some(self.scalar.last_trajectory().map_err(fail)?)
-                } else {
-                    None
-                };
-                let out = LaneOut {
-                    endpoint,
-                    trajectory: traj.as_ref(),
-                };
-                emit(index, sample, out).map_err(fail)?;
-            }
-        }
-        Ok(())
-    }
-
     /// Steps 2–3 for the `n` encoded tracks of a group (`encoder_past`'s
     /// output: width and whether in `a`): their `n·k` samples, `L` at a
     /// time.
@@ -172,6 +139,9 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         let fdim = (self.model.config().fdim as usize).min(f_width);
         let src = if f_in_a { &self.a } else { &self.b };
         self.feat[..fdim].copy_from_slice(&src[..fdim]);
+        if self.model.has_proposal() {
+            self.proposal_hidden(n, fdim);
+        }
         let total = n * k;
         let mut idx = 0;
         while idx < total {
@@ -182,6 +152,64 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             }
             self.chunk(fdim, &slots, lanes, idx, k, base, trajectories, emit)?;
             idx += lanes;
+        }
+        Ok(())
+    }
+
+    /// A proposal model's hidden layers on the features of the group's first
+    /// `n` tracks, one track at a time with the scalar rows
+    /// ([`crate::engine::proposal_hidden`], the scalar engine's arithmetic),
+    /// into [`Batch::hidden`].
+    fn proposal_hidden(&mut self, n: usize, fdim: usize) {
+        let model = self.model;
+        for t in 0..n.min(L) {
+            for (h, f) in self.hidden[t].iter_mut().zip(&self.feat).take(fdim) {
+                *h = f[t];
+            }
+            let h = crate::engine::proposal_hidden::<B>(
+                &model,
+                &self.hidden[t][..fdim],
+                &mut self.row_a,
+                &mut self.row_b,
+            );
+            let w = h.len();
+            self.hidden_dim = w;
+            self.hidden[t][..w].copy_from_slice(h);
+        }
+    }
+
+    /// Lane `l`'s latent from the proposal: rows `s·zdim .. (s + 1)·zdim` of
+    /// its last layer on track `t`'s hidden activations, each value as f32
+    /// (the layer's output exponent), clamped to `±latent_bound` (NaN stays
+    /// NaN), converted with the decoder's input exponent `ez`, into rows
+    /// `fdim ..` of `a`, lane `l`. As [`crate::Engine::next_endpoint`].
+    fn proposed_latent(
+        &mut self,
+        (t, s, l): (usize, usize, usize),
+        fdim: usize,
+        zdim: usize,
+        ez: i8,
+    ) -> Result<(), PredictError> {
+        let rows = self
+            .model
+            .proposal()
+            .layers()
+            .last()
+            .and_then(|layer| layer.rows(s.checked_mul(zdim)?, zdim))
+            .ok_or(PredictError::BadSampleCount)?;
+        let h = &self.hidden[t][..self.hidden_dim.min(W)];
+        B::dense(&rows, h, &mut self.row_a[..zdim]);
+        let (eo, bound) = (rows.out_exp(), self.model.latent_bound());
+        for (row, &zi) in self.a[fdim..fdim + zdim].iter_mut().zip(&self.row_a) {
+            let v = B::to_f32(zi, eo);
+            let v = if v > bound {
+                bound
+            } else if v < -bound {
+                -bound
+            } else {
+                v
+            };
+            row[l] = B::from_f32(v, ez);
         }
         Ok(())
     }
@@ -207,15 +235,20 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         };
         let c = *self.model.config();
         let zdim = (c.zdim as usize).min(W.saturating_sub(fdim));
-        let dec = self.model.decoder();
+        let model = self.model;
+        let dec = model.decoder();
         let ez = in_exp(dec);
         // Decoder input [f, z], lane by lane.
+        let proposal = self.model.has_proposal();
         for (l, &t) in slots.iter().enumerate() {
             let used = l < lanes;
             for (ar, fr) in self.a.iter_mut().zip(&self.feat).take(fdim) {
                 ar[l] = if used { fr[t] } else { B::Act::default() };
             }
-            if used {
+            if used && proposal {
+                self.proposed_latent((t, (idx + l) % k, l), fdim, zdim, ez)
+                    .map_err(|e| fail(l, e))?;
+            } else if used {
                 let g = &mut self.gauss[t];
                 for row in self.a[fdim..fdim + zdim].iter_mut() {
                     row[l] = B::from_f32(c.sigma * g.next(), ez);
