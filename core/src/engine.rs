@@ -97,7 +97,7 @@ fn run_network_layers<'s, 'l, 'a: 'l, B: Backend>(
 
 /// The proposal's hidden layers (all but the last) on the features `feat`: the input of
 /// both its latent rows and its logit rows.
-pub(crate) fn proposal_hidden<'s, B: Backend>(
+fn proposal_hidden<'s, B: Backend>(
     model: &Model<'_>,
     feat: &[B::Act],
     a: &'s mut [B::Act],

@@ -32,13 +32,14 @@
 //!    its latent is the next `zdim` normals of track `t`'s own sampler
 //!    ([`crate::prng::Gaussian`] seeded with its seed, times `sigma`), so
 //!    sample `s` sees the same normals as in the scalar stream. A model with
-//!    a learned proposal (format version 5) computes instead the proposal's
-//!    hidden layers on each track's features once per group (scalar rows,
-//!    the scalar engine's arithmetic), and lane `l`'s latent is rows
-//!    `s·zdim ..` of the proposal's last layer on its track's `h`, each
-//!    value clamped to `±latent_bound` as in
-//!    [`crate::Engine::next_endpoint`] (the scalar engine recomputes `h`
-//!    per sample for the Cortex-M0's RAM; its rows are the same numbers). The
+//!    a learned proposal (format version 5) computes instead, once per
+//!    group, the proposal's hidden layers `h` on the group's features and
+//!    the latent rows `0 .. k·zdim` of its last layer on `h`, in lanes (lane
+//!    = track; when the rows do not fit `W`, each lane's `zdim` rows on their
+//!    own); lane `l`'s latent is rows `s·zdim ..` of its track, each value
+//!    clamped to `±latent_bound` as in [`crate::Engine::next_endpoint`]
+//!    (the scalar engine recomputes `h` per sample for the Cortex-M0's RAM;
+//!    its rows are the same numbers, each row's sum in the same order). The
 //!    decoder's first layer runs over `[f, z]` in one left-to-right pass,
 //!    which is what the scalar engine's split sum
 //!    ([`crate::engine::Backend::partial`] then
@@ -55,10 +56,10 @@
 //!
 //! # Memory
 //!
-//! [`Batch`]`<B, W, L>` holds four `W × L` activation matrices (f32:
-//! `16·W·L` bytes, 128 KiB for `W = 1024, L = 8`; Q15: `8·W·L` bytes; the
-//! fourth holds a proposal model's hidden layer per track) and two scalar
-//! rows, `L`
+//! [`Batch`]`<B, W, L>` holds five `W × L` activation matrices (f32:
+//! `20·W·L` bytes, 160 KiB for `W = 1024, L = 8`; Q15: `10·W·L` bytes; the
+//! last two hold a proposal model's latent rows and hidden layer per track)
+//! and a scalar row, `L`
 //! frames, last points and samplers (about 40 bytes each), the model view
 //! and a scalar [`crate::Engine`] (`20·W` bytes; one track's calls of at
 //! most `L / 4` samples run on it, where lanes would compute mostly
@@ -170,16 +171,22 @@ pub struct Batch<'a, B: Backend, const W: usize, const L: usize> {
     frames: [Frame; L],
     lasts: [[f32; 2]; L],
     gauss: [Gaussian; L],
+    /// A proposal model's latent rows for the group's tracks (lane = track):
+    /// row `s·zdim + i` is component `i` of sample `s`, as the last layer
+    /// gives it (before the clamp), when `K·zdim` rows fit `W`
+    /// ([`Batch::latent_rows`]).
+    latents: Lanes<B::Act, L, W>,
+    /// Whether [`Batch::latents`] holds the group's latents (`false`: each
+    /// lane's rows are computed on their own, from [`Batch::hidden`]).
+    latents_ready: bool,
     /// A proposal model's hidden activations per track of the group (row
-    /// `t` = track `t`'s `h`, its first `hidden_dim` values): the input of
-    /// every latent row of that track.
+    /// `t` = track `t`'s `h`, its first `hidden_dim` values), for latents
+    /// that do not fit [`Batch::latents`].
     hidden: [[B::Act; W]; L],
     /// The width of [`Batch::hidden`]'s rows.
     hidden_dim: usize,
-    /// Two scalar rows: the proposal's hidden layers ping-pong here, and a
-    /// latent's `zdim` rows land in the first.
+    /// A scalar row: a latent's `zdim` rows when computed lane by lane.
     row_a: [B::Act; W],
-    row_b: [B::Act; W],
     /// The scalar engine, for one track's calls of at most `L / 4` samples
     /// (where lanes would mostly compute on padding).
     scalar: Engine<'a, B, W>,
@@ -211,10 +218,11 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             frames: [Frame::raw(); L],
             lasts: [[0.0; 2]; L],
             gauss: core::array::from_fn(|_| Gaussian::new(0)),
+            latents: [[B::Act::default(); L]; W],
+            latents_ready: false,
             hidden: [[B::Act::default(); W]; L],
             hidden_dim: 0,
             row_a: [B::Act::default(); W],
-            row_b: [B::Act::default(); W],
             scalar: Engine::new(model)?,
         })
     }
@@ -517,7 +525,7 @@ fn check_len(n: usize, k: usize, out_len: usize) -> Result<(), QueryError> {
 /// use gpecnet_core::batch::{BatchPredictor, Query};
 /// use gpecnet_core::{LibmSine, Model};
 /// let model = Model::from_blob(blob)?;
-/// // 1024 = scratch width, 8 = lanes; ~140 KiB, so box it on a host.
+/// // 1024 = scratch width, 8 = lanes; ~170 KiB, so box it on a host.
 /// let mut p = BatchPredictor::<LibmSine, 1024, 8>::new(model)?;
 /// let mut ends = [[0.0f32; 2]; 20];
 /// p.predict_samples(past, 7, &mut ends)?; // == Predictor::predict_samples

@@ -140,7 +140,7 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         let src = if f_in_a { &self.a } else { &self.b };
         self.feat[..fdim].copy_from_slice(&src[..fdim]);
         if self.model.has_proposal() {
-            self.proposal_hidden(n, fdim);
+            self.latent_rows(n, fdim, k);
         }
         let total = n * k;
         let mut idx = 0;
@@ -156,30 +156,47 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         Ok(())
     }
 
-    /// A proposal model's hidden layers on the features of the group's first
-    /// `n` tracks, one track at a time with the scalar rows
-    /// ([`crate::engine::proposal_hidden`], the scalar engine's arithmetic),
-    /// into [`Batch::hidden`].
-    fn proposal_hidden(&mut self, n: usize, fdim: usize) {
+    /// A proposal model's latents for the group's first `n` tracks, `k`
+    /// samples each: the proposal's hidden layers on the features in lanes,
+    /// then its last layer's rows `0 .. k·zdim` in lanes into
+    /// [`Batch::latents`] when they fit `W`; else each track's `h` into
+    /// [`Batch::hidden`] for [`Batch::proposed_latent`] to compute its
+    /// lanes' rows one at a time. Each row's sum has the scalar engine's
+    /// order either way.
+    fn latent_rows(&mut self, n: usize, fdim: usize, k: usize) {
         let model = self.model;
-        for t in 0..n.min(L) {
-            for (h, f) in self.hidden[t].iter_mut().zip(&self.feat).take(fdim) {
-                *h = f[t];
+        let prop = model.proposal();
+        let hidden = prop.len().saturating_sub(1);
+        self.a[..fdim].copy_from_slice(&self.feat[..fdim]);
+        let (hw, in_a) = run_lanes::<B, L, W>(
+            prop.layers().take(hidden),
+            &mut self.a,
+            &mut self.b,
+            fdim,
+            n,
+        );
+        let h = if in_a { &self.a } else { &self.b };
+        let zdim = model.config().zdim as usize;
+        let rows = k
+            .checked_mul(zdim)
+            .filter(|&r| r <= W)
+            .and_then(|r| prop.layers().last()?.rows(0, r));
+        self.latents_ready = rows.is_some();
+        if let Some(rows) = rows {
+            B::dense_lanes(&rows, &h[..hw], &mut self.latents[..rows.out_dim()], n);
+            return;
+        }
+        self.hidden_dim = hw;
+        for (t, row) in self.hidden.iter_mut().enumerate().take(n.min(L)) {
+            for (hv, hr) in row.iter_mut().zip(&h[..hw]) {
+                *hv = hr[t];
             }
-            let h = crate::engine::proposal_hidden::<B>(
-                &model,
-                &self.hidden[t][..fdim],
-                &mut self.row_a,
-                &mut self.row_b,
-            );
-            let w = h.len();
-            self.hidden_dim = w;
-            self.hidden[t][..w].copy_from_slice(h);
         }
     }
 
     /// Lane `l`'s latent from the proposal: rows `s·zdim .. (s + 1)·zdim` of
-    /// its last layer on track `t`'s hidden activations, each value as f32
+    /// its last layer on track `t`'s hidden activations (from
+    /// [`Batch::latents`], or computed here), each value as f32
     /// (the layer's output exponent), clamped to `±latent_bound` (NaN stays
     /// NaN), converted with the decoder's input exponent `ez`, into rows
     /// `fdim ..` of `a`, lane `l`. As [`crate::Engine::next_endpoint`].
@@ -197,8 +214,14 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             .last()
             .and_then(|layer| layer.rows(s.checked_mul(zdim)?, zdim))
             .ok_or(PredictError::BadSampleCount)?;
-        let h = &self.hidden[t][..self.hidden_dim.min(W)];
-        B::dense(&rows, h, &mut self.row_a[..zdim]);
+        if self.latents_ready {
+            for (i, zi) in self.row_a.iter_mut().enumerate().take(zdim) {
+                *zi = self.latents[s * zdim + i][t];
+            }
+        } else {
+            let h = &self.hidden[t][..self.hidden_dim.min(W)];
+            B::dense(&rows, h, &mut self.row_a[..zdim]);
+        }
         let (eo, bound) = (rows.out_exp(), self.model.latent_bound());
         for (row, &zi) in self.a[fdim..fdim + zdim].iter_mut().zip(&self.row_a) {
             let v = B::to_f32(zi, eo);
