@@ -103,6 +103,12 @@ pub(crate) struct TrainArgs {
     /// Cosine learning-rate decay over the run (new runs only; see `lr_schedule`).
     #[arg(long)]
     cosine: bool,
+    /// Train on noisy pasts: i.i.d. Gaussian noise of standard deviation SIGMA (the data's
+    /// unit: metres for sdd-m and ETH/UCY) on each coordinate of the 8 observed positions of
+    /// every training window, drawn afresh every epoch; the future stays clean (new runs
+    /// only; overrides the config's obs_noise; 0 = none, today's training bit for bit).
+    #[arg(long, value_name = "SIGMA")]
+    obs_noise: Option<f32>,
 }
 
 pub(crate) fn cmd_train(a: TrainArgs) -> Result<()> {
@@ -125,9 +131,10 @@ pub(crate) fn cmd_train(a: TrainArgs) -> Result<()> {
             || a.dataset.is_some()
             || a.mirror
             || a.cosine
+            || a.obs_noise.is_some()
         {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine"
+                "--resume uses the config stored in the checkpoint; drop --augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine/--obs-noise"
             );
         }
         let expected = a
@@ -161,6 +168,9 @@ pub(crate) fn cmd_train(a: TrainArgs) -> Result<()> {
         }
         if a.cosine {
             cfg.lr_schedule = gpecnet_trainer::config::LrSchedule::Cosine;
+        }
+        if let Some(s) = a.obs_noise {
+            cfg.obs_noise = s;
         }
         train::train_new(cfg, &opts)?
     };

@@ -46,6 +46,14 @@ pub struct ProposeSettings {
     pub time_reversal: bool,
     /// Mirrored (y → −y) copies of the training windows.
     pub mirror: bool,
+    /// Standard deviation (the data's unit) of the i.i.d. Gaussian noise on the observed
+    /// positions of the training windows, fresh every epoch; 0 (absent from older files) = none.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub obs_noise: f32,
+}
+
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 /// One epoch's numbers.
@@ -186,7 +194,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -199,6 +207,11 @@ impl ProposalCard {
                 s.bound,
                 if s.time_reversal { "" } else { " --no-time-reversal" },
                 if s.mirror { "" } else { " --no-mirror" },
+                if s.obs_noise > 0.0 {
+                    format!(" --obs-noise {}", s.obs_noise)
+                } else {
+                    String::new()
+                },
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
         }

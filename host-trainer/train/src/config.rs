@@ -42,6 +42,9 @@ pub const MAX_PARAMETERS: u64 = 1 << 23;
 /// Most rounds of social pooling (`nonlocal_pools`; PECNet uses 3): each round keeps its
 /// activations for the backward pass.
 pub const MAX_NONLOCAL_POOLS: usize = 16;
+/// Largest `obs_noise` (the data's unit): far beyond any detector's noise in metres or in
+/// SDD pixels, it only keeps the noisy positions well inside f32's exact range.
+pub const MAX_OBS_NOISE: f32 = 1000.0;
 /// Most bytes of one training layer's activations (`batch_size · width · 4`): 4 GiB.
 pub const MAX_TRAIN_ACTIVATION_BYTES: u64 = 4 << 30;
 
@@ -191,6 +194,16 @@ pub struct TrainConfig {
     /// only scales its effective learning rate under Adam's normalisation: keep 1).
     #[serde(skip_serializing_if = "is_one_f32")]
     pub point_reg: f32,
+    /// Observation-noise augmentation: standard deviation (the data's unit: metres for
+    /// `sdd-m` and ETH/UCY, pixels for `sdd`) of i.i.d. Gaussian noise added to each coordinate
+    /// of the [`crate::data::PAST`] observed positions of every training window, drawn afresh
+    /// every epoch (the future is left clean). The noisy window is then put through the
+    /// heading frame and the normalisation again, so the encoders, the point head and the
+    /// targets are relative to the noisy observations, as the core computes them from noisy
+    /// detections at inference. Validation stays clean. 0 (the default, omitted from the TOML)
+    /// trains exactly as without the option, bit for bit; finite, in `[0, 1000]`.
+    #[serde(skip_serializing_if = "is_zero_f32")]
+    pub obs_noise: f32,
 }
 
 /// Learning-rate schedule (see [`TrainConfig::lr_schedule`]).
@@ -298,6 +311,7 @@ impl Default for TrainConfig {
             speed_scales: Vec::new(),
             lr_schedule: LrSchedule::Constant,
             point_reg: 1.0,
+            obs_noise: 0.0,
         }
     }
 }

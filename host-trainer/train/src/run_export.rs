@@ -73,6 +73,13 @@ pub fn blob_meta(cfg: &TrainConfig) -> Result<crate::network::ModelMeta> {
     if cfg.time_reversal {
         data.push_str(", with time-reversed copies");
     }
+    if cfg.obs_noise > 0.0 {
+        data.push_str(&format!(
+            ", observed positions with i.i.d. Gaussian noise of {} {} per coordinate, fresh every epoch",
+            cfg.obs_noise,
+            spec.unit().suffix()
+        ));
+    }
     Ok(crate::network::ModelMeta {
         unit: match spec.unit() {
             crate::data::Unit::Pixels => gpecnet_core::blob::PositionUnit::Pixel,

@@ -8,8 +8,8 @@ use crate::network::Act;
 
 use super::{
     mlp_params, TrainConfig, MAX_BATCH, MAX_HIDDEN_LAYERS, MAX_K, MAX_NONLOCAL_POOLS,
-    MAX_PARAMETERS, MAX_THREADS, MAX_TRAIN_ACTIVATION_BYTES, MAX_VAL_ACTIVATION_BYTES, MAX_WIDTH,
-    VAL_CHUNK,
+    MAX_OBS_NOISE, MAX_PARAMETERS, MAX_THREADS, MAX_TRAIN_ACTIVATION_BYTES,
+    MAX_VAL_ACTIVATION_BYTES, MAX_WIDTH, VAL_CHUNK,
 };
 
 impl TrainConfig {
@@ -25,7 +25,8 @@ impl TrainConfig {
     /// per network); `num_epochs`, `batch_size`, `eval_every` at least 1 (`num_epochs`,
     /// `eval_every` and `seed` at most `i64::MAX`, a TOML integer); `learning_rate`
     /// finite in `(0, 1]`; `data_scale`, `coord_scale`, `w0`, `point_reg` finite and `> 0`;
-    /// `sigma`, `kld_reg`, `adl_reg` finite and `>= 0`; `threads` in `0..=`[`MAX_THREADS`].
+    /// `sigma`, `kld_reg`, `adl_reg` finite and `>= 0`; `obs_noise` finite in
+    /// `[0, `[`MAX_OBS_NOISE`]`]`; `threads` in `0..=`[`MAX_THREADS`].
     ///
     /// Every floating-point value must be finite (NaN and infinities are refused, naming the
     /// key); `nonlocal_pools` is at most [`MAX_NONLOCAL_POOLS`], `non_local_dim` at most
@@ -200,6 +201,12 @@ impl TrainConfig {
         }
         if self.heading_steps > 0 && self.social_pooling {
             bail!("heading_steps and social_pooling cannot be combined (each pedestrian would be rotated into its own frame before pooling)");
+        }
+        if !(self.obs_noise.is_finite() && (0.0..=MAX_OBS_NOISE).contains(&self.obs_noise)) {
+            bail!(
+                "obs_noise = {} is out of range: allowed a finite number in [0, {MAX_OBS_NOISE}] (the data's unit)",
+                self.obs_noise
+            );
         }
         if !(self.augment_pct.is_finite() && (0.0..=100.0).contains(&self.augment_pct)) {
             bail!("augment_pct must be in [0, 100], got {}", self.augment_pct);

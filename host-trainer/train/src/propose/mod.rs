@@ -92,6 +92,13 @@ pub struct ProposeArgs {
     /// Threads (0 = all cores).
     #[arg(long, default_value_t = 1)]
     pub threads: usize,
+    /// Train on noisy pasts: i.i.d. Gaussian noise of standard deviation SIGMA (the blob's
+    /// unit) on each coordinate of the 8 observed positions of every training window, drawn
+    /// afresh every epoch, before the frozen encoder sees them (the endpoint targets are taken
+    /// relative to the noisy observations, as at inference); validation stays clean.
+    /// 0 = none.
+    #[arg(long, value_name = "SIGMA", default_value_t = 0.0)]
+    pub obs_noise: f32,
 }
 
 /// Hidden activation of a proposal network.
@@ -156,6 +163,13 @@ impl ProposeArgs {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{name} {v} is out of range: allowed a finite number > 0");
             }
+        }
+        let max_noise = crate::config::MAX_OBS_NOISE;
+        if !(self.obs_noise.is_finite() && (0.0..=max_noise).contains(&self.obs_noise)) {
+            bail!(
+                "--obs-noise {} is out of range: allowed a finite number in [0, {max_noise}] (the blob's unit)",
+                self.obs_noise
+            );
         }
         if !(self.prior_weight.is_finite() && self.prior_weight >= 0.0) {
             bail!(
@@ -260,6 +274,7 @@ impl ProposeArgs {
             bound: self.bound,
             time_reversal: !self.no_time_reversal,
             mirror: !self.no_mirror,
+            obs_noise: self.obs_noise,
         };
         ProposeRun {
             model: &model,

@@ -139,9 +139,10 @@ impl ProposeRun<'_> {
         let _lock = RunLock::acquire(&self.out)?;
         let ckpt_path = self.out.join("checkpoint.json");
         let spec = DatasetSpec::parse(&s.dataset).map_err(anyhow::Error::msg)?;
-        let train = augment(windows(&self.data_root, &spec, data::Split::Train, s)?, s);
+        let train_windows = augment(windows(&self.data_root, &spec, data::Split::Train, s)?, s);
         let val = windows(&self.data_root, &spec, data::Split::Val, s)?;
-        let train = Encoded::of(self.model, &train)?;
+        // With observation noise the windows are encoded again every epoch, noisy.
+        let mut train = Encoded::of(self.model, &train_windows)?;
         let val = Encoded::of(self.model, &val)?;
         let decoder = fit::frozen_mlp(&self.model.nets.decoder)?;
         let proposal = build(s, c.fdim, c.zdim)?;
@@ -201,6 +202,9 @@ impl ProposeRun<'_> {
         bar.set_position(ck.epoch as u64);
         let mut order: Vec<u32> = (0..train.n as u32).collect();
         while ck.epoch < s.epochs {
+            if s.obs_noise > 0.0 {
+                train = self.noisy_encoding(&train_windows, ck.epoch)?;
+            }
             rng.shuffle(&mut order);
             let (mut sum, mut n) = (0.0f64, 0usize);
             for chunk in order.chunks(s.batch) {
@@ -300,6 +304,20 @@ impl ProposeRun<'_> {
 }
 
 impl ProposeRun<'_> {
+    /// The frozen model's encoding of `windows` with fresh observation noise for 0-based
+    /// epoch `epoch`: [`crate::train::with_obs_noise`] with `obs_noise`, drawn from stream
+    /// [`crate::train::OBS_NOISE_STREAMS`]` + epoch` of the run's seed (so a resumed run
+    /// draws what an uninterrupted one draws).
+    fn noisy_encoding(&self, windows: &[Window], epoch: usize) -> Result<Encoded> {
+        let s = &self.settings;
+        let mut rng = Rng::with_stream(s.seed, crate::train::OBS_NOISE_STREAMS + epoch as u64);
+        let noisy: Vec<Window> = windows
+            .iter()
+            .map(|w| crate::train::with_obs_noise(w, s.obs_noise, &mut rng))
+            .collect();
+        Encoded::of(self.model, &noisy)
+    }
+
     /// [`ValCore`] of `file` joined to the frozen model.
     fn val_core(&self, file: &ProposalFile, spec: &DatasetSpec) -> Result<ValCore> {
         let mut m = self.model.clone();

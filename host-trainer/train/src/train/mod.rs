@@ -42,7 +42,10 @@ mod validate;
 
 pub use fingerprint::DataFingerprint;
 pub use memory::keep_freed_memory;
-pub use prepare::{prepare_data, social_train_groups, synthetic_windows, PreparedData};
+pub use prepare::{
+    noisy_samples, prepare_data, social_train_groups, synthetic_windows, with_obs_noise,
+    PreparedData, OBS_NOISE_STREAMS,
+};
 pub use report::{plot_curves, write_metrics};
 pub use run::{
     config_diff, train_new, train_resume, train_resume_checked, TrainOptions, TrainSummary,

@@ -5,7 +5,8 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 
 use crate::config::TrainConfig;
-use crate::data::{self, Sample, Unit, Window};
+use crate::data::{self, Sample, Unit, Window, PAST};
+use crate::rng::Rng;
 
 use super::*;
 
@@ -28,6 +29,50 @@ pub struct PreparedData {
     pub groups: Vec<Vec<u32>>,
     /// Fingerprint of the raw windows (checked by `--resume`).
     pub fingerprint: DataFingerprint,
+    /// The windows [`PreparedData::train`] was normalised from (heading frame, mirrored and
+    /// scaled copies included, same order), kept only when `obs_noise > 0`: every epoch
+    /// normalises them again with fresh noise on their observed positions
+    /// ([`noisy_samples`]). Empty otherwise.
+    pub train_windows: Vec<Window>,
+}
+
+/// The noise of epoch `e` (0-based) of a run with `obs_noise > 0` comes from stream
+/// `OBS_NOISE_STREAMS + e` of the run's seed: one stream per epoch, apart from the
+/// [`crate::rng::streams`] (1 to 3), so that a resumed run draws exactly what an uninterrupted
+/// one draws without any state in the checkpoint.
+pub const OBS_NOISE_STREAMS: u64 = 1 << 32;
+
+/// `w` with i.i.d. Gaussian noise of standard deviation `sigma` added to each coordinate of
+/// its [`PAST`] observed positions, drawn from `rng` point by point (x, then y); the future is
+/// left as it is.
+pub fn with_obs_noise(w: &Window, sigma: f32, rng: &mut Rng) -> Window {
+    let mut out = w.clone();
+    for p in out.pos[..PAST].iter_mut() {
+        p[0] += sigma * rng.normal();
+        p[1] += sigma * rng.normal();
+    }
+    out
+}
+
+/// The training samples of one epoch with observation noise: every window of `windows`
+/// (a [`PreparedData::train_windows`]) through [`with_obs_noise`] with `cfg.obs_noise`, then
+/// through the heading frame again (the frame of the noisy observations, as the core computes
+/// it from noisy detections; a window already in the frame is only turned by the noise's
+/// heading error) and [`data::normalize`], so every offset, the future's included, is taken
+/// from the noisy observations.
+pub fn noisy_samples(cfg: &TrainConfig, windows: &[Window], rng: &mut Rng) -> Vec<Sample> {
+    windows
+        .iter()
+        .map(|w| {
+            let noisy = with_obs_noise(w, cfg.obs_noise, rng);
+            let framed = if cfg.heading_steps == 0 {
+                noisy
+            } else {
+                crate::frame::canonical_window(&noisy, cfg.heading_steps).0
+            };
+            data::normalize(&framed, cfg.data_scale)
+        })
+        .collect()
 }
 
 /// Social groups of the training windows (`social_pooling`): PECNet's star grouping
@@ -154,13 +199,19 @@ pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData>
             }
         }
     }
+    let train = train_windows
+        .iter()
+        .map(|w| data::normalize(w, cfg.data_scale))
+        .collect();
     Ok(PreparedData {
         fingerprint,
         groups,
-        train: train_windows
-            .iter()
-            .map(|w| data::normalize(w, cfg.data_scale))
-            .collect(),
+        train,
+        train_windows: if cfg.obs_noise > 0.0 {
+            train_windows
+        } else {
+            Vec::new()
+        },
         val: canon(val.windows),
         unit,
         n_real,

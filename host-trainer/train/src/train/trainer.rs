@@ -168,8 +168,18 @@ impl Trainer {
                 .map(|c| (c.to_vec(), None))
                 .collect()
         };
+        // Observation noise: this epoch's samples from its own stream (see OBS_NOISE_STREAMS);
+        // without it the prepared samples are used as they are.
+        let noisy = if self.cfg.obs_noise > 0.0 {
+            let stream = OBS_NOISE_STREAMS + self.epochs_done as u64;
+            let mut rng = Rng::with_stream(self.cfg.seed, stream);
+            Some(noisy_samples(&self.cfg, &self.data.train_windows, &mut rng))
+        } else {
+            None
+        };
+        let samples = noisy.as_deref().unwrap_or(&self.data.train);
         for (chunk, sizes) in batches {
-            let batch = Batch::from_samples(chunk.iter().map(|&i| &self.data.train[i as usize]))?;
+            let batch = Batch::from_samples(chunk.iter().map(|&i| &samples[i as usize]))?;
             let eps = self.rng.normal_vec(chunk.len() * zdim, 1.0);
             let eps = Tensor::from_vec(eps, (chunk.len(), zdim), &Device::Cpu)?;
             let mask = sizes.map(|s| crate::social::block_mask(&s)).transpose()?;
