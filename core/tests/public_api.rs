@@ -38,6 +38,19 @@ fn gate(attrs: &[Attribute]) -> String {
         .collect()
 }
 
+/// The bodiless `fn` signatures a macro invocation lists (none when its
+/// input is anything else).
+fn signatures(mac: &syn::Macro) -> Vec<syn::ForeignItemFn> {
+    let parse = |s: syn::parse::ParseStream<'_>| {
+        let mut fns = Vec::new();
+        while !s.is_empty() {
+            fns.push(s.parse::<syn::ForeignItemFn>()?);
+        }
+        Ok(fns)
+    };
+    mac.parse_body_with(parse).unwrap_or_default()
+}
+
 fn module_file(src: &Path, path: &str) -> PathBuf {
     let f = src.join(format!("{path}.rs"));
     if f.exists() {
@@ -189,6 +202,20 @@ fn walk(src: &Path, module: &str, items: &[Item], out: &mut Vec<String>) {
                         }
                         ImplItem::Const(c) if public(&c.vis) && !hidden(&c.attrs) => {
                             push(format!("{g}{head} :: const {}: {}", c.ident, tokens(&c.ty)))
+                        }
+                        // Methods a macro generates from their written signatures
+                        // (`pub fn name(..) -> T;`, as `batch`'s `forward!`).
+                        ImplItem::Macro(m) => {
+                            for mut f in signatures(&m.mac) {
+                                // Written on one line there; listed as rustfmt writes
+                                // a signature it breaks over lines (a trailing comma).
+                                if !f.sig.inputs.empty_or_trailing() {
+                                    f.sig.inputs.push_punct(Default::default());
+                                }
+                                if public(&f.vis) && !hidden(&f.attrs) {
+                                    push(format!("{g}{head} :: {}", tokens(&f.sig)))
+                                }
+                            }
                         }
                         _ => {}
                     }

@@ -36,74 +36,53 @@ type Outcome = Result<Vec<[u32; 2]>, PredictError>;
 /// Every entry point's answer, in call order, each with what was called.
 type Record = Vec<(String, Outcome)>;
 
+/// An entry point's endpoints.
+type Ends = [[f32; 2]];
+/// An entry point's trajectories.
+type Trajs = [Trajectory];
+/// What an entry point returns.
+type Done = Result<(), PredictError>;
+
 /// The entry points the scalar and the batched path share. On the scalar
 /// path a many-track call is one call per track (seed of track `t` = `t`).
 trait Path {
-    fn samples(&mut self, past: &Past, seed: u64, out: &mut [[f32; 2]])
-        -> Result<(), PredictError>;
-    fn endpoint_set(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError>;
-    fn trajectories(
-        &mut self,
-        past: &Past,
-        seed: u64,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError>;
-    fn endpoint_sets(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError>;
-    fn samples_many(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError>;
-    fn trajectories_many(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError>;
-    fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError>;
+    fn samples(&mut self, past: &Past, seed: u64, out: &mut Ends) -> Done;
+    fn endpoint_set(&mut self, past: &Past, seed: u64, out: &mut Ends) -> Done;
+    fn trajectories(&mut self, past: &Past, seed: u64, out: &mut Trajs) -> Done;
+    fn endpoint_sets(&mut self, q: &[Query<'_>], k: usize, out: &mut Ends) -> Done;
+    fn samples_many(&mut self, q: &[Query<'_>], k: usize, out: &mut Ends) -> Done;
+    fn trajectories_many(&mut self, q: &[Query<'_>], k: usize, out: &mut Trajs) -> Done;
+    fn points(&mut self, q: &[Query<'_>], out: &mut Trajs) -> Done;
 }
 
 /// The one-track entry points, the same methods on both paths' predictors
 /// (`self.0`): written once for both `Path` impls.
 macro_rules! single_track {
     () => {
-        fn samples(
-            &mut self,
-            past: &Past,
-            seed: u64,
-            out: &mut [[f32; 2]],
-        ) -> Result<(), PredictError> {
+        fn samples(&mut self, past: &Past, seed: u64, out: &mut Ends) -> Done {
             self.0.predict_samples(past, seed, out)
         }
-        fn endpoint_set(
-            &mut self,
-            past: &Past,
-            seed: u64,
-            out: &mut [[f32; 2]],
-        ) -> Result<(), PredictError> {
+        fn endpoint_set(&mut self, past: &Past, seed: u64, out: &mut Ends) -> Done {
             self.0
                 .predict_endpoint_set::<MAX_TTS_SAMPLES>(past, seed, out)
         }
-        fn trajectories(
-            &mut self,
-            past: &Past,
-            seed: u64,
-            out: &mut [Trajectory],
-        ) -> Result<(), PredictError> {
+        fn trajectories(&mut self, past: &Past, seed: u64, out: &mut Trajs) -> Done {
             self.0.predict_trajectories(past, seed, out)
         }
     };
+}
+
+/// A many-track call on the scalar path: `one` per track, track `t`'s `k`
+/// outputs in `out[t·k..(t + 1)·k]`.
+fn per_track<T>(
+    q: &[Query<'_>],
+    k: usize,
+    out: &mut [T],
+    mut one: impl FnMut(&Query<'_>, &mut [T]) -> Done,
+) -> Done {
+    q.iter()
+        .zip(out.chunks_mut(k))
+        .try_for_each(|(q, o)| one(q, o))
 }
 
 /// The scalar path (`Predictor`): the reference.
@@ -111,38 +90,21 @@ struct Scalar<'m, S: Sine>(Box<Predictor<'m, S, 1024>>);
 
 impl<S: Sine> Path for Scalar<'_, S> {
     single_track!();
-    fn endpoint_sets(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        q.iter().zip(out.chunks_mut(k)).try_for_each(|(q, o)| {
+    fn endpoint_sets(&mut self, q: &[Query<'_>], k: usize, out: &mut Ends) -> Done {
+        per_track(q, k, out, |q, o| {
             self.0
                 .predict_endpoint_set::<MAX_TTS_SAMPLES>(q.past, q.seed, o)
         })
     }
-    fn samples_many(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        q.iter()
-            .zip(out.chunks_mut(k))
-            .try_for_each(|(q, o)| self.0.predict_samples(q.past, q.seed, o))
+    fn samples_many(&mut self, q: &[Query<'_>], k: usize, out: &mut Ends) -> Done {
+        per_track(q, k, out, |q, o| self.0.predict_samples(q.past, q.seed, o))
     }
-    fn trajectories_many(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        q.iter()
-            .zip(out.chunks_mut(k))
-            .try_for_each(|(q, o)| self.0.predict_trajectories(q.past, q.seed, o))
+    fn trajectories_many(&mut self, q: &[Query<'_>], k: usize, out: &mut Trajs) -> Done {
+        per_track(q, k, out, |q, o| {
+            self.0.predict_trajectories(q.past, q.seed, o)
+        })
     }
-    fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError> {
+    fn points(&mut self, q: &[Query<'_>], out: &mut Trajs) -> Done {
         for (q, o) in q.iter().zip(out) {
             *o = self.0.predict_point(q.past)?;
         }
@@ -155,35 +117,18 @@ struct Batched<'m, S: Sine, const L: usize>(Box<BatchPredictor<'m, S, 1024, L>>)
 
 impl<S: Sine, const L: usize> Path for Batched<'_, S, L> {
     single_track!();
-    fn endpoint_sets(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.0
-            .predict_endpoint_sets::<MAX_TTS_SAMPLES>(q, k, out)
-            .map_err(|e| e.error)
+    fn endpoint_sets(&mut self, q: &[Query<'_>], k: usize, out: &mut Ends) -> Done {
+        let r = self.0.predict_endpoint_sets::<MAX_TTS_SAMPLES>(q, k, out);
+        r.map_err(|e| e.error)
     }
-    fn samples_many(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
+    fn samples_many(&mut self, q: &[Query<'_>], k: usize, out: &mut Ends) -> Done {
         self.0.predict_samples_many(q, k, out).map_err(|e| e.error)
     }
-    fn trajectories_many(
-        &mut self,
-        q: &[Query<'_>],
-        k: usize,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        self.0
-            .predict_trajectories_many(q, k, out)
-            .map_err(|e| e.error)
+    fn trajectories_many(&mut self, q: &[Query<'_>], k: usize, out: &mut Trajs) -> Done {
+        let r = self.0.predict_trajectories_many(q, k, out);
+        r.map_err(|e| e.error)
     }
-    fn points(&mut self, q: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), PredictError> {
+    fn points(&mut self, q: &[Query<'_>], out: &mut Trajs) -> Done {
         self.0.predict_points(q, out).map_err(|e| e.error)
     }
 }

@@ -515,6 +515,25 @@ fn check_len(n: usize, k: usize, out_len: usize) -> Result<(), QueryError> {
     Ok(())
 }
 
+/// The methods of [`BatchPredictor`] that only pass their arguments to the
+/// [`Batch`] of the blob's numeric kind ([`on_kind!`]): each written as its
+/// documented signature, the call generated from it. `tests/public_api.rs`
+/// reads the signatures from the invocation, so they stay in the snapshot.
+macro_rules! forward {
+    ($(
+        $(#[$doc:meta])*
+        pub fn $name:ident $(<const $n:ident: usize>)?
+            (&mut self $(, $arg:ident: $ty:ty)* $(,)?) -> $ret:ty;
+    )*) => {
+        $(
+            $(#[$doc])*
+            pub fn $name $(<const $n: usize>)? (&mut self $(, $arg: $ty)*) -> $ret {
+                on_kind!(&mut self.0, e => e.$name $(::<$n>)? ($($arg),*))
+            }
+        )*
+    };
+}
+
 /// Like [`crate::Predictor`] (any valid blob, kind chosen at run time, the
 /// same bits) but on the batched path: one track's samples, or many
 /// tracks', `L` side by side. `W` is the scratch width, at least
@@ -556,89 +575,34 @@ impl<'a, S: Sine, const W: usize, const L: usize> BatchPredictor<'a, S, W, L> {
         on_kind!(&self.0, e => e.model())
     }
 
-    /// [`crate::Predictor::predict_samples`], batched (same bits).
-    pub fn predict_samples(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.predict_samples(past, seed, out))
-    }
+    forward! {
+        /// [`crate::Predictor::predict_samples`], batched (same bits).
+        pub fn predict_samples(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [[f32; 2]]) -> Result<(), PredictError>;
 
-    /// [`crate::Predictor::predict_trajectories`], batched (same bits).
-    pub fn predict_trajectories(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.predict_trajectories(past, seed, out))
-    }
+        /// [`crate::Predictor::predict_trajectories`], batched (same bits).
+        pub fn predict_trajectories(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [Trajectory]) -> Result<(), PredictError>;
 
-    /// [`crate::Predictor::predict_endpoint_set`], batched (same bits).
-    pub fn predict_endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        on_kind!(&mut self.0, e => e.predict_endpoint_set::<N>(past, seed, out))
-    }
+        /// [`crate::Predictor::predict_endpoint_set`], batched (same bits).
+        pub fn predict_endpoint_set<const N: usize>(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [[f32; 2]]) -> Result<(), PredictError>;
 
-    /// [`Batch::predict_samples_many`]: `k` samples of each track,
-    /// track-major in `out`.
-    pub fn predict_samples_many(
-        &mut self,
-        queries: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), QueryError> {
-        on_kind!(&mut self.0, e => e.predict_samples_many(queries, k, out))
-    }
+        /// [`Batch::predict_samples_many`]: `k` samples of each track,
+        /// track-major in `out`.
+        pub fn predict_samples_many(&mut self, queries: &[Query<'_>], k: usize, out: &mut [[f32; 2]]) -> Result<(), QueryError>;
 
-    /// [`Batch::predict_trajectories_many`]: `k` trajectories of each
-    /// track, track-major in `out`.
-    pub fn predict_trajectories_many(
-        &mut self,
-        queries: &[Query<'_>],
-        k: usize,
-        out: &mut [Trajectory],
-    ) -> Result<(), QueryError> {
-        on_kind!(&mut self.0, e => e.predict_trajectories_many(queries, k, out))
-    }
+        /// [`Batch::predict_trajectories_many`]: `k` trajectories of each
+        /// track, track-major in `out`.
+        pub fn predict_trajectories_many(&mut self, queries: &[Query<'_>], k: usize, out: &mut [Trajectory]) -> Result<(), QueryError>;
 
-    /// [`Batch::predict_endpoint_sets`]: the endpoint set (`k` endpoints)
-    /// of each track, track-major in `out`.
-    pub fn predict_endpoint_sets<const N: usize>(
-        &mut self,
-        queries: &[Query<'_>],
-        k: usize,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), QueryError> {
-        on_kind!(&mut self.0, e => e.predict_endpoint_sets::<N>(queries, k, out))
-    }
+        /// [`Batch::predict_endpoint_sets`]: the endpoint set (`k` endpoints)
+        /// of each track, track-major in `out`.
+        pub fn predict_endpoint_sets<const N: usize>(&mut self, queries: &[Query<'_>], k: usize, out: &mut [[f32; 2]]) -> Result<(), QueryError>;
 
-    /// [`Batch::predict_points`]: the point forecast of each track.
-    pub fn predict_points(
-        &mut self,
-        queries: &[Query<'_>],
-        out: &mut [Trajectory],
-    ) -> Result<(), QueryError> {
-        on_kind!(&mut self.0, e => e.predict_points(queries, out))
-    }
+        /// [`Batch::predict_points`]: the point forecast of each track.
+        pub fn predict_points(&mut self, queries: &[Query<'_>], out: &mut [Trajectory]) -> Result<(), QueryError>;
 
-    /// [`Batch::predict_forecasts`]: what a planner gets for each track
-    /// ([`crate::Predictor::predict_planner`]`::<N>`, same bits), `k`
-    /// endpoints and probabilities each, track-major.
-    pub fn predict_forecasts<const N: usize>(
-        &mut self,
-        queries: &[Query<'_>],
-        k: usize,
-        endpoints: &mut [[f32; 2]],
-        probabilities: &mut [f32],
-        out: &mut [PlannerOutput],
-    ) -> Result<(), QueryError> {
-        on_kind!(&mut self.0, e => e.predict_forecasts::<N>(queries, k, endpoints, probabilities, out))
+        /// [`Batch::predict_forecasts`]: what a planner gets for each track
+        /// ([`crate::Predictor::predict_planner`]`::<N>`, same bits), `k`
+        /// endpoints and probabilities each, track-major.
+        pub fn predict_forecasts<const N: usize>(&mut self, queries: &[Query<'_>], k: usize, endpoints: &mut [[f32; 2]], probabilities: &mut [f32], out: &mut [PlannerOutput]) -> Result<(), QueryError>;
     }
 }

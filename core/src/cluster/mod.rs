@@ -166,21 +166,7 @@ fn nearest(s: [f32; 2], centers: &[[f32; 2]]) -> usize {
     let Some((c0, rest)) = centers.split_first() else {
         return 0;
     };
-    let mut best = 0;
-    let mut best_d = sq_dist(s, *c0);
-    for (j, c) in rest.iter().enumerate() {
-        let dx = s[0] - c[0];
-        let dx2 = dx * dx;
-        if dx2 < best_d {
-            let dy = s[1] - c[1];
-            let d = dx2 + dy * dy;
-            if d < best_d {
-                best = j + 1;
-                best_d = d;
-            }
-        }
-    }
-    best
+    closer(s, rest, sq_dist(s, *c0)).0.map_or(0, |j| j + 1)
 }
 
 /// Smallest distance from `s` to any of `centers` (exact, order-independent
@@ -189,19 +175,30 @@ fn nearest(s: [f32; 2], centers: &[[f32; 2]]) -> usize {
 /// skipped centre cannot satisfy.
 #[inline]
 fn nearest_dist(s: [f32; 2], centers: &[[f32; 2]]) -> f32 {
-    let mut m = f32::INFINITY;
-    for c in centers {
+    closer(s, centers, f32::INFINITY).1
+}
+
+/// The scan [`nearest`] and [`nearest_dist`] share: starting from the
+/// distance `best_d`, each centre of `centers` in order replaces the best
+/// when its squared distance to `s` is strictly smaller (its `y` part
+/// computed only when `dx²` alone is `< best_d`). The index in `centers` of
+/// the last replacement (`None`: none) and the final distance.
+#[inline]
+fn closer(s: [f32; 2], centers: &[[f32; 2]], mut best_d: f32) -> (Option<usize>, f32) {
+    let mut best = None;
+    for (j, c) in centers.iter().enumerate() {
         let dx = s[0] - c[0];
         let dx2 = dx * dx;
-        if dx2 < m {
+        if dx2 < best_d {
             let dy = s[1] - c[1];
             let d = dx2 + dy * dy;
-            if d < m {
-                m = d;
+            if d < best_d {
+                best = Some(j);
+                best_d = d;
             }
         }
     }
-    m
+    (best, best_d)
 }
 
 /// Reduces `samples` (`n` points) to `centers.len()` (`k`) k-means centres,

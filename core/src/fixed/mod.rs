@@ -185,14 +185,7 @@ const SINE_PAIRS: [u32; 257] = {
 /// checks every distinct input against the two-table-load form).
 #[inline]
 pub fn sin_q15(phase: u32) -> i32 {
-    // −1 in quadrants 2 and 3, else 0: `(v ^ neg) − neg` negates there.
-    let neg = (phase as i32) >> 31;
-    let mut p = phase & 0x3fff_ffff;
-    if phase & (1 << 30) != 0 {
-        p = (1 << 30) - p;
-    }
-    let idx = (p >> 22) as usize;
-    let frac = ((p >> 6) & 0xffff) as i32;
+    let (neg, idx, frac) = quarter(phase);
     // idx ≤ 256 (p ≤ 2^30), so the fallback never runs.
     let e = SINE_PAIRS.get(idx).copied().unwrap_or(32768);
     let (a, d) = ((e & 0xffff) as i32, (e >> 16) as i32);
@@ -201,6 +194,20 @@ pub fn sin_q15(phase: u32) -> i32 {
     let v = a + ((d * frac + 0x8000) >> 16);
     let v = v - (v >> 15);
     (v ^ neg) - neg
+}
+
+/// A phase folded into the first quarter turn, as [`sin_q15`] and its test's
+/// table form both read it: `(neg, idx, frac)`, `neg` −1 in quadrants 2 and
+/// 3, else 0 (`(v ^ neg) − neg` negates there), then the quarter-sine table
+/// entry `idx` (≤ 256) and the 16-bit fraction `frac` towards the next one.
+#[inline(always)]
+fn quarter(phase: u32) -> (i32, usize, i32) {
+    let neg = (phase as i32) >> 31;
+    let mut p = phase & 0x3fff_ffff;
+    if phase & (1 << 30) != 0 {
+        p = (1 << 30) - p;
+    }
+    (neg, (p >> 22) as usize, ((p >> 6) & 0xffff) as i32)
 }
 
 /// Measured maximum absolute error of [`sin_q15`]`/32768` against f64 sin,

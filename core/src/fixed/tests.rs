@@ -75,15 +75,10 @@ fn quantize_matches_reference() {
     }
 }
 
-/// `sin_q15` as specified, with two loads from `QUARTER_SINE`.
+/// `sin_q15` as specified, with two loads from `QUARTER_SINE` (the same
+/// quarter-turn fold, [`super::quarter`]; what differs is the table form).
 fn sin_q15_ref(phase: u32) -> i32 {
-    let neg = (phase as i32) >> 31;
-    let mut p = phase & 0x3fff_ffff;
-    if phase & (1 << 30) != 0 {
-        p = (1 << 30) - p;
-    }
-    let idx = (p >> 22) as usize;
-    let frac = ((p >> 6) & 0xffff) as i32;
+    let (neg, idx, frac) = super::quarter(phase);
     let (a, b) = match QUARTER_SINE.get(idx..idx + 2) {
         Some(&[a, b]) => (a as i32, b as i32),
         _ => (32768, 32768),
@@ -150,18 +145,22 @@ fn asm_phase(sum: i64, bias: i32, s: i32) -> u32 {
     }
 }
 
+/// The phase step exactly: `a` shifted right by `s` as [`rshr_ref`] does,
+/// or left by `−s`, wrapping to `u32`.
+fn phase_ref(a: i64, s: i8) -> u32 {
+    if s >= 0 {
+        rshr_ref(a, s) as u32
+    } else {
+        (a as u32).wrapping_shl((-(s as i32)) as u32)
+    }
+}
+
 #[test]
 fn sine_rows_phase_steps_match_reference() {
     let mut r = crate::prng::Xoshiro128PlusPlus::seed_from_u64(13);
     let bound = (1i64 << 47) - 1;
     for s in -31i8..=32 {
-        let want = |a: i64| {
-            if s >= 0 {
-                rshr_ref(a, s) as u32
-            } else {
-                (a as u32).wrapping_shl((-(s as i32)) as u32)
-            }
-        };
+        let want = |a: i64| phase_ref(a, s);
         let check = |sum: i64, bias: i32| {
             let a = sum + i64::from(bias);
             assert_eq!(
@@ -202,13 +201,7 @@ fn sine_rows_phase_steps_match_reference() {
 fn sine_phase_matches_reference() {
     let mut r = crate::prng::Xoshiro128PlusPlus::seed_from_u64(5);
     for s in -31i8..=62 {
-        let want = |a: i64| {
-            if s >= 0 {
-                rshr_ref(a, s) as u32
-            } else {
-                (a as u32).wrapping_shl((-(s as i32)) as u32)
-            }
-        };
+        let want = |a: i64| phase_ref(a, s);
         let bound = (1i64 << 47) - 1;
         let mut edges = [
             0i64,

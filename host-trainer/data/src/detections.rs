@@ -21,7 +21,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use super::folder_info::{Columns, FolderError, FolderInfo, TimeColumn};
-use super::rows::{id_key, parse_f64, read_data_file, MAX_FRAME};
+use super::rows::{four_columns, id_key, lines, parse_f64, read_data_file, MAX_FRAME};
 use super::*;
 
 /// One detection of a file.
@@ -156,43 +156,12 @@ fn check_coordinate(v: f64) -> Result<f32, ()> {
     }
 }
 
-/// Text lines of `bytes`: `(1-based line, text)` without the `\r`, blank lines skipped.
-fn lines<'a>(
-    path: &'a Path,
-    bytes: &'a [u8],
-) -> impl Iterator<Item = Result<(usize, &'a str), FolderError>> + 'a {
-    bytes
-        .split(|&b| b == b'\n')
-        .enumerate()
-        .filter_map(move |(i, raw)| {
-            let line = i + 1;
-            let Ok(text) = std::str::from_utf8(raw) else {
-                return Some(Err(DataError::Encoding {
-                    path: path.to_path_buf(),
-                    line,
-                }
-                .into()));
-            };
-            let text = text.strip_suffix('\r').unwrap_or(text);
-            (!text.trim().is_empty()).then_some(Ok((line, text)))
-        })
-}
-
 /// `time id x y` rows without a header.
 fn plain_rows(path: &Path, bytes: &[u8], time: TimeColumn) -> Result<Vec<RawRow>, FolderError> {
     let mut rows = Vec::new();
     for item in lines(path, bytes) {
         let (line, text) = item?;
-        let cols: Vec<&str> = text.split_whitespace().collect();
-        if cols.len() != 4 {
-            return Err(DataError::ColumnCount {
-                path: path.to_path_buf(),
-                line,
-                expected: 4,
-                found: cols.len(),
-            }
-            .into());
-        }
+        let cols = four_columns(path, line, text)?;
         let t = parse_f64(path, line, 1, cols[0])?;
         let t = check_time(t, time).map_err(|expected| DataError::BadNumber {
             path: path.to_path_buf(),

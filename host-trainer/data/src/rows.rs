@@ -55,6 +55,46 @@ pub(super) fn parse_f64(
 /// Largest frame magnitude accepted (keeps i64 arithmetic on frames overflow-free).
 pub(super) const MAX_FRAME: f64 = 1.0e15;
 
+/// Text lines of `bytes`: `(1-based line, text)` without the `\r`, blank lines skipped.
+pub(super) fn lines<'a>(
+    path: &'a Path,
+    bytes: &'a [u8],
+) -> impl Iterator<Item = Result<(usize, &'a str), DataError>> + 'a {
+    bytes
+        .split(|&b| b == b'\n')
+        .enumerate()
+        .filter_map(move |(i, raw)| {
+            let line = i + 1;
+            let Ok(text) = std::str::from_utf8(raw) else {
+                return Some(Err(DataError::Encoding {
+                    path: path.to_path_buf(),
+                    line,
+                }));
+            };
+            let text = text.strip_suffix('\r').unwrap_or(text);
+            (!text.trim().is_empty()).then_some(Ok((line, text)))
+        })
+}
+
+/// The four whitespace-separated columns of line `line` (`text`) of a
+/// headerless file, else [`DataError::ColumnCount`].
+pub(super) fn four_columns<'t>(
+    path: &Path,
+    line: usize,
+    text: &'t str,
+) -> Result<Vec<&'t str>, DataError> {
+    let cols: Vec<&str> = text.split_whitespace().collect();
+    if cols.len() != 4 {
+        return Err(DataError::ColumnCount {
+            path: path.to_path_buf(),
+            line,
+            expected: 4,
+            found: cols.len(),
+        });
+    }
+    Ok(cols)
+}
+
 /// Read a whitespace-separated `frame ped_id x y` file (SDD: single spaces; ETH/UCY: tabs).
 ///
 /// Blank lines are skipped (they still count for line numbers); a trailing `\r` is ignored.
@@ -62,25 +102,9 @@ pub(super) const MAX_FRAME: f64 = 1.0e15;
 pub fn read_rows(path: &Path) -> Result<Vec<Row>, DataError> {
     let bytes = read_data_file(path, "data file")?;
     let mut rows = Vec::new();
-    for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
-        let line = i + 1;
-        let text = std::str::from_utf8(raw).map_err(|_| DataError::Encoding {
-            path: path.to_path_buf(),
-            line,
-        })?;
-        let text = text.strip_suffix('\r').unwrap_or(text);
-        if text.trim().is_empty() {
-            continue;
-        }
-        let cols: Vec<&str> = text.split_whitespace().collect();
-        if cols.len() != 4 {
-            return Err(DataError::ColumnCount {
-                path: path.to_path_buf(),
-                line,
-                expected: 4,
-                found: cols.len(),
-            });
-        }
+    for item in lines(path, &bytes) {
+        let (line, text) = item?;
+        let cols = four_columns(path, line, text)?;
         let frame_f = parse_f64(path, line, 1, cols[0])?;
         if frame_f.fract() != 0.0 || frame_f.abs() > MAX_FRAME {
             return Err(DataError::BadNumber {

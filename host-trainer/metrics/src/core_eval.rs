@@ -243,6 +243,24 @@ pub fn parallel_map<T: Send>(n: usize, f: impl Fn(usize) -> Result<T> + Sync) ->
     Ok(out)
 }
 
+/// `f` over `windows` in blocks of [`BLOCK`] on all cores ([`parallel_map`]), the results
+/// in window order: `f(block, seeds)`, where `seeds(i)` is `base_seed +` the window's index
+/// in `windows` (wrapping) for window `i` of the block.
+fn in_blocks<T: Send>(
+    windows: &[Window],
+    base_seed: u64,
+    f: impl Fn(&[Window], &dyn Fn(usize) -> u64) -> Result<Vec<T>> + Sync,
+) -> Result<Vec<T>> {
+    let blocks = parallel_map(windows.len().div_ceil(BLOCK), |b| {
+        let lo = b * BLOCK;
+        let hi = (lo + BLOCK).min(windows.len());
+        f(&windows[lo..hi], &|i| {
+            base_seed.wrapping_add((lo + i) as u64)
+        })
+    })?;
+    Ok(blocks.into_iter().flatten().collect())
+}
+
 /// Evaluates a blob through `gpecnet-core` on every window of `ds` (the
 /// batched path, [`BLOCK`] windows per task on all cores).
 pub fn evaluate_core(
@@ -253,18 +271,9 @@ pub fn evaluate_core(
     base_seed: u64,
 ) -> Result<(Metrics, Vec<Prediction>)> {
     let model = Model::from_blob(blob).map_err(|e| anyhow!("{e}"))?;
-    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
-        let lo = b * BLOCK;
-        let hi = (lo + BLOCK).min(ds.windows.len());
-        predict_block(
-            &model,
-            sine,
-            &ds.windows[lo..hi],
-            |i| base_seed.wrapping_add((lo + i) as u64),
-            k,
-        )
+    let preds = in_blocks(&ds.windows, base_seed, |ws, seeds| {
+        predict_block(&model, sine, ws, seeds, k)
     })?;
-    let preds: Vec<Prediction> = blocks.into_iter().flatten().collect();
     Ok((accumulate(ds, &preds)?, preds))
 }
 
@@ -342,16 +351,8 @@ pub fn evaluate_point_core(
     if !model.has_point_head() {
         return Ok(None);
     }
-    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
-        let lo = b * BLOCK;
-        let hi = (lo + BLOCK).min(ds.windows.len());
-        points_core(&model, sine, &ds.windows[lo..hi])
-    })?;
-    let preds: Vec<Prediction> = blocks
-        .into_iter()
-        .flatten()
-        .map(Prediction::single)
-        .collect();
+    let points = in_blocks(&ds.windows, 0, |ws, _| points_core(&model, sine, ws))?;
+    let preds: Vec<Prediction> = points.into_iter().map(Prediction::single).collect();
     Ok(Some((accumulate(ds, &preds)?, preds)))
 }
 
@@ -403,16 +404,11 @@ pub fn planner_core(
             })
             .collect()
     }
-    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
-        let lo = b * BLOCK;
-        let hi = (lo + BLOCK).min(ds.windows.len());
-        let seed = |i: usize| base_seed.wrapping_add((lo + i) as u64);
-        match sine {
-            SineKind::Libm => block::<LibmSine>(model, &ds.windows[lo..hi], seed),
-            SineKind::Fast => block::<FastSine>(model, &ds.windows[lo..hi], seed),
-        }
+    let out = in_blocks(&ds.windows, base_seed, |ws, seed| match sine {
+        SineKind::Libm => block::<LibmSine>(model, ws, seed),
+        SineKind::Fast => block::<FastSine>(model, ws, seed),
     })?;
-    Ok(Some(blocks.into_iter().flatten().collect()))
+    Ok(Some(out))
 }
 
 /// Whether every window's probabilities through `gpecnet-core` (`outs`) equal, bit for bit,
@@ -568,14 +564,9 @@ pub fn forecasts_core(
             })
             .collect()
     }
-    let blocks = parallel_map(ds.windows.len().div_ceil(BLOCK), |b| {
-        let lo = b * BLOCK;
-        let hi = (lo + BLOCK).min(ds.windows.len());
-        let seed = |i: usize| base_seed.wrapping_add((lo + i) as u64);
-        match sine {
-            SineKind::Libm => block::<LibmSine>(model, &ds.windows[lo..hi], seed, k),
-            SineKind::Fast => block::<FastSine>(model, &ds.windows[lo..hi], seed, k),
-        }
+    let blocks = in_blocks(&ds.windows, base_seed, |ws, seed| match sine {
+        SineKind::Libm => block::<LibmSine>(model, ws, seed, k),
+        SineKind::Fast => block::<FastSine>(model, ws, seed, k),
     })?;
     let n = ds.windows.len();
     let mut out = Forecasts {
@@ -583,7 +574,7 @@ pub fn forecasts_core(
         points: model.has_point_head().then(|| Vec::with_capacity(n)),
         planner: Vec::with_capacity(n),
     };
-    for (s, point, planner) in blocks.into_iter().flatten() {
+    for (s, point, planner) in blocks {
         out.samples.push(s);
         if let (Some(all), Some(pt)) = (out.points.as_mut(), point) {
             all.push(pt);
