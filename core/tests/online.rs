@@ -2,7 +2,8 @@
 //! independent reference on a recorded feedback stream (bit for bit), the bounds under hostile
 //! feedback (NaN, teleports, 10^6 updates), the forecaster under hostile detections (id
 //! switches, stale and wrapping timestamps, long pauses), the loop off reproducing the
-//! static forecast exactly, and `restore` refusing every damaged state.
+//! static forecast exactly, shared model outputs (`frame_with`) giving the same forecasts,
+//! and `restore` refusing every damaged state.
 use crate::common::xorshift32;
 
 use gpecnet_core::online::{
@@ -386,4 +387,62 @@ fn a_constant_velocity_scene_moves_the_weight_to_constant_velocity_and_covers_it
         f.frame::<LibmSine, 64, 20>(&mut p, t % 60_000, &obs, |fc| last = fc.weights);
     }
     assert!(last[0] < 0.5, "the head keeps {last:?}");
+}
+
+/// `Forecaster::frame_with` fed model outputs computed once (by another forecaster over the
+/// same detections) forecasts and learns exactly what `Forecaster::frame` does with its own
+/// predictor: the host's loop-off / loop-on comparison runs the model once.
+#[test]
+fn shared_model_outputs_give_the_same_forecasts_and_calibration() {
+    let model = Model::from_blob(BLOB).unwrap();
+    let mut p = Predictor::<LibmSine, 64>::new(model).unwrap();
+    let mut off_cfg = Config::metres();
+    off_cfg.adapt = false;
+    let mut own: Box<Forecaster<4, 2>> =
+        Box::new(Forecaster::new(&model, Config::metres(), 1_000).unwrap());
+    let mut first: Box<Forecaster<4, 2>> =
+        Box::new(Forecaster::new(&model, off_cfg, 1_000).unwrap());
+    let mut shared: Box<Forecaster<4, 2>> =
+        Box::new(Forecaster::new(&model, Config::metres(), 1_000).unwrap());
+    let mut r = xorshift32(77);
+    let mut compared = 0;
+    for frame in 0..600u32 {
+        let t = frame * 100;
+        let mut obs = vec![walker(1, t, 0.0, 1.3), walker(2, t, 4.0, 0.4)];
+        if r().is_multiple_of(9) {
+            obs[1].pos[0] += 0.5;
+        }
+        let mut want: Vec<TrackForecast<20>> = Vec::new();
+        own.frame::<LibmSine, 64, 20>(&mut p, t, &obs, |fc| want.push(fc.clone()));
+        // The first forecaster (loop off) computes the model's part; the second copies it.
+        let mut made: Vec<(u64, TrackForecast<20>)> = Vec::new();
+        first.frame_with::<20>(
+            t,
+            &obs,
+            |past, seed, out| {
+                gpecnet_core::online::model_outputs(&mut p, past, seed, out)?;
+                made.push((seed, out.clone()));
+                Ok(())
+            },
+            |_| {},
+        );
+        let mut got: Vec<TrackForecast<20>> = Vec::new();
+        shared.frame_with::<20>(
+            t,
+            &obs,
+            |_, seed, out| {
+                let (_, done) = made.iter().find(|(s, _)| *s == seed).unwrap();
+                out.copy_model_outputs(done);
+                Ok(())
+            },
+            |fc| got.push(fc.clone()),
+        );
+        assert_eq!(got, want, "frame {frame}");
+        compared += got.len();
+    }
+    assert!(compared > 200, "{compared} forecasts");
+    let (mut a, mut b) = ([0u8; STATE_LEN], [0u8; STATE_LEN]);
+    shared.calibration().state(&mut a).unwrap();
+    own.calibration().state(&mut b).unwrap();
+    assert_eq!(a, b, "the calibration learned the same");
 }

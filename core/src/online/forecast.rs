@@ -77,6 +77,16 @@ impl<const K: usize> TrackForecast<K> {
         }
     }
 
+    /// Copies what [`model_outputs`] gives (endpoints, probabilities,
+    /// `learned`, point head, static radii) from `from`.
+    pub fn copy_model_outputs(&mut self, from: &TrackForecast<K>) {
+        self.endpoints.clone_from(&from.endpoints);
+        self.probabilities.clone_from(&from.probabilities);
+        self.learned = from.learned;
+        self.head.clone_from(&from.head);
+        self.static_radii = from.static_radii;
+    }
+
     /// The prediction of expert `e` (0: head, 1–3: constant velocity) at
     /// horizon `h` (1-based; rule 5), `None` without a head or outside
     /// `1..=12`.
@@ -111,6 +121,23 @@ pub fn forecast<S: Sine, const W: usize, const K: usize>(
     period_s: f32,
     out: &mut TrackForecast<K>,
 ) -> Result<(), PredictError> {
+    model_outputs(p, past, seed, out)?;
+    calibrate(calibration, past, period_s, out)
+}
+
+/// The model's part of [`forecast`]: the planner's sequence
+/// ([`Predictor::predict_planner`] with `N = K`) into `out`'s endpoints,
+/// probabilities, `learned`, point head and static radii; nothing else of
+/// `out` changes. It depends on `past` and `seed` only, so a caller running
+/// two forecasters over the same detections (the loop off and on, say) may
+/// compute it once and copy it ([`TrackForecast::copy_model_outputs`],
+/// [`super::Forecaster::frame_with`]).
+pub fn model_outputs<S: Sine, const W: usize, const K: usize>(
+    p: &mut Predictor<'_, S, W>,
+    past: &[[f32; 2]; HISTORY],
+    seed: u64,
+    out: &mut TrackForecast<K>,
+) -> Result<(), PredictError> {
     // Endpoints, probabilities, point head, static radii: the planner's sequence.
     let n = crate::sampling::max_endpoints_of(p.model(), K);
     out.endpoints.clear();
@@ -125,7 +152,18 @@ pub fn forecast<S: Sine, const W: usize, const K: usize>(
     out.learned = planned.learned;
     out.static_radii = planned.radii;
     out.head = planned.point;
+    Ok(())
+}
 
+/// The loop's part of [`forecast`], after [`model_outputs`]: the experts
+/// and motion state of `past`, the aggregate point and the per-horizon radii
+/// under `calibration` (rules 3–6 of the parent module), into `out`.
+pub fn calibrate<const K: usize>(
+    calibration: &Calibration,
+    past: &[[f32; 2]; HISTORY],
+    period_s: f32,
+    out: &mut TrackForecast<K>,
+) -> Result<(), PredictError> {
     // Experts (rule 5) and motion state (rule 6).
     let [.., q0] = *past;
     let [first, ..] = *past;

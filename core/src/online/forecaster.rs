@@ -6,7 +6,8 @@ use core::num::NonZeroU32;
 use heapless::Vec;
 
 use super::pending::TrackLoop;
-use super::{forecast, Calibration, Config, OnlineError, TrackForecast, DEFAULT_MULTIPLIERS};
+use super::DEFAULT_MULTIPLIERS;
+use super::{calibrate, model_outputs, Calibration, Config, OnlineError, TrackForecast};
 use crate::output::PredictError;
 use crate::sine::Sine;
 use crate::tracks::{period_ms_of, FrameDelta, Observation, TimedTrackTable, HISTORY};
@@ -113,6 +114,31 @@ impl<const N: usize, const P: usize> Forecaster<N, P> {
         p: &mut Predictor<'_, S, W>,
         t_ms: u32,
         observations: &[Observation],
+        each: impl FnMut(&TrackForecast<K>),
+    ) -> FrameReport<N> {
+        self.frame_with(
+            t_ms,
+            observations,
+            |past, seed, out| model_outputs(p, past, seed, out),
+            each,
+        )
+    }
+
+    /// [`Forecaster::frame`] with the model's part of each forecast from
+    /// `model` (called with the track's past, its seed and the forecast to
+    /// fill, as [`model_outputs`]), the loop's part
+    /// ([`calibrate`]) from this forecaster: for a host that runs several
+    /// forecasters over the same detections (the loop off and on) and
+    /// computes the model once, or replays recorded model outputs.
+    pub fn frame_with<const K: usize>(
+        &mut self,
+        t_ms: u32,
+        observations: &[Observation],
+        mut model: impl FnMut(
+            &[[f32; 2]; HISTORY],
+            u64,
+            &mut TrackForecast<K>,
+        ) -> Result<(), PredictError>,
         mut each: impl FnMut(&TrackForecast<K>),
     ) -> FrameReport<N> {
         let delta = self.table.update(t_ms, observations);
@@ -162,7 +188,9 @@ impl<const N: usize, const P: usize> Forecaster<N, P> {
                 continue;
             }
             let seed = (u64::from(id) << 32) | u64::from(end);
-            match forecast(p, calibration, &past, seed, *period_s, &mut fc) {
+            let made = model(&past, seed, &mut fc)
+                .and_then(|()| calibrate(calibration, &past, *period_s, &mut fc));
+            match made {
                 Ok(()) => {
                     fc.id = id;
                     fc.end_ms = end;

@@ -121,7 +121,7 @@ mod forecaster;
 mod pending;
 
 pub use calibration::{Calibration, STATE_LEN};
-pub use forecast::{forecast, TrackForecast};
+pub use forecast::{calibrate, forecast, model_outputs, TrackForecast};
 pub use forecaster::{Forecaster, FrameReport};
 
 use crate::output::PredictError;
