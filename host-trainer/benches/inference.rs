@@ -13,6 +13,12 @@
 //!   whole set takes a minute), one thread: the scalar predictor window by
 //!   window, or `predict_samples_many` over all of them.
 //!
+//! - `forecast_k20/<model>/<path>/<n>`: the shipped defaults' whole forecast
+//!   (`sdd-m-lp`, `sdd-m-lp-host`: 20 endpoints, probabilities, point forecast,
+//!   radii) of n = 1, 16 and every sdd-m test window, one thread: `scalar` =
+//!   `Predictor::predict_forecast` window by window, `batched` =
+//!   `BatchPredictor::predict_forecasts` over all of them (the same bits).
+//!
 //! `cargo bench -p gpecnet-trainer --bench inference` (results:
 //! `docs/host-speed.md`); one group: append its name, e.g. `-- one_pedestrian`.
 
@@ -111,5 +117,67 @@ fn bench_scalar_vs_batched(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_inference, bench_scalar_vs_batched);
+/// The shipped defaults' whole forecast (`predict_forecast`: 20 endpoints, probabilities,
+/// point forecast, radii), one thread: one pedestrian, 16 (one drone frame) and the whole
+/// sdd-m test split, the scalar predictor window by window or `predict_forecasts` over all.
+fn bench_forecasts(c: &mut Criterion) {
+    use gpecnet_core::planner::PlannerOutput;
+    use gpecnet_trainer::data::{load, DatasetSpec, Split};
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../weights");
+    let spec = DatasetSpec::parse("sdd-m").expect("sdd-m");
+    let test = load(&data::default_data_root(), &spec, Split::Test, &[]).expect("sdd-m test");
+    let pasts: Vec<[[f32; 2]; 8]> = test.windows.iter().map(|w| w.obs()).collect();
+    let queries = queries(&pasts, |i| i as u64);
+    const K: usize = 20;
+    for name in ["sdd-m-lp", "sdd-m-lp-host"] {
+        let blob = std::fs::read(weights.join(format!("{name}.gpec"))).expect("blob");
+        let model = Model::from_blob(&blob).expect("valid blob");
+        let mut scalar = Box::new(Predictor::<LibmSine, HOST_WIDTH>::new(model).expect("fits"));
+        let mut batched =
+            Box::new(HostBatchPredictor::<LibmSine, HOST_WIDTH>::new(model).expect("fits"));
+        let n = queries.len();
+        let (mut ends, mut probs) = (vec![[0.0f32; 2]; n * K], vec![0.0f32; n * K]);
+        let blank = PlannerOutput {
+            learned: false,
+            point: None,
+            radii: None,
+        };
+        let mut outs = vec![blank; n];
+        let mut g = c.benchmark_group(format!("forecast_k20/{name}"));
+        g.sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(2));
+        for m in [1usize, 16, n] {
+            g.throughput(Throughput::Elements(m as u64));
+            g.bench_with_input(BenchmarkId::new("scalar", m), &m, |b, &m| {
+                b.iter(|| {
+                    for q in &queries[..m] {
+                        scalar.predict_forecast::<K>(q.past, q.seed).expect("ok");
+                    }
+                })
+            });
+            g.bench_with_input(BenchmarkId::new("batched", m), &m, |b, &m| {
+                b.iter(|| {
+                    batched
+                        .predict_forecasts::<K>(
+                            &queries[..m],
+                            K,
+                            &mut ends[..m * K],
+                            &mut probs[..m * K],
+                            &mut outs[..m],
+                        )
+                        .expect("ok")
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(
+    benches,
+    bench_inference,
+    bench_scalar_vs_batched,
+    bench_forecasts
+);
 criterion_main!(benches);
