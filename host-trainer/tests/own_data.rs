@@ -3,7 +3,8 @@
 //! folder gives exactly the frame-step windows; re-encodings at 29.97 fps (CSV with a header,
 //! string ids, shuffled and extra columns, jittered timestamps in seconds, 5 % of the rows
 //! dropped), at 2 Hz and at 1 Hz give the scene's numbers; the windows are the core's timed
-//! track table's histories; every bad input is an error naming the file, the line and the key.
+//! track table's histories; a calibrated camera's pixels through a homography give the
+//! scene's metres; every bad input is an error naming the file, the line and the key.
 
 use std::collections::BTreeMap;
 use std::fs;
@@ -641,4 +642,127 @@ fn eval_on_a_folder_with_only_test_is_zero_shot_in_metres_and_writes_nothing() {
         dir.path().to_str().unwrap(),
     ]);
     assert!(!ok && text.contains("--dataset"), "{text}");
+}
+
+/// An oblique, calibrated camera: ETH/UCY HOTEL's test scene (metres) projected into a
+/// camera's pixels through the inverse of a homography with perspective, then loaded with
+/// `[homography]` (the image-to-ground matrix): the same windows within f32 rounding, and
+/// the same streamed recording; every bad homography is a typed error naming the key, the file
+/// or the line.
+#[test]
+fn a_homography_maps_a_calibrated_camera_s_pixels_to_the_scene_s_metres() {
+    // Ground -> image: a camera 12 m up looking down at 50°, 1000 px focal length (the
+    // pinhole's projective map of the ground plane), and its inverse, image -> ground.
+    let g2i: [[f64; 3]; 3] = [
+        [1000.0, -150.0, 640.0],
+        [30.0, 700.0, 360.0],
+        [0.002, 0.09, 1.0],
+    ];
+    let det = g2i[0][0] * (g2i[1][1] * g2i[2][2] - g2i[1][2] * g2i[2][1])
+        - g2i[0][1] * (g2i[1][0] * g2i[2][2] - g2i[1][2] * g2i[2][0])
+        + g2i[0][2] * (g2i[1][0] * g2i[2][1] - g2i[1][1] * g2i[2][0]);
+    let cof = |r: usize, c: usize| {
+        let (r1, r2) = ((r + 1) % 3, (r + 2) % 3);
+        let (c1, c2) = ((c + 1) % 3, (c + 2) % 3);
+        g2i[r1][c1] * g2i[r2][c2] - g2i[r1][c2] * g2i[r2][c1]
+    };
+    // inverse[i][j] = cofactor(j, i) / det.
+    let i2g: Vec<f64> = (0..9).map(|k| cof(k % 3, k / 3) / det).collect();
+    let src = eth_ucy("hotel/test/biwi_hotel.txt");
+    let mut text = String::new();
+    for (frame, id, x, y) in rows_of(&src) {
+        let (x, y) = (f64::from(x), f64::from(y));
+        let w = g2i[2][0] * x + g2i[2][1] * y + g2i[2][2];
+        assert!(w > 0.0, "the scene is in front of the camera");
+        let u = (g2i[0][0] * x + g2i[0][1] * y + g2i[0][2]) / w;
+        let v = (g2i[1][0] * x + g2i[1][1] * y + g2i[1][2]) / w;
+        text += &format!("{frame} {id} {u:.4} {v:.4}\n");
+    }
+    let h = i2g
+        .iter()
+        .map(|v| format!("{v:e}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let toml = format!("unit = \"px\"\nseconds_per_frame = 0.04\n[homography]\n\"*\" = [{h}]\n");
+    let dir = folder(&toml, &[("hotel_cam.txt", text.clone())]);
+    let got = load_test(dir.path()).unwrap();
+    assert_eq!(got.unit, Unit::Metres);
+    // The scene itself, copied into a metre folder at its own clock (ETH/UCY frames are
+    // 10 numbers = 0.4 s apart).
+    let plain: String = fs::read_to_string(&src).unwrap();
+    let mdir = folder(
+        "unit = \"m\"\nseconds_per_frame = 0.04\n",
+        &[("hotel_cam.txt", plain)],
+    );
+    let want = load_test(mdir.path()).unwrap();
+    assert_eq!(got.windows.len(), want.windows.len());
+    assert!(got.windows.len() > 500, "{} windows", got.windows.len());
+    let mut worst = 0.0f32;
+    for (a, b) in got.windows.iter().zip(&want.windows) {
+        assert_eq!(a.ped_id, b.ped_id);
+        let (pa, pb) = ((a.obs(), a.future()), (b.obs(), b.future()));
+        let xs = pa.0.iter().chain(&pa.1).zip(pb.0.iter().chain(&pb.1));
+        for (p, q) in xs {
+            worst = worst.max((p[0] - q[0]).abs()).max((p[1] - q[1]).abs());
+        }
+    }
+    // Pixels written to 1e-4 px at about 1e-2 m per pixel, then f32 metres.
+    assert!(worst < 2e-4, "largest difference {worst} m");
+    // The streamed recording is in metres too.
+    let spec = DatasetSpec::parse(&format!("{}/", dir.path().display())).unwrap();
+    let recs = recordings(Path::new("/nonexistent"), &spec, Split::Test, &[]).unwrap();
+    assert_eq!(recs[0].metres_per_unit, Some(1.0));
+
+    // Bad homographies: the key, the file, the line.
+    let bad = |toml: &str, text: &str| {
+        let d = folder(toml, &[("cam.txt", text.to_string())]);
+        load_test(d.path()).unwrap_err()
+    };
+    let rows = "0 1 10 20\n10 1 11 21\n";
+    let e = bad(
+        "unit = \"px\"\nseconds_per_frame = 0.04\n[homography]\ncam = [1, 2, 3, 2, 4, 6, 0, 0, 1]\n",
+        rows,
+    );
+    assert!(
+        e.contains("dataset.toml:4: homography.cam") && e.contains("not invertible"),
+        "{e}"
+    );
+    let e = bad(
+        "unit = \"px\"\nseconds_per_frame = 0.04\n[homography]\ncam = [1, 0, 0, 0, 1]\n",
+        rows,
+    );
+    assert!(
+        e.contains("homography.cam") && e.contains("expected 9"),
+        "{e}"
+    );
+    let e = bad(
+        "unit = \"m\"\nseconds_per_frame = 0.04\n[homography]\ncam = [1, 0, 0, 0, 1, 0, 0, 0, 1]\n",
+        rows,
+    );
+    assert!(e.contains("unit") && e.contains("px"), "{e}");
+    let e = bad(
+        "unit = \"px\"\nseconds_per_frame = 0.04\n[homography]\nother = [1, 0, 0, 0, 1, 0, 0, 0, 1]\n",
+        rows,
+    );
+    assert!(
+        e.contains("cam.txt") && e.contains("no [homography] entry"),
+        "{e}"
+    );
+    let e = bad(
+        "unit = \"px\"\nseconds_per_frame = 0.04\n[metres_per_pixel]\ncam = 0.02\n[homography]\n\"*\" = [1, 0, 0, 0, 1, 0, 0, 0, 1]\n",
+        rows,
+    );
+    assert!(
+        e.contains("metres_per_pixel.cam") && e.contains("one of the two"),
+        "{e}"
+    );
+    // A row beyond the horizon line (w <= 0): the file and its line.
+    let e = bad(
+        "unit = \"px\"\nseconds_per_frame = 0.04\n[homography]\n\"*\" = [1, 0, 0, 0, 1, 0, 0, 0.01, 1]\n",
+        "0 1 10 20\n10 1 11 -500\n",
+    );
+    assert!(
+        e.contains("cam.txt:2:") && e.contains("behind the camera"),
+        "{e}"
+    );
 }

@@ -61,10 +61,21 @@ pub(super) fn read_detections(
 ) -> Result<FileDetections, FolderError> {
     let bytes = read_data_file(path, "data file")?;
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    let rows = match &info.columns {
+    let mut rows = match &info.columns {
         None => plain_rows(path, bytes, info.time)?,
         Some(c) => header_rows(path, bytes, info.time, c)?,
     };
+    // A calibrated camera's pixels go to the ground here, detection by detection: the map
+    // is not linear, so it must come before the tracks are resampled.
+    if let Some(h) = info.homography_of(path)? {
+        for r in rows.iter_mut() {
+            r.pos = h.apply(r.pos).map_err(|msg| FolderError::Row {
+                path: path.to_path_buf(),
+                line: r.line,
+                msg: format!("{msg} ([homography] of dataset.toml)"),
+            })?;
+        }
+    }
     Ok(resolve_ids(rows))
 }
 

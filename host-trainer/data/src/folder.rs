@@ -19,7 +19,7 @@ fn clock(info: &FolderInfo) -> TrackClock {
 }
 
 /// Cut one file of a folder data set into windows on the models' grid (module docs), in the
-/// file's unit (no `metres_per_pixel` applied).
+/// file's unit (no `metres_per_pixel` applied), or in metres for a file under a homography.
 pub fn parse_folder_file(path: &Path, info: &FolderInfo) -> Result<Vec<Window>, FolderError> {
     let file = read_detections(path, info)?;
     let scene = scene_name(path);
@@ -45,7 +45,8 @@ pub fn load_folder(dir: &Path, split: &str) -> Result<Dataset, FolderError> {
     let mut windows = Vec::new();
     for f in info.split_files(dir, split)? {
         let mut ws = parse_folder_file(&f, &info)?;
-        if !info.metres_per_pixel.is_empty() {
+        // A file under a homography is in metres already (`super::detections`).
+        if !info.metres_per_pixel.is_empty() && info.homography_of(&f)?.is_none() {
             let stem = scene_name(&f);
             let s = *info
                 .metres_per_pixel

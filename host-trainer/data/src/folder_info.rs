@@ -25,7 +25,17 @@
 //! delimiter = ","               # optional: default by extension (.csv ",", .tsv tab, .txt spaces)
 //! [metres_per_pixel]            # optional, pixel data only: file stem -> factor; with it the
 //! flight_01 = 0.041             # whole set is converted to metres (every file must be listed)
+//! [homography]                  # optional, pixel data only: file stem (or "*" for every file)
+//! "*" = [0.021, 0.0, -4.9, 0.0, 0.021, -3.1, 0.0, 0.00012, 1.0]   # -> image-to-ground 3 x 3,
+//!                               # row-major; with it the whole set is in metres
 //! ```
+//!
+//! **Cameras.** A camera looking straight down at a known height has one metres-per-pixel
+//! factor (`[metres_per_pixel]`); an oblique, calibrated camera has a homography
+//! (`[homography]`, `super::homography`: each detection's pixel mapped to the ground before
+//! its track is resampled, since the map is not linear). A file takes one or the other, and
+//! either table, when given, must cover every file (a stem of its own, or `"*"` in
+//! `[homography]`).
 //!
 //! Without `[columns]` a split's files are its `*.txt` files of whitespace-separated `time id x
 //! y` rows; with it, its `*.csv`, `*.tsv` and `*.txt` files (`super::detections`).
@@ -105,6 +115,9 @@ pub struct FolderInfo {
     pub licence: Option<String>,
     /// Pixel data only: metres per pixel of each file (by stem); converts the set to metres.
     pub metres_per_pixel: BTreeMap<String, f64>,
+    /// Pixel data only: the image-to-ground homography of each file (by stem, or `"*"` for
+    /// every file without its own); converts the set to metres.
+    pub homography: BTreeMap<String, Homography>,
     /// Files with a header row, when set.
     pub columns: Option<Columns>,
 }
@@ -126,6 +139,8 @@ struct RawInfo {
     licence: Option<String>,
     #[serde(default)]
     metres_per_pixel: BTreeMap<String, f64>,
+    #[serde(default)]
+    homography: BTreeMap<String, Vec<f64>>,
     #[serde(default)]
     columns: Option<RawColumns>,
 }
@@ -191,6 +206,18 @@ pub enum FolderError {
         path = .path.display()
     )]
     NoScale {
+        /// The data file.
+        path: PathBuf,
+        /// Its stem.
+        stem: String,
+    },
+    /// A file of a pixel set mapped by homographies has none.
+    #[error(
+        "{path}: no [homography] entry for {stem:?} and no \"*\" in dataset.toml (every \
+         file of a mapped set needs one)",
+        path = .path.display()
+    )]
+    NoHomography {
         /// The data file.
         path: PathBuf,
         /// Its stem.
@@ -522,6 +549,33 @@ impl FolderInfo {
                 ),
             ));
         }
+        let mut homography = BTreeMap::new();
+        for (k, v) in &raw.homography {
+            if raw.unit != "px" {
+                return Err(key(
+                    None,
+                    "unit",
+                    "[homography] maps pixel data to metres: set unit = \"px\"".into(),
+                ));
+            }
+            let h = Homography::new(v).map_err(|msg| key(Some("homography"), k, msg))?;
+            homography.insert(k.clone(), h);
+        }
+        // One camera model per file: a factor or a homography.
+        let all = homography.contains_key("*");
+        if let Some(k) = raw
+            .metres_per_pixel
+            .keys()
+            .find(|k| all || homography.contains_key(*k))
+        {
+            return Err(key(
+                Some("metres_per_pixel"),
+                k,
+                "this file also has a [homography] (or \"*\" covers it): give each file \
+                 one of the two"
+                    .into(),
+            ));
+        }
         // The licence is stored in every blob trained on the folder: refused here, naming the
         // key, rather than at export.
         let most = gpecnet_core::blob::MAX_META_TEXT;
@@ -543,13 +597,32 @@ impl FolderInfo {
             max_gap_s,
             licence: raw.licence,
             metres_per_pixel: raw.metres_per_pixel,
+            homography,
             columns,
         })
     }
 
+    /// The homography of the data file `path` (its stem's, else `"*"`), `None` for a set
+    /// without `[homography]`; [`FolderError::NoHomography`] when the set has one but not for
+    /// this file (and it has no metres-per-pixel factor either).
+    pub fn homography_of(&self, path: &Path) -> Result<Option<&Homography>, FolderError> {
+        if self.homography.is_empty() {
+            return Ok(None);
+        }
+        let stem = super::rows::scene_name(path);
+        match self.homography.get(&stem).or(self.homography.get("*")) {
+            Some(h) => Ok(Some(h)),
+            None if self.metres_per_pixel.contains_key(&stem) => Ok(None),
+            None => Err(FolderError::NoHomography {
+                path: path.to_path_buf(),
+                stem,
+            }),
+        }
+    }
+
     /// The unit of the loaded windows (metres when pixel data is converted).
     pub fn unit(&self) -> Unit {
-        if self.unit == "m" || !self.metres_per_pixel.is_empty() {
+        if self.unit == "m" || !self.metres_per_pixel.is_empty() || !self.homography.is_empty() {
             Unit::Metres
         } else {
             Unit::Pixels

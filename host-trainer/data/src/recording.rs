@@ -138,7 +138,7 @@ pub fn recordings(
             let mut out = Vec::new();
             for f in info.split_files(dir, split.dir_name())? {
                 let stem = scene_name(&f);
-                if info.unit == "m" {
+                if info.unit == "m" || info.homography_of(&f)?.is_some() {
                     out.push(read_folder_recording(&f, &info, Unit::Metres, Some(1.0))?);
                 } else if let Some(&s) = info.metres_per_pixel.get(&stem) {
                     let mut r = read_folder_recording(&f, &info, Unit::Pixels, Some(s as f32))?;
