@@ -4,8 +4,9 @@
 //! `H` is 3 × 3, written row-major as nine numbers `[h11, h12, h13, h21, h22, h23, h31, h32,
 //! h33]`, the convention of the ETH/UCY releases and of OpenCV's `findHomography`: with `(X, Y,
 //! W) = H · (x, y, 1)`, the ground point is `(X / W, Y / W)`. Arithmetic in f64, the result
-//! rounded to f32 once. Checked: nine finite numbers, `H` invertible (`|det H|` above
-//! `1e-12 · max|h|³`, so a rank-deficient matrix that rounding made non-zero is refused too);
+//! rounded to f32 once. Checked: nine finite numbers, `H` invertible (`|det H|` above `1e-12`
+//! times the product of its rows' lengths, so a rank-deficient matrix that rounding made
+//! non-zero is refused too);
 //! at every point mapped, `W > 0` (the point is in front of the camera: a point with `W ≤ 0`
 //! is on or beyond the horizon line, where the ground plane is behind the camera) and a finite
 //! f32 result.
@@ -25,10 +26,15 @@ impl Homography {
         if let Some(v) = h.iter().find(|v| !v.is_finite()) {
             return Err(format!("{v} is not a finite number"));
         }
-        let big = h.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        // Hadamard's bound: |det H| ≤ the product of its rows' lengths, with equality for
+        // orthogonal rows; far below it, H is singular up to rounding.
+        let rows: f64 = h
+            .chunks(3)
+            .map(|r| r.iter().map(|v| v * v).sum::<f64>().sqrt())
+            .product();
         let det = h[0] * (h[4] * h[8] - h[5] * h[7]) - h[1] * (h[3] * h[8] - h[5] * h[6])
             + h[2] * (h[3] * h[7] - h[4] * h[6]);
-        if big == 0.0 || !(det.abs() > 1e-12 * big * big * big) {
+        if rows == 0.0 || det.abs() <= 1e-12 * rows || det.is_nan() {
             return Err(format!(
                 "not invertible (determinant {det:e}): a homography maps the image plane onto \
                  the ground plane one to one"
