@@ -49,7 +49,7 @@ impl Homography {
         let h = &self.h;
         let (x, y) = (f64::from(p[0]), f64::from(p[1]));
         let w = h[6] * x + h[7] * y + h[8];
-        if !(w > 0.0) {
+        if w.is_nan() || w <= 0.0 {
             return Err(format!(
                 "the homography puts pixel ({}, {}) behind the camera (w = {w:e} <= 0): beyond \
                  the horizon line, or the matrix maps ground to image (give image to ground)",
