@@ -118,6 +118,38 @@ pub(crate) trait Steps {
     fn point_head_and_scales(&self) -> (bool, [f32; 2]);
 }
 
+/// Implements [`Steps`] for `$ty` (generics `[$gen]`) by its inherent calls:
+/// `predict_endpoint_set`, `probabilities`, `predict_point` and the
+/// model's point head and radius multipliers ([`crate::Engine`] in the
+/// model's unit, [`crate::Predictor`] in the caller's).
+macro_rules! steps_by_calls {
+    ([$($gen:tt)*] $ty:ty) => {
+        impl<$($gen)*> $crate::planner::Steps for $ty {
+            fn endpoint_set<const N: usize>(
+                &mut self,
+                past: &[[f32; 2]],
+                seed: u64,
+                out: &mut [[f32; 2]],
+            ) -> Result<(), $crate::output::PredictError> {
+                self.predict_endpoint_set::<N>(past, seed, out)
+            }
+            fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, $crate::output::PredictError> {
+                Self::probabilities(self, out)
+            }
+            fn point(
+                &mut self,
+                past: &[[f32; 2]],
+            ) -> Result<$crate::output::Trajectory, $crate::output::PredictError> {
+                self.predict_point(past)
+            }
+            fn point_head_and_scales(&self) -> (bool, [f32; 2]) {
+                (self.model().has_point_head(), self.model().radius_scales())
+            }
+        }
+    };
+}
+pub(crate) use steps_by_calls;
+
 /// The planner sequence, one order for every caller: the endpoint set into
 /// `endpoints`, their probabilities into `probabilities`, then the point
 /// forecast (with a point head) and, for a model with probabilities, the

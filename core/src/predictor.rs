@@ -31,7 +31,7 @@ use crate::engine::Engine;
 use crate::fixed::Q15;
 use crate::float::Float;
 pub use crate::output::{PredictError, Trajectory};
-use crate::planner::{Forecast, PlannerOutput, Steps};
+use crate::planner::{Forecast, PlannerOutput};
 use crate::sine::Sine;
 use crate::units::{CallerUnit, Conversion};
 use crate::Error;
@@ -57,6 +57,30 @@ macro_rules! on_kind {
     };
 }
 pub(crate) use on_kind;
+
+/// The one-track sample calls of [`Predictor`]: the engine's call of the
+/// same name with `past` in the model's unit, then `out` in the caller's
+/// ([`CallerPoints`]). Each written as its documented signature (which
+/// `tests/public_api.rs` reads from the invocation), the body generated.
+macro_rules! sample_calls {
+    ($(
+        $(#[$doc:meta])*
+        pub fn $name:ident $(<const $n:ident: usize>)?
+            (&mut self, $past:ident: $pt:ty, $seed:ident: $st:ty, $out:ident: $ot:ty $(,)?)
+            -> $ret:ty;
+    )*) => {
+        $(
+            $(#[$doc])*
+            pub fn $name $(<const $n: usize>)? (&mut self, $past: $pt, $seed: $st, $out: $ot) -> $ret {
+                self.run($past, |k, $past| {
+                    on_kind!(k, e => e.$name $(::<$n>)? ($past, $seed, $out))
+                })?;
+                CallerPoints::to_caller($out, self.units);
+                Ok(())
+            }
+        )*
+    };
+}
 
 /// The engines of a [`Predictor`], one per numeric kind.
 type Engines<'a, S, const W: usize> = ByKind<Engine<'a, Float<S>, W>, Engine<'a, Q15, W>>;
@@ -153,57 +177,21 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         Ok(t)
     }
 
-    /// The model's endpoint set: `out.len()` endpoints (plain latent samples
-    /// or, when the blob asks for test-time sampling, the k-means reduction of
-    /// its `tts_samples` samples; see [`crate::sampling`]). `N` bounds the
-    /// samples drawn (8 bytes of stack each): at least
-    /// [`crate::sampling::samples_needed`].
-    pub fn predict_endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.run(
-            past,
-            |k, past| on_kind!(k, e => e.predict_endpoint_set::<N>(past, seed, out)),
-        )?;
-        caller_points(self.units, out);
-        Ok(())
-    }
+    sample_calls! {
+        /// The model's endpoint set: `out.len()` endpoints (plain latent samples
+        /// or, when the blob asks for test-time sampling, the k-means reduction of
+        /// its `tts_samples` samples; see [`crate::sampling`]). `N` bounds the
+        /// samples drawn (8 bytes of stack each): at least
+        /// [`crate::sampling::samples_needed`].
+        pub fn predict_endpoint_set<const N: usize>(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [[f32; 2]]) -> Result<(), PredictError>;
 
-    /// `out.len()` plain latent samples (the first endpoints of the stream
-    /// seeded with `seed`), whatever the blob's protocol.
-    pub fn predict_samples(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.run(
-            past,
-            |k, past| on_kind!(k, e => e.predict_samples(past, seed, out)),
-        )?;
-        caller_points(self.units, out);
-        Ok(())
-    }
+        /// `out.len()` plain latent samples (the first endpoints of the stream
+        /// seeded with `seed`), whatever the blob's protocol.
+        pub fn predict_samples(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [[f32; 2]]) -> Result<(), PredictError>;
 
-    /// `out.len()` full trajectories of plain latent samples (the last point
-    /// of each is its endpoint). Needs [`Model::has_predictor`].
-    pub fn predict_trajectories(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        self.run(
-            past,
-            |k, past| on_kind!(k, e => e.predict_trajectories(past, seed, out)),
-        )?;
-        for t in out {
-            caller_points(self.units, t);
-        }
-        Ok(())
+        /// `out.len()` full trajectories of plain latent samples (the last point
+        /// of each is its endpoint). Needs [`Model::has_predictor`].
+        pub fn predict_trajectories(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [Trajectory]) -> Result<(), PredictError>;
     }
 
     /// Starts a sample stream (encodes `past` once); then call
@@ -283,25 +271,7 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
     }
 }
 
-impl<S: Sine, const W: usize> Steps for Predictor<'_, S, W> {
-    fn endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.predict_endpoint_set::<N>(past, seed, out)
-    }
-    fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
-        Predictor::probabilities(self, out)
-    }
-    fn point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        self.predict_point(past)
-    }
-    fn point_head_and_scales(&self) -> (bool, [f32; 2]) {
-        (self.model().has_point_head(), self.model().radius_scales())
-    }
-}
+crate::planner::steps_by_calls!([S: Sine, const W: usize] Predictor<'_, S, W>);
 
 /// `past` in the model's unit, in `buf` (`x · f` per coordinate, the
 /// conversion of [`crate::units`]). Non-finite inputs stay non-finite (the
@@ -327,6 +297,27 @@ fn model_past<'p>(
         }
     }
     Ok(out)
+}
+
+/// Outputs of positions in the model's unit, converted to the caller's in
+/// place ([`caller_points`] on each).
+trait CallerPoints {
+    /// Converts every position with `units`.
+    fn to_caller(&mut self, units: Conversion);
+}
+
+impl CallerPoints for [[f32; 2]] {
+    fn to_caller(&mut self, units: Conversion) {
+        caller_points(units, self);
+    }
+}
+
+impl CallerPoints for [Trajectory] {
+    fn to_caller(&mut self, units: Conversion) {
+        for t in self {
+            caller_points(units, t);
+        }
+    }
 }
 
 /// Model positions into the caller's unit, in place (`y / f`; nothing for

@@ -160,6 +160,35 @@ struct LaneOut<'t> {
     trajectory: Option<&'t Trajectory>,
 }
 
+/// The one-track calls of [`Batch`]: [`Batch::one_track`] with the scalar
+/// engine's call of the same name and the many-track call `$many` on
+/// `$n` samples, as `#[many($many, $n)]` names them. Each written as its
+/// documented signature (which `tests/public_api.rs` reads from the
+/// invocation), the body generated; `self` is the invocation's, so that
+/// `$n` can read the model.
+macro_rules! one_track_calls {
+    ($(
+        #[many($many:ident, $n:expr)]
+        $(#[$doc:meta])*
+        pub fn $name:ident $(<const $c:ident: usize>)?
+            (&mut $this:ident, $past:ident: $pt:ty, $seed:ident: $st:ty, $out:ident: $ot:ty $(,)?)
+            -> $ret:ty;
+    )*) => {
+        $(
+            $(#[$doc])*
+            pub fn $name $(<const $c: usize>)? (&mut $this, $past: $pt, $seed: $st, $out: $ot) -> $ret {
+                $this.one_track(
+                    $n,
+                    Query { past: $past, seed: $seed },
+                    $out,
+                    Engine::$name $(::<$c>)?,
+                    Self::$many $(::<$c>)?,
+                )
+            }
+        )*
+    };
+}
+
 /// The batched engine over backend `B`, scratch width `W` and `L` lanes
 /// (see the module docs). Bit-identical to [`crate::Engine`]`<B, W>`.
 pub struct Batch<'a, B: Backend, const W: usize, const L: usize> {
@@ -256,21 +285,21 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
         many(self, &[query], k, out).map_err(|e| e.error)
     }
 
-    /// `out.len()` plain latent samples of one track: exactly
-    /// [`crate::Engine::predict_samples`]' bits.
-    pub fn predict_samples(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.one_track(
-            out.len(),
-            Query { past, seed },
-            out,
-            Engine::predict_samples,
-            Self::predict_samples_many,
-        )
+    one_track_calls! {
+        #[many(predict_samples_many, out.len())]
+        /// `out.len()` plain latent samples of one track: exactly
+        /// [`crate::Engine::predict_samples`]' bits.
+        pub fn predict_samples(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [[f32; 2]]) -> Result<(), PredictError>;
+
+        #[many(predict_trajectories_many, out.len())]
+        /// `out.len()` full trajectories of plain latent samples of one track:
+        /// exactly [`crate::Engine::predict_trajectories`]' bits.
+        pub fn predict_trajectories(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [Trajectory]) -> Result<(), PredictError>;
+
+        #[many(predict_endpoint_sets, crate::sampling::samples_needed(self.model.extensions(), out.len()))]
+        /// The model's endpoint set of one track: exactly
+        /// [`crate::Engine::predict_endpoint_set`]' bits (`N` as there).
+        pub fn predict_endpoint_set<const N: usize>(&mut self, past: &[[f32; 2]], seed: u64, out: &mut [[f32; 2]]) -> Result<(), PredictError>;
     }
 
     /// `k` plain latent samples of each of `queries`: `out[t·k + s]` is
@@ -290,23 +319,6 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             *slot = o.endpoint;
             Ok(())
         })
-    }
-
-    /// `out.len()` full trajectories of plain latent samples of one track:
-    /// exactly [`crate::Engine::predict_trajectories`]' bits.
-    pub fn predict_trajectories(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [Trajectory],
-    ) -> Result<(), PredictError> {
-        self.one_track(
-            out.len(),
-            Query { past, seed },
-            out,
-            Engine::predict_trajectories,
-            Self::predict_trajectories_many,
-        )
     }
 
     /// `k` trajectories of each of `queries`: `out[t·k + s]` is sample `s`
@@ -329,23 +341,6 @@ impl<'a, B: Backend, const W: usize, const L: usize> Batch<'a, B, W, L> {
             *slot = o.trajectory.cloned().unwrap_or_default();
             Ok(())
         })
-    }
-
-    /// The model's endpoint set of one track: exactly
-    /// [`crate::Engine::predict_endpoint_set`]' bits (`N` as there).
-    pub fn predict_endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.one_track(
-            crate::sampling::samples_needed(self.model.extensions(), out.len()),
-            Query { past, seed },
-            out,
-            Engine::predict_endpoint_set::<N>,
-            Self::predict_endpoint_sets::<N>,
-        )
     }
 
     /// The model's endpoint set, `k` endpoints, of each of `queries`:

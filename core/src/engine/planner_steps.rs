@@ -2,8 +2,8 @@
 //! steps [`crate::planner::sequence`] runs, in the model's unit.
 
 use super::{Backend, Engine};
-use crate::output::{PredictError, Trajectory};
-use crate::planner::{PlannerOutput, Steps};
+use crate::output::PredictError;
+use crate::planner::PlannerOutput;
 
 impl<B: Backend, const W: usize> Engine<'_, B, W> {
     /// The planner sequence in the model's unit, as
@@ -24,22 +24,4 @@ impl<B: Backend, const W: usize> Engine<'_, B, W> {
     }
 }
 
-impl<B: Backend, const W: usize> Steps for Engine<'_, B, W> {
-    fn endpoint_set<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        out: &mut [[f32; 2]],
-    ) -> Result<(), PredictError> {
-        self.predict_endpoint_set::<N>(past, seed, out)
-    }
-    fn probabilities(&mut self, out: &mut [f32]) -> Result<bool, PredictError> {
-        Engine::probabilities(self, out)
-    }
-    fn point(&mut self, past: &[[f32; 2]]) -> Result<Trajectory, PredictError> {
-        self.predict_point(past)
-    }
-    fn point_head_and_scales(&self) -> (bool, [f32; 2]) {
-        (self.model.has_point_head(), self.model.radius_scales())
-    }
-}
+crate::planner::steps_by_calls!([B: Backend, const W: usize] Engine<'_, B, W>);

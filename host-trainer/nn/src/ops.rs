@@ -1,7 +1,7 @@
-//! Fused candle ops with their backward passes. Each dense layer is one op ([`Linear`]:
+//! Fused candle ops with their backward passes. Each dense layer is one op ([`Dense`]:
 //! candle's own matmul, then the bias) and the sine activation another ([`SineOp`]: candle's
-//! `x.affine(w0, 0).sin()` in one pass), or, inside a sine MLP, both are one op
-//! ([`LinearSine`]). Their forward and backward passes perform the very f32 operations of the
+//! `x.affine(w0, 0).sin()` in one pass), or, inside a sine MLP, both are one op ([`Dense`]
+//! with its sine). Their forward and backward passes perform the very f32 operations of the
 //! unfused candle graph, so training is bit-identical to it, but without its intermediate
 //! tensors and zero-filled gradient accumulators, and the elementwise work is split over the
 //! run's threads ([`crate::pool::for_each_job`]).
@@ -11,30 +11,76 @@ use candle_core::{CpuStorage, CustomOp1, CustomOp2, DType, Device, Layout, Shape
 use crate::pool::{chunk_len, for_each_job, map_elements, PAR_MIN_CHUNK};
 
 /// `x Wᵀ + b` for `x` `[rows, in]`, `W` `[out, in]`, `b` `[out]`, as one differentiable op
-/// ([`Linear`]); the same bits as candle's `x.matmul(&w.t()).broadcast_add(b)` and its
-/// gradients. Empty or other shapes, and dtypes other than f32, fall back to that graph.
+/// ([`Dense`] without a sine); the same bits as candle's `x.matmul(&w.t()).broadcast_add(b)`
+/// and its gradients. Empty or other shapes, and dtypes other than f32, fall back to that
+/// graph.
 pub fn linear(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
-    let f32s = [x, w, b].iter().all(|t| t.dtype() == DType::F32);
-    match (x.dims(), w.dims(), b.dims()) {
-        (&[m, k], &[n, k2], &[n2]) if f32s && k == k2 && n == n2 && m * n * k > 0 => {
-            x.apply_op3(w, b, Linear)
-        }
-        _ => add_bias(&x.matmul(&w.t()?)?, b),
+    if fusable(x, w, b) {
+        x.apply_op3(w, b, Dense::new(None))
+    } else {
+        add_bias(&x.matmul(&w.t()?)?, b)
     }
 }
 
-/// A dense layer `y = x Wᵀ + b` as one node of the graph. Forward: candle's own CPU matmul on
-/// the same layouts `x.matmul(&w.t())` passes it, then `y[i][j] + b[j]`. Backward, with
-/// `G = 0 + dy` (candle's zero-filled accumulator of the matmul output):
-/// `dx = G.matmul(&w.t().t())`, `dW = (x.t().matmul(&G)).t()`, `db` as [`BiasAdd`]'s — the
-/// operations and operands candle's matmul, transpose and broadcast-add nodes use, so the bits
-/// are the same, without three of their zero-filled accumulators and copies.
-#[derive(Clone, Copy, Debug)]
-pub struct Linear;
+/// `sin(w0 · (x Wᵀ + b))`, a dense layer and its SIREN activation, as one differentiable op
+/// ([`Dense`] with a sine); the same bits as [`linear`] followed by [`sine`], and the same
+/// gradients. Shapes and dtypes [`linear`] does not fuse fall back to the two ops.
+pub fn linear_sine(x: &Tensor, w: &Tensor, b: &Tensor, w0: f32) -> candle_core::Result<Tensor> {
+    if fusable(x, w, b) {
+        x.apply_op3(w, b, Dense::new(Some(SineOp { w0 })))
+    } else {
+        sine(&linear(x, w, b)?, w0)
+    }
+}
 
-impl candle_core::CustomOp3 for Linear {
+/// Whether [`Dense`] takes `x`, `W`, `b`: f32, `[rows, in]`, `[out, in]`, `[out]`, none empty.
+fn fusable(x: &Tensor, w: &Tensor, b: &Tensor) -> bool {
+    let f32s = [x, w, b].iter().all(|t| t.dtype() == DType::F32);
+    matches!(
+        (x.dims(), w.dims(), b.dims()),
+        (&[m, k], &[n, k2], &[n2]) if f32s && k == k2 && n == n2 && m * n * k > 0
+    )
+}
+
+/// A dense layer `y = x Wᵀ + b`, optionally followed by its sine `sin(y · w0 + 0)`
+/// ([`SineOp`]), as one node of the graph.
+///
+/// Forward: candle's own CPU matmul on the same layouts `x.matmul(&w.t())` passes it, then
+/// `h[i][j] = y[i][j] + b[j]`; with the sine, `sin(h · w0 + 0)`, `h` kept in the op for the
+/// backward pass.
+///
+/// Backward, from `G`: without the sine `G = 0 + dy` (candle's zero-filled accumulator of the
+/// matmul output); with it `G = 0 + (((0 + dy · cos(h · w0 + 0)) · w0) + 0)` —
+/// `SineBackward`'s operations followed by the zero-filled accumulator candle would add `h`'s
+/// gradient to. Then `dx = G.matmul(&w.t().t())`, `dW = (x.t().matmul(&G)).t()`, `db` as
+/// [`BiasAdd`]'s — the operations and operands candle's matmul, transpose, broadcast-add and
+/// sine nodes use, so the bits are the same, without their zero-filled accumulators and
+/// copies (with the sine also without the graph node of `h`: an allocation, a fill and an add
+/// over `[rows, out]`, and a scan).
+#[derive(Debug)]
+pub struct Dense {
+    /// The sine after the layer, if any.
+    sine: Option<SineOp>,
+    /// `h = x Wᵀ + b` of the forward pass (with a sine only).
+    pre: std::sync::OnceLock<Vec<f32>>,
+}
+
+impl Dense {
+    /// The op for a layer followed by `sine` (`None`: the layer alone).
+    pub fn new(sine: Option<SineOp>) -> Self {
+        Self {
+            sine,
+            pre: std::sync::OnceLock::new(),
+        }
+    }
+}
+
+impl candle_core::CustomOp3 for Dense {
     fn name(&self) -> &'static str {
-        "gpecnet-linear"
+        match self.sine {
+            None => "gpecnet-linear",
+            Some(_) => "gpecnet-linear-sine",
+        }
     }
 
     fn cpu_fwd(
@@ -46,7 +92,18 @@ impl candle_core::CustomOp3 for Linear {
         s3: &CpuStorage,
         l3: &Layout,
     ) -> candle_core::Result<(CpuStorage, Shape)> {
-        let (y, m, n) = linear_forward(s1, l1, s2, l2, s3, l3)?;
+        let (h, m, n) = linear_forward(s1, l1, s2, l2, s3, l3)?;
+        let Some(op) = self.sine else {
+            return Ok((CpuStorage::F32(h), Shape::from((m, n))));
+        };
+        let y = map_elements(h.len(), 1, |range, y| {
+            for (y, &h) in y.iter_mut().zip(&h[range]) {
+                *y = op.arg(h).sin();
+            }
+        });
+        if self.pre.set(h).is_err() {
+            candle_core::bail!("linear-sine: one op instance per forward pass");
+        }
         Ok((CpuStorage::F32(y), Shape::from((m, n))))
     }
 
@@ -55,20 +112,43 @@ impl candle_core::CustomOp3 for Linear {
         x: &Tensor,
         w: &Tensor,
         b: &Tensor,
-        _res: &Tensor,
+        res: &Tensor,
         grad: &Tensor,
     ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
-        // `0 + dy` is `dy` itself unless `dy` holds a -0.0 (or is strided).
-        let g = if grad.is_contiguous() && !has_negative_zero(grad)? {
-            grad.clone()
-        } else {
-            grad.affine(1.0, 0.0)?
+        let Some(op) = self.sine else {
+            // `0 + dy` is `dy` itself unless `dy` holds a -0.0 (or is strided).
+            let g = if grad.is_contiguous() && !has_negative_zero(grad)? {
+                grad.clone()
+            } else {
+                grad.affine(1.0, 0.0)?
+            };
+            return linear_backward(x, w, b, &g);
         };
+        let Some(h) = self.pre.get() else {
+            candle_core::bail!("linear-sine: backward pass without a forward pass");
+        };
+        let grad = grad.contiguous()?;
+        let (storage, layout) = grad.storage_and_layout();
+        let dy = match &*storage {
+            candle_core::Storage::Cpu(cpu) => f32_slice(cpu, layout)?,
+            _ => candle_core::bail!("linear-sine: CPU tensors only"),
+        };
+        if dy.len() != h.len() {
+            candle_core::bail!("linear-sine: {} outputs, {} gradients", h.len(), dy.len());
+        }
+        let g = map_elements(h.len(), 1, |range, g| {
+            for ((g, &h), &dy) in g.iter_mut().zip(&h[range.clone()]).zip(&dy[range]) {
+                let d_arg = 0.0 + dy * op.arg(h).cos();
+                *g = 0.0 + (d_arg * op.w0 + 0.0);
+            }
+        });
+        drop(storage);
+        let g = Tensor::from_vec(g, res.shape(), &Device::Cpu)?;
         linear_backward(x, w, b, &g)
     }
 }
 
-/// [`Linear`]'s forward pass: `(x Wᵀ + b, rows, out)`.
+/// [`Dense`]'s layer, forward: `(x Wᵀ + b, rows, out)`.
 fn linear_forward(
     s1: &CpuStorage,
     l1: &Layout,
@@ -102,7 +182,7 @@ fn linear_forward(
     Ok((y, m, n))
 }
 
-/// [`Linear`]'s backward pass from `G`, the gradient of its output after candle's accumulator
+/// [`Dense`]'s layer, backward from `G`, the gradient of its output after candle's accumulator
 /// (`0 + dy`): `(dx, dW, db)`.
 fn linear_backward(
     x: &Tensor,
@@ -114,102 +194,6 @@ fn linear_backward(
     let dw = weight_gradient(x, g)?;
     let db = g.apply_op1_no_bwd(&ColumnSum(b.elem_count()))?;
     Ok((Some(dx), Some(dw), Some(db)))
-}
-
-/// `sin(w0 · (x Wᵀ + b))`, a dense layer and its SIREN activation, as one differentiable op
-/// ([`LinearSine`]); the same bits as [`linear`] followed by [`sine`], and the same gradients.
-/// Shapes and dtypes [`linear`] does not fuse fall back to the two ops.
-pub fn linear_sine(x: &Tensor, w: &Tensor, b: &Tensor, w0: f32) -> candle_core::Result<Tensor> {
-    let f32s = [x, w, b].iter().all(|t| t.dtype() == DType::F32);
-    match (x.dims(), w.dims(), b.dims()) {
-        (&[m, k], &[n, k2], &[n2]) if f32s && k == k2 && n == n2 && m * n * k > 0 => {
-            x.apply_op3(w, b, LinearSine::new(w0))
-        }
-        _ => sine(&linear(x, w, b)?, w0),
-    }
-}
-
-/// [`Linear`] then [`SineOp`] in one node of the graph. Forward: [`Linear`]'s `h = x Wᵀ + b`,
-/// then `sin(h · w0 + 0)`; `h` is kept in the op for the backward pass. Backward, from the
-/// accumulated `dy`: `G = 0 + (((0 + dy · cos(h · w0 + 0)) · w0) + 0)` — `SineBackward`'s
-/// operations followed by the zero-filled accumulator candle would add `h`'s gradient to —
-/// then [`Linear`]'s backward from `G`. The same bits as the two ops, without the graph node of
-/// `h`, its accumulator (an allocation, a fill and an add over `[rows, out]`) and a scan.
-#[derive(Debug)]
-pub struct LinearSine {
-    sine: SineOp,
-    /// `h = x Wᵀ + b` of the forward pass.
-    pre: std::sync::OnceLock<Vec<f32>>,
-}
-
-impl LinearSine {
-    /// The op for the SIREN factor `w0`.
-    pub fn new(w0: f32) -> Self {
-        Self {
-            sine: SineOp { w0 },
-            pre: std::sync::OnceLock::new(),
-        }
-    }
-}
-
-impl candle_core::CustomOp3 for LinearSine {
-    fn name(&self) -> &'static str {
-        "gpecnet-linear-sine"
-    }
-
-    fn cpu_fwd(
-        &self,
-        s1: &CpuStorage,
-        l1: &Layout,
-        s2: &CpuStorage,
-        l2: &Layout,
-        s3: &CpuStorage,
-        l3: &Layout,
-    ) -> candle_core::Result<(CpuStorage, Shape)> {
-        let (h, m, n) = linear_forward(s1, l1, s2, l2, s3, l3)?;
-        let op = self.sine;
-        let y = map_elements(h.len(), 1, |range, y| {
-            for (y, &h) in y.iter_mut().zip(&h[range]) {
-                *y = op.arg(h).sin();
-            }
-        });
-        if self.pre.set(h).is_err() {
-            candle_core::bail!("linear-sine: one op instance per forward pass");
-        }
-        Ok((CpuStorage::F32(y), Shape::from((m, n))))
-    }
-
-    fn bwd(
-        &self,
-        x: &Tensor,
-        w: &Tensor,
-        b: &Tensor,
-        res: &Tensor,
-        grad: &Tensor,
-    ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
-        let Some(h) = self.pre.get() else {
-            candle_core::bail!("linear-sine: backward pass without a forward pass");
-        };
-        let grad = grad.contiguous()?;
-        let (storage, layout) = grad.storage_and_layout();
-        let dy = match &*storage {
-            candle_core::Storage::Cpu(cpu) => f32_slice(cpu, layout)?,
-            _ => candle_core::bail!("linear-sine: CPU tensors only"),
-        };
-        if dy.len() != h.len() {
-            candle_core::bail!("linear-sine: {} outputs, {} gradients", h.len(), dy.len());
-        }
-        let op = self.sine;
-        let g = map_elements(h.len(), 1, |range, g| {
-            for ((g, &h), &dy) in g.iter_mut().zip(&h[range.clone()]).zip(&dy[range]) {
-                let d_arg = 0.0 + dy * op.arg(h).cos();
-                *g = 0.0 + (d_arg * op.w0 + 0.0);
-            }
-        });
-        drop(storage);
-        let g = Tensor::from_vec(g, res.shape(), &Device::Cpu)?;
-        linear_backward(x, w, b, &g)
-    }
 }
 
 /// `dW = (xᵀ G)ᵀ`, `[out, in]`, for `x` `[rows, in]` and `G` `[rows, out]`, in the bits of
