@@ -9,6 +9,7 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 mod cmd_blob;
+mod cmd_data;
 mod cmd_sign;
 mod cmd_stream;
 mod cmd_synth;
@@ -93,7 +94,9 @@ enum Command {
     ///     x(2t+c) = (p_t(c) - p_0(c)) * data_scale, rotated into the heading frame first when
     ///     the blob has heading_steps > 0 (gpecnet_core::frame::Frame::inputs);
     ///   z [n, k, zdim]: the latent samples, already multiplied by sigma (the core draws them
-    ///     from gpecnet_core::prng::Gaussian);
+    ///     from gpecnet_core::prng::Gaussian); not for a model with a learned latent proposal
+    ///     (the shipped defaults sdd-m-lp, sdd-m-lp-host), whose graph computes its K latents
+    ///     from x (k = K);
     ///   pos [n, 2] (only with a trajectory predictor): the last observed point as the
     ///     predictor sees it (rotated in the heading frame), divided by initial_pos_divisor.
     /// Outputs, in the normalised frame (caller units: divide by data_scale, rotate back, add
@@ -101,13 +104,18 @@ enum Command {
     ///   d [n, k, 2]: each sample's endpoint (encoder_past, then the decoder on [f, z]);
     ///   point [n, 2*future_len] (only with a point-forecast head): the point forecast;
     ///   traj [n, k, 2*(future_len-1)] (only with a trajectory predictor): each sample's
-    ///     intermediate points (its last point is d).
+    ///     intermediate points (its last point is d);
+    ///   prob [n, K] (only with endpoint probabilities): each endpoint's probability;
+    ///   radii [n, 2] (with probabilities and a point head): r50, r90 around the point
+    ///     forecast's endpoint, in the blob's unit (not the normalised frame).
     /// Blob settings (data_scale, sigma, zdim, heading_steps, ...) are metadata properties.
     ///
     /// Fixed-point (Int16Q15) blobs are refused: their integer arithmetic has no ONNX float
-    /// equivalent; export the f32 blob they were quantised from. onnxruntime agrees with the
-    /// core within rounding, not bit for bit: at most 1.6e-3 px on the SDD test set for the
-    /// shipped f32 blobs (scripts/peers/check.py, tolerance 0.01 px; docs/peers.md).
+    /// equivalent; export the f32 blob they were quantised from (sdd-m-lp for sdd-m-lp-qe).
+    /// onnxruntime agrees with the core within rounding, not bit for bit: at most 1.6e-3 px
+    /// on the SDD test set for the older f32 blobs (scripts/peers/check.py), at most 1e-5 m
+    /// on every sdd-m test window for sdd-m-lp's whole forecast (scripts/peers/forecast.py;
+    /// docs/peers.md).
     #[command(verbatim_doc_comment)]
     Onnx(OnnxArgs),
     /// Make an Ed25519 key pair for signing blobs: DIR/gpecnet-signing.key (the private
@@ -161,6 +169,9 @@ enum Command {
     /// metres. docs/online.md explains every number; for example:
     /// gpecnet stream --blob weights/sdd-m-lp-qe.gpec --dataset eth_ucy:hotel --plot hotel.svg
     Stream(StreamArgs),
+    /// A data-set folder as a model will see it (gpecnet data check DIR).
+    #[command(subcommand)]
+    Data(cmd_data::DataCommand),
 }
 
 fn main() -> Result<()> {
@@ -180,6 +191,7 @@ fn main() -> Result<()> {
         Command::Sign(a) => cmd_sign(a),
         Command::Verify(a) => cmd_verify(a),
         Command::Stream(a) => cmd_stream(a),
+        Command::Data(c) => cmd_data::cmd_data(c),
         Command::Propose(a) => {
             let p = a.run()?;
             println!(

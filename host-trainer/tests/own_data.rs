@@ -766,3 +766,61 @@ fn a_homography_maps_a_calibrated_camera_s_pixels_to_the_scene_s_metres() {
         "{e}"
     );
 }
+
+/// `gpecnet data check`: a folder with ZARA1 as train/ and HOTEL as test/ (no val/) reports
+/// what the loader gives, file by file: the windows `load` makes, every pedestrian without a
+/// window and its detections, the native clock, the speeds; the missing val/ is reported, not
+/// an error; the command prints the same as JSON and writes nothing.
+#[test]
+fn data_check_reports_what_the_loader_gives() {
+    let hotel = eth_ucy("hotel/test/biwi_hotel.txt");
+    let zara = eth_ucy("zara1/test/crowds_zara01.txt");
+    let dir = folder(
+        "unit = \"m\"\nseconds_per_frame = 0.04\n",
+        &[("biwi_hotel.txt", fs::read_to_string(&hotel).unwrap())],
+    );
+    fs::create_dir_all(dir.path().join("train")).unwrap();
+    fs::copy(&zara, dir.path().join("train/crowds_zara01.txt")).unwrap();
+    let r = check_folder(dir.path()).unwrap();
+    assert_eq!(r.unit, "m");
+    let split = |name: &str| r.splits.iter().find(|s| s.split == name).unwrap();
+    assert!(split("val").absent.as_deref().unwrap().contains("missing"));
+    let test = load_test(dir.path()).unwrap();
+    let f = &split("test").files[0];
+    assert_eq!(f.windows, test.windows.len());
+    let rows = rows_of(&hotel);
+    assert_eq!(f.detections, rows.len());
+    let ids: std::collections::BTreeSet<u64> = rows.iter().map(|r| r.1.to_bits()).collect();
+    let with: std::collections::BTreeSet<u64> =
+        test.windows.iter().map(|w| w.ped_id.to_bits()).collect();
+    assert_eq!(f.pedestrians, ids.len());
+    assert_eq!(f.pedestrians_without_window, ids.len() - with.len());
+    let dets_without = rows
+        .iter()
+        .filter(|r| !with.contains(&r.1.to_bits()))
+        .count();
+    assert_eq!(f.detections_without_window, dets_without);
+    assert!(f.pedestrians_without_window > 0 && f.windows > 1000);
+    assert_eq!(f.native_step_s.map(|s| (s * 1e6).round()), Some(4e5));
+    assert_eq!(f.speeds.unwrap().iter().sum::<usize>(), f.windows);
+    assert!(split("train").files[0].windows > 2000);
+    // The command: the same numbers as JSON, nothing written.
+    let before: Vec<_> = fs::read_dir(dir.path()).unwrap().collect();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_gpecnet"))
+        .args(["data", "check", "--json"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["splits"][2]["files"][0]["windows"], f.windows);
+    assert_eq!(fs::read_dir(dir.path()).unwrap().count(), before.len());
+    // A folder without dataset.toml: the loader's error, naming it.
+    let empty = tempfile::tempdir().unwrap();
+    let e = check_folder(empty.path()).unwrap_err().to_string();
+    assert!(e.contains("dataset.toml"), "{e}");
+}

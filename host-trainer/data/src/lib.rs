@@ -29,6 +29,7 @@ pub mod units;
 
 use gpecnet_files::{csvfile, inpath};
 
+mod check;
 mod detections;
 mod error;
 mod eth_ucy;
@@ -43,6 +44,7 @@ mod sdd;
 mod spec;
 mod window;
 
+pub use check::{check_folder, FileCheck, FolderCheck, SplitCheck, SPEED_BINS_M_S};
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};
 pub use folder::{load_folder, parse_folder_file};
