@@ -7,7 +7,7 @@
 //! ```sh
 //! UPDATE_PUBLIC_API=1 cargo test -p gpecnet-core --test it public_api::
 //! ```
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -61,13 +61,7 @@ fn module_file(src: &Path, path: &str) -> PathBuf {
     }
 }
 
-fn walk(
-    src: &Path,
-    module: &str,
-    items: &[Item],
-    private: &HashSet<String>,
-    out: &mut Vec<String>,
-) {
+fn walk(src: &Path, module: &str, items: &[Item], krate: &Crate, out: &mut Vec<String>) {
     for item in items {
         let mut push = |s: String| out.push(format!("{module}: {s}"));
         match item {
@@ -84,11 +78,11 @@ fn walk(
                 };
                 let child = format!("{module}::{name}");
                 if let Some((_, inline)) = &m.content {
-                    walk(src, &child, inline, private, out);
+                    walk(src, &child, inline, krate, out);
                 } else {
                     let text = std::fs::read_to_string(module_file(src, &path)).unwrap();
                     let file = syn::parse_file(&text).unwrap();
-                    walk(src, &child, &file.items, private, out);
+                    walk(src, &child, &file.items, krate, out);
                 }
             }
             // A private file module of a public module (e.g. `blob/header.rs`)
@@ -103,7 +97,7 @@ fn walk(
                 let path = format!("{dir}/{}", m.ident);
                 let text = std::fs::read_to_string(module_file(src, &path)).unwrap();
                 let file = syn::parse_file(&text).unwrap();
-                walk(src, module, &file.items, private, out);
+                walk(src, module, &file.items, krate, out);
             }
             Item::Use(u) if public(&u.vis) && !hidden(&u.attrs) => push(tokens(u)),
             Item::Fn(f) if public(&f.vis) && !hidden(&f.attrs) => {
@@ -192,7 +186,7 @@ fn walk(
                 if i.trait_.as_ref().is_some_and(|(_, path, _)| {
                     path.segments
                         .last()
-                        .is_some_and(|s| private.contains(&s.ident.to_string()))
+                        .is_some_and(|s| krate.private.contains(&s.ident.to_string()))
                 }) => {}
             Item::Impl(i) if !hidden(&i.attrs) => {
                 let head = match &i.trait_ {
@@ -219,6 +213,15 @@ fn walk(
                         }
                         // Methods a macro generates from their written signatures
                         // (`pub fn name(..) -> T;`, as `batch`'s `forward!`).
+                        // Methods a one-rule macro writes itself (as `tracks`'
+                        // `table_views!`).
+                        ImplItem::Macro(m) if signatures(&m.mac).is_empty() => {
+                            for f in expand(krate, &m.mac) {
+                                if public(&f.vis) && !hidden(&f.attrs) {
+                                    push(format!("{g}{head} :: {}", tokens(&f.sig)))
+                                }
+                            }
+                        }
                         ImplItem::Macro(m) => {
                             for mut f in signatures(&m.mac) {
                                 // Written on one line there; listed as rustfmt writes
@@ -240,18 +243,34 @@ fn walk(
     }
 }
 
-/// The names of the traits declared anywhere below `dir` without `pub`
-/// (`pub(crate)` and narrower): their impls are internal.
-fn private_traits(dir: &Path, names: &mut HashSet<String>) {
-    fn items(list: &[Item], names: &mut HashSet<String>) {
+/// What the walk needs to know of the whole crate: the traits declared
+/// without `pub` (`pub(crate)` and narrower), whose impls are internal, and
+/// the `macro_rules!` definitions by name (their tokens), for the methods a
+/// macro generates.
+#[derive(Default)]
+struct Crate {
+    private: HashSet<String>,
+    macros: HashMap<String, String>,
+}
+
+/// [`Crate`] of the sources below `dir`.
+fn scan(dir: &Path, krate: &mut Crate) {
+    fn items(list: &[Item], krate: &mut Crate) {
         for item in list {
             match item {
                 Item::Trait(t) if !public(&t.vis) => {
-                    names.insert(t.ident.to_string());
+                    krate.private.insert(t.ident.to_string());
+                }
+                Item::Macro(m) if m.mac.path.is_ident("macro_rules") => {
+                    if let Some(name) = &m.ident {
+                        krate
+                            .macros
+                            .insert(name.to_string(), m.mac.tokens.to_string());
+                    }
                 }
                 Item::Mod(m) => {
                     if let Some((_, inline)) = &m.content {
-                        items(inline, names);
+                        items(inline, krate);
                     }
                 }
                 _ => {}
@@ -261,22 +280,56 @@ fn private_traits(dir: &Path, names: &mut HashSet<String>) {
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
         if path.is_dir() {
-            private_traits(&path, names);
+            scan(&path, krate);
         } else if path.extension().is_some_and(|e| e == "rs") {
             let text = std::fs::read_to_string(&path).unwrap();
-            items(&syn::parse_file(&text).unwrap().items, names);
+            items(&syn::parse_file(&text).unwrap().items, krate);
         }
     }
+}
+
+/// The methods an invocation of a one-rule macro with one metavariable
+/// (`($name:frag) => { items }`) generates: its items with the invocation's
+/// tokens put in for `$name` (none for any other macro).
+fn expand(krate: &Crate, mac: &syn::Macro) -> Vec<syn::ImplItemFn> {
+    let Some(rule) = mac
+        .path
+        .get_ident()
+        .and_then(|n| krate.macros.get(&n.to_string()))
+    else {
+        return Vec::new();
+    };
+    let Some((matcher, body)) = rule.split_once("=>") else {
+        return Vec::new();
+    };
+    let vars: Vec<&str> = matcher.split('$').skip(1).collect();
+    let [var] = vars.as_slice() else {
+        return Vec::new();
+    };
+    let name = var.split(':').next().unwrap_or_default().trim();
+    let body = body.trim().trim_end_matches(';').trim();
+    let body = body.replace(&format!("$ {name}"), &mac.tokens.to_string());
+    let Ok(block) = syn::parse_str::<syn::ItemImpl>(&format!("impl X {body}")) else {
+        return Vec::new();
+    };
+    block
+        .items
+        .into_iter()
+        .filter_map(|i| match i {
+            ImplItem::Fn(f) => Some(f),
+            _ => None,
+        })
+        .collect()
 }
 
 fn surface() -> String {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let text = std::fs::read_to_string(src.join("lib.rs")).unwrap();
     let file = syn::parse_file(&text).unwrap();
-    let mut private = HashSet::new();
-    private_traits(&src, &mut private);
+    let mut krate = Crate::default();
+    scan(&src, &mut krate);
     let mut lines = Vec::new();
-    walk(&src, "crate", &file.items, &private, &mut lines);
+    walk(&src, "crate", &file.items, &krate, &mut lines);
     let mut out = String::from(
         "# gpecnet-core public API (generated by tests/public_api.rs; \
          UPDATE_PUBLIC_API=1 to rewrite)\n",

@@ -98,6 +98,45 @@
 //! capacity `N`) is about `8·N + 32` bytes. `update` costs O(N) per
 //! observation (lookup by id) plus O(N) per call (expiry).
 
+/// The read-only views both track tables ([`TrackTable`],
+/// [`TimedTrackTable`]) offer over their `tracks` (a `heapless::Vec` of
+/// `$track`, each with an `id` and `ready()`), written once.
+/// `tests/public_api.rs` expands it for the snapshot.
+macro_rules! table_views {
+    ($track:ty) => {
+        /// Tracks in the table.
+        pub fn len(&self) -> usize {
+            self.tracks.len()
+        }
+
+        /// `true` when no track is in the table.
+        pub fn is_empty(&self) -> bool {
+            self.tracks.is_empty()
+        }
+
+        /// The most tracks the table holds (`N`).
+        pub const fn capacity(&self) -> usize {
+            N
+        }
+
+        /// The track with this id, if it is in the table.
+        pub fn get(&self, id: u32) -> Option<&$track> {
+            self.tracks.iter().find(|t| t.id == id)
+        }
+
+        /// Every track, in the order they entered.
+        pub fn iter(&self) -> impl Iterator<Item = &$track> {
+            self.tracks.iter()
+        }
+
+        /// The tracks with a full history (`ready`), in the order they
+        /// entered.
+        pub fn ready(&self) -> impl Iterator<Item = &$track> {
+            self.tracks.iter().filter(|t| t.ready())
+        }
+    };
+}
+
 pub mod filter;
 mod history;
 pub mod timed;
@@ -345,35 +384,7 @@ impl<const N: usize> TrackTable<N> {
         self.max_missed
     }
 
-    /// Tracks in the table.
-    pub fn len(&self) -> usize {
-        self.tracks.len()
-    }
-
-    /// `true` when no track is in the table.
-    pub fn is_empty(&self) -> bool {
-        self.tracks.is_empty()
-    }
-
-    /// The most tracks the table holds (`N`).
-    pub const fn capacity(&self) -> usize {
-        N
-    }
-
-    /// The track with this id, if it is in the table.
-    pub fn get(&self, id: u32) -> Option<&Track> {
-        self.tracks.iter().find(|t| t.id == id)
-    }
-
-    /// Every track, in the order they entered.
-    pub fn iter(&self) -> impl Iterator<Item = &Track> {
-        self.tracks.iter()
-    }
-
-    /// The tracks with a full history ([`Track::ready`]), in the order they entered.
-    pub fn ready(&self) -> impl Iterator<Item = &Track> {
-        self.tracks.iter().filter(|t| t.ready())
-    }
+    table_views!(Track);
 
     /// The last frame an update accepted (`None` before the first one and
     /// after [`clear`](Self::clear)).

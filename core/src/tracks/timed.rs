@@ -235,35 +235,7 @@ impl<const N: usize> TimedTrackTable<N> {
         self.max_gap as u32
     }
 
-    /// Tracks in the table.
-    pub fn len(&self) -> usize {
-        self.tracks.len()
-    }
-
-    /// `true` when no track is in the table.
-    pub fn is_empty(&self) -> bool {
-        self.tracks.is_empty()
-    }
-
-    /// The most tracks the table holds (`N`).
-    pub const fn capacity(&self) -> usize {
-        N
-    }
-
-    /// The track with this id, if it is in the table.
-    pub fn get(&self, id: u32) -> Option<&TimedTrack> {
-        self.tracks.iter().find(|t| t.id == id)
-    }
-
-    /// Every track, in the order they entered.
-    pub fn iter(&self) -> impl Iterator<Item = &TimedTrack> {
-        self.tracks.iter()
-    }
-
-    /// The tracks with a full history, in the order they entered.
-    pub fn ready(&self) -> impl Iterator<Item = &TimedTrack> {
-        self.tracks.iter().filter(|t| t.ready())
-    }
+    table_views!(TimedTrack);
 
     /// The tracks with a full history that gained a grid point in the last
     /// update that advanced time: the ones to predict for now.

@@ -189,24 +189,19 @@ pub fn write_with_scores(
 /// The small fixed-point model: exponents input 6, features 10, decoder output 5.
 pub fn q_nets() -> [Vec<WireLayer>; 4] {
     use Activation::*;
-    [
-        vec![
-            qlayer(16, 6, Sine, (6, 15), 1),
-            qlayer(6, 4, Linear, (15, 10), 2),
-        ],
-        vec![
-            qlayer(7, 5, Sine, (10, 15), 3),
-            qlayer(5, 2, Linear, (15, 5), 4),
-        ],
-        vec![
-            qlayer(2, 3, Sine, (5, 15), 5),
-            qlayer(3, 3, Relu, (15, 10), 8),
-        ],
-        vec![
-            qlayer(9, 6, Sine, (10, 15), 6),
-            qlayer(6, 22, Linear, (15, 5), 7),
-        ],
-    ]
+    // Per network, its two layers: (in, out, activation, exponents, seed).
+    let nets = [
+        [(16, 6, Sine, (6, 15), 1), (6, 4, Linear, (15, 10), 2)],
+        [(7, 5, Sine, (10, 15), 3), (5, 2, Linear, (15, 5), 4)],
+        [(2, 3, Sine, (5, 15), 5), (3, 3, Relu, (15, 10), 8)],
+        [(9, 6, Sine, (10, 15), 6), (6, 22, Linear, (15, 5), 7)],
+    ];
+    nets.map(|layers| {
+        layers
+            .iter()
+            .map(|&(i, o, act, e, seed)| qlayer(i, o, act, e, seed))
+            .collect()
+    })
 }
 
 /// A format-1 f32 blob (`Err`: the reader's refusal).
