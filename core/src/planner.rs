@@ -150,6 +150,34 @@ macro_rules! steps_by_calls {
 }
 pub(crate) use steps_by_calls;
 
+/// The public entry point of the planner sequence on a type with [`Steps`]
+/// ([`sequence`] on `Self`): written as its documented signature (which
+/// `tests/public_api.rs` reads from the invocation), the body generated.
+macro_rules! planner_call {
+    (
+        $(#[$doc:meta])*
+        pub fn $name:ident<const $n:ident: usize>(
+            &mut self,
+            $past:ident: $pt:ty,
+            $seed:ident: $st:ty,
+            $ends:ident: $et:ty,
+            $probs:ident: $prt:ty $(,)?
+        ) -> $ret:ty;
+    ) => {
+        $(#[$doc])*
+        pub fn $name<const $n: usize>(
+            &mut self,
+            $past: $pt,
+            $seed: $st,
+            $ends: $et,
+            $probs: $prt,
+        ) -> $ret {
+            $crate::planner::sequence::<$n, Self>(self, $past, $seed, $ends, $probs)
+        }
+    };
+}
+pub(crate) use planner_call;
+
 /// The planner sequence, one order for every caller: the endpoint set into
 /// `endpoints`, their probabilities into `probabilities`, then the point
 /// forecast (with a point head) and, for a model with probabilities, the

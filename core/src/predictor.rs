@@ -246,21 +246,15 @@ impl<'a, S: Sine, const W: usize> Predictor<'a, S, W> {
         })
     }
 
-    /// [`Predictor::predict_forecast`] into the caller's buffers, in one
-    /// order every caller shares: the endpoint set into `endpoints`
-    /// ([`Predictor::predict_endpoint_set`] with its `N`), their
-    /// probabilities into `probabilities` ([`Predictor::probabilities`]),
-    /// then the point forecast (with a point head) and, for a model with
-    /// probabilities, the radii ([`crate::planner::radii`]).
-    /// [`PredictError::BadSampleCount`] when the two buffers differ in length.
-    pub fn predict_planner<const N: usize>(
-        &mut self,
-        past: &[[f32; 2]],
-        seed: u64,
-        endpoints: &mut [[f32; 2]],
-        probabilities: &mut [f32],
-    ) -> Result<PlannerOutput, PredictError> {
-        crate::planner::sequence::<N, Self>(self, past, seed, endpoints, probabilities)
+    crate::planner::planner_call! {
+        /// [`Predictor::predict_forecast`] into the caller's buffers, in one
+        /// order every caller shares: the endpoint set into `endpoints`
+        /// ([`Predictor::predict_endpoint_set`] with its `N`), their
+        /// probabilities into `probabilities` ([`Predictor::probabilities`]),
+        /// then the point forecast (with a point head) and, for a model with
+        /// probabilities, the radii ([`crate::planner::radii`]).
+        /// [`PredictError::BadSampleCount`] when the two buffers differ in length.
+        pub fn predict_planner<const N: usize>(&mut self, past: &[[f32; 2]], seed: u64, endpoints: &mut [[f32; 2]], probabilities: &mut [f32]) -> Result<PlannerOutput, PredictError>;
     }
 
     /// The full trajectory of the sample [`Predictor::next_endpoint`] drew last.

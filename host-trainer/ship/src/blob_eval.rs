@@ -412,9 +412,12 @@ pub fn eval_blob(
         cv_n,
         hit_radii,
     )?;
-    let planner = match &planner_outs {
-        Some(outs) => Some(crate::card::planner_pair(data_root, spec, &test, outs)?),
-        None => None,
+    let (planner, planner_px) = match &planner_outs {
+        Some(outs) => {
+            let (p, px) = crate::card::planner_pair(data_root, spec, &test, outs)?;
+            (Some(p), px)
+        }
+        None => (None, None),
     };
     let reliability = match (reliability, &planner_outs) {
         (Some(path), Some(outs)) => {
@@ -484,8 +487,8 @@ pub fn eval_blob(
         matches_card,
         card_on_other_data,
         svg,
-        planner: planner.map(|p| p.0),
-        planner_px: planner.and_then(|p| p.1),
+        planner,
+        planner_px,
         reliability,
     })
 }

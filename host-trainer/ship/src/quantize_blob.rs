@@ -201,19 +201,21 @@ pub fn quantize_blob_with(
             bail!("gpecnet-core's fixed point forecast and the integer reference disagree");
         }
     }
-    let planner = match crate::core_eval::planner_core(&blob, sine, &test, base_seed)? {
-        Some(outs) => {
-            let k = q.proposal_latents();
-            let same = crate::core_eval::probabilities_match(&test.windows, &outs, |past| {
-                q.probabilities(past, k)
-            });
-            if !same {
-                bail!("gpecnet-core's fixed probabilities and the integer reference disagree");
+    let (test_fixed_planner, test_fixed_planner_px) =
+        match crate::core_eval::planner_core(&blob, sine, &test, base_seed)? {
+            Some(outs) => {
+                let k = q.proposal_latents();
+                let same = crate::core_eval::probabilities_match(&test.windows, &outs, |past| {
+                    q.probabilities(past, k)
+                });
+                if !same {
+                    bail!("gpecnet-core's fixed probabilities and the integer reference disagree");
+                }
+                let (p, px) = crate::card::planner_pair(data_root, &spec, &test, &outs)?;
+                (Some(p), px)
             }
-            Some(crate::card::planner_pair(data_root, &spec, &test, &outs)?)
-        }
-        None => None,
-    };
+            None => (None, None),
+        };
     let inference = crate::card::Inference::of(&model);
     let test_cv = match inference {
         Some(_) => Some(crate::card::cv_baseline(data_root, &spec, &test)?),
@@ -247,8 +249,8 @@ pub fn quantize_blob_with(
         test_fixed_point: test_fixed_point.map(|p| p.0),
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
-        test_fixed_planner: planner.map(|p| p.0),
-        test_fixed_planner_px: planner.and_then(|p| p.1),
+        test_fixed_planner,
+        test_fixed_planner_px,
     };
     check_fixed_tolerance(test_f32.min_fde, test_fixed.min_fde, spec.unit(), force)
         .with_context(|| format!("quantizing {} to {name}", src.display()))?;
