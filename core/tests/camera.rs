@@ -732,3 +732,46 @@ fn the_documented_f32_arithmetic_is_the_code_bit_for_bit() {
 fn a_pose_is_84_bytes() {
     assert_eq!(core::mem::size_of::<Pose>(), 84);
 }
+
+/// A box is checked before its foot point is used: non-finite edges and edges out of order
+/// (corners swapped, or `(x, y, w, h)` read as corners) are typed errors, a degenerate box
+/// (a point) is accepted.
+#[test]
+fn boxes_out_of_order_or_not_finite_are_refused() {
+    use gpecnet_core::camera::{BoundingBox, Detection};
+    let b = |x_min, y_min, x_max, y_max| BoundingBox {
+        x_min,
+        y_min,
+        x_max,
+        y_max,
+    };
+    let ok = b(940.0, 480.0, 980.0, 540.0);
+    assert_eq!(ok.check(), Ok(()));
+    assert_eq!(
+        Detection::try_from_box(3, &ok),
+        Ok(Detection::from_box(3, &ok))
+    );
+    assert_eq!(b(5.0, 5.0, 5.0, 5.0).check(), Ok(()));
+    assert_eq!(
+        b(980.0, 480.0, 940.0, 540.0).check(),
+        Err(CameraError::BadBox)
+    );
+    assert_eq!(
+        b(940.0, 540.0, 980.0, 480.0).check(),
+        Err(CameraError::BadBox)
+    );
+    // x, y, width, height read as corners: the "right edge" 40 is left of x = 940.
+    assert_eq!(
+        b(940.0, 480.0, 40.0, 60.0).check(),
+        Err(CameraError::BadBox)
+    );
+    for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        assert_eq!(b(v, 0.0, 1.0, 1.0).check(), Err(CameraError::NonFinite));
+        assert_eq!(b(0.0, 0.0, 1.0, v).check(), Err(CameraError::NonFinite));
+    }
+    assert_eq!(
+        Detection::try_from_box(1, &b(2.0, 0.0, 1.0, 1.0)),
+        Err(CameraError::BadBox)
+    );
+    assert!(!CameraError::BadBox.to_string().is_empty());
+}

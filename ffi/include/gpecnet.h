@@ -319,6 +319,10 @@
 // Camera: the detection array was full; this box has no detection.
 #define GPECNET_E_CAMERA_OUTPUT_FULL 110
 
+// Camera: a bounding box's edges are out of order (`x_min > x_max` or
+// `y_min > y_max`).
+#define GPECNET_E_CAMERA_BAD_BOX 111
+
 // Most trusted keys one `gpecnet_init_signed` call takes.
 #define GPECNET_MAX_TRUSTED_KEYS 8
 
@@ -1113,7 +1117,8 @@ int32_t gpecnet_ground_to_image(const struct GpecnetPose *pose,
 // detection `{id, x = north, y = east}` (NED metres) goes to the next free
 // entry of `out` (room for `cap`), in box order, and `statuses[i]`
 // receives [`GPECNET_OK`], or the `GPECNET_E_CAMERA_*` code of why it has
-// no detection (above the horizon, beyond range, not finite, ...; or
+// no detection (above the horizon, beyond range, not finite, edges out of
+// order: [`GPECNET_E_CAMERA_BAD_BOX`], ...; or
 // [`GPECNET_E_CAMERA_OUTPUT_FULL`] when `out` was already full). Every box
 // gets a status: none is dropped silently. `*n_out` receives the
 // detections written: `out[0 .. *n_out]` is the frame for

@@ -33,6 +33,8 @@ use gpecnet_core::camera::{
 use gpecnet_core::tracks::Observation;
 
 use crate::boundary::{guard, non_null};
+#[cfg(doc)]
+use crate::status::GPECNET_E_CAMERA_BAD_BOX;
 use crate::status::GPECNET_OK;
 use crate::status::{camera_status, GPECNET_E_CAMERA_OUTPUT_FULL, GPECNET_E_NOT_INITIALISED};
 use crate::tracks::GpecnetDetection;
@@ -355,7 +357,8 @@ pub unsafe extern "C" fn gpecnet_ground_to_image(
 /// detection `{id, x = north, y = east}` (NED metres) goes to the next free
 /// entry of `out` (room for `cap`), in box order, and `statuses[i]`
 /// receives [`GPECNET_OK`], or the `GPECNET_E_CAMERA_*` code of why it has
-/// no detection (above the horizon, beyond range, not finite, ...; or
+/// no detection (above the horizon, beyond range, not finite, edges out of
+/// order: [`GPECNET_E_CAMERA_BAD_BOX`], ...; or
 /// [`GPECNET_E_CAMERA_OUTPUT_FULL`] when `out` was already full). Every box
 /// gets a status: none is dropped silently. `*n_out` receives the
 /// detections written: `out[0 .. *n_out]` is the frame for
@@ -402,7 +405,14 @@ pub unsafe extern "C" fn gpecnet_boxes_to_detections(
         for i in 0..n {
             // SAFETY: i < n, and the caller guarantees n readable boxes; any alignment.
             let b = unsafe { boxes.add(i).read_unaligned() };
-            let det = [Detection::from_box(b.id, &b.into())];
+            let det = match Detection::try_from_box(b.id, &b.into()) {
+                Ok(d) => [d],
+                Err(e) => {
+                    // SAFETY: i < n, and the caller guarantees n writable statuses.
+                    unsafe { statuses.add(i).write_unaligned(camera_status(e)) };
+                    continue;
+                }
+            };
             // The core's call on this one box, with the one free slot of
             // `out`, or none when `out` is full (the core then refuses the
             // box with OutputFull).

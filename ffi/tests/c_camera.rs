@@ -42,6 +42,7 @@ fn code(e: CameraError) -> i32 {
         CameraError::Undistortion => 108,
         CameraError::Overflow => 109,
         CameraError::OutputFull => 110,
+        CameraError::BadBox => 111,
         _ => unreachable!("a new CameraError variant: give it a code"),
     }
 }
@@ -438,6 +439,7 @@ fn every_camera_error_has_its_code_and_text() {
     }
     assert_eq!(GPECNET_E_CAMERA_NON_FINITE, 100);
     assert_eq!(GPECNET_E_CAMERA_OUTPUT_FULL, 110);
+    assert_eq!(GPECNET_E_CAMERA_BAD_BOX, 111);
 }
 
 /// Poses of every kind: altitudes, lenses, rolled, pitched and yawed bodies,
@@ -562,8 +564,11 @@ fn frame_boxes() -> Vec<GpecnetBox> {
         at(7, 700.0, 650.0),
         at(8, 960.0, 1.0e5),
         at(9, 1500.0, 1070.0),
+        at(10, 500.0, 600.0),
     ];
     b[4].x_min = f32::NAN;
+    // Corners swapped (a box given right-to-left): refused, not a foot point off the person.
+    (b[9].x_min, b[9].x_max) = (b[9].x_max, b[9].x_min);
     b
 }
 
@@ -573,24 +578,32 @@ fn boxes_become_the_cores_observations_with_a_status_each() {
     let p = pose(&c, &s).1;
     let core = Pose::new(&Camera::from(c), &State::from(s)).unwrap();
     let boxes = frame_boxes();
-    let dets: Vec<Detection> = boxes
-        .iter()
-        .map(|b| {
-            let bb = BoundingBox {
-                x_min: b.x_min,
-                y_min: b.y_min,
-                x_max: b.x_max,
-                y_max: b.y_max,
-            };
-            Detection::from_box(b.id, &bb)
-        })
-        .collect();
+    // The core's checked boxes; a box it refuses keeps its refusal's code.
+    let mut want_status = vec![GPECNET_OK; boxes.len()];
+    let mut kept = Vec::new();
+    let mut dets: Vec<Detection> = Vec::new();
+    for (i, b) in boxes.iter().enumerate() {
+        let bb = BoundingBox {
+            x_min: b.x_min,
+            y_min: b.y_min,
+            x_max: b.x_max,
+            y_max: b.y_max,
+        };
+        match Detection::try_from_box(b.id, &bb) {
+            Ok(d) => {
+                dets.push(d);
+                kept.push(i);
+            }
+            Err(e) => want_status[i] = code(e),
+        }
+    }
     let mut obs = [Observation {
         id: 0,
         pos: [0.0; 2],
     }; 16];
-    let mut want_status = vec![GPECNET_OK; boxes.len()];
-    let n = to_observations(&core, &dets, &mut obs, |i, _, e| want_status[i] = code(e));
+    let n = to_observations(&core, &dets, &mut obs, |i, _, e| {
+        want_status[kept[i]] = code(e)
+    });
 
     let (st, got, statuses) = boxes_to_detections(&p, &boxes, 16);
     assert_eq!(st, GPECNET_OK);
@@ -615,6 +628,7 @@ fn boxes_become_the_cores_observations_with_a_status_each() {
             GPECNET_OK,
             GPECNET_E_CAMERA_UNDISTORTION,
             GPECNET_OK,
+            GPECNET_E_CAMERA_BAD_BOX,
         ]
     );
     assert_eq!(

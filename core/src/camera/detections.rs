@@ -37,6 +37,22 @@ pub struct BoundingBox {
 }
 
 impl BoundingBox {
+    /// `Ok` for a box a detector can output: every edge finite
+    /// ([`CameraError::NonFinite`]) and in order, `x_min ≤ x_max` and
+    /// `y_min ≤ y_max` ([`CameraError::BadBox`]: a box given as `(x, y, w,
+    /// h)` or with its corners swapped would otherwise give a foot point off
+    /// the pedestrian, silently).
+    pub fn check(&self) -> Result<(), CameraError> {
+        let edges = [self.x_min, self.y_min, self.x_max, self.y_max];
+        if !edges.iter().all(|v| v.is_finite()) {
+            return Err(CameraError::NonFinite);
+        }
+        if self.x_min > self.x_max || self.y_min > self.y_max {
+            return Err(CameraError::BadBox);
+        }
+        Ok(())
+    }
+
     /// The bottom centre `((x_min + x_max)·0.5, y_max)`: where the feet
     /// touch the ground, for an oblique camera (module docs).
     pub fn foot(&self) -> [f32; 2] {
@@ -65,12 +81,21 @@ pub struct Detection {
 }
 
 impl Detection {
-    /// The detection at the foot point of `bbox` ([`BoundingBox::foot`]).
+    /// The detection at the foot point of `bbox` ([`BoundingBox::foot`]),
+    /// unchecked: for boxes the caller has checked ([`Detection::try_from_box`]
+    /// checks them).
     pub fn from_box(id: u32, bbox: &BoundingBox) -> Self {
         Detection {
             id,
             pixel: bbox.foot(),
         }
+    }
+
+    /// [`Detection::from_box`] for a box that passes [`BoundingBox::check`];
+    /// its error otherwise.
+    pub fn try_from_box(id: u32, bbox: &BoundingBox) -> Result<Self, CameraError> {
+        bbox.check()?;
+        Ok(Self::from_box(id, bbox))
     }
 }
 

@@ -129,6 +129,9 @@ pub enum CameraError {
     Overflow,
     /// [`to_observations`]: the output slice is full.
     OutputFull,
+    /// A bounding box whose edges are out of order (`x_min > x_max` or
+    /// `y_min > y_max`: [`BoundingBox::check`]).
+    BadBox,
 }
 
 impl core::fmt::Display for CameraError {
@@ -145,6 +148,7 @@ impl core::fmt::Display for CameraError {
             CameraError::Undistortion => "lens distortion not invertible at this pixel",
             CameraError::Overflow => "camera arithmetic overflowed",
             CameraError::OutputFull => "observation buffer full",
+            CameraError::BadBox => "bounding box edges out of order",
         })
     }
 }
