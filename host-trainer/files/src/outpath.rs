@@ -32,47 +32,15 @@ pub const ARTEFACT_EXTENSIONS: [&str; 4] = ["gpec", "golden", "json", "md"];
 /// Why an output was refused or could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
-    /// The output is one of the command's inputs.
-    #[error(
-        "{option} {out}: this is the same file as the input {input}; refusing to overwrite an input \
-         (choose another output path)",
-        out = .out.display(), input = .input.display()
-    )]
-    SameAsInput {
+    /// The output may not be written there ([`Refusal`]).
+    #[error("{option} {out}: {why} (choose another output path)", out = .out.display())]
+    Refused {
         /// The option that named the output.
         option: String,
         /// The output path.
         out: PathBuf,
-        /// The input it is the same file as.
-        input: PathBuf,
-    },
-    /// The output lies inside an input folder.
-    #[error(
-        "{option} {out}: this is inside the input folder {dir}; refusing to write among the inputs \
-         (choose another output path)",
-        out = .out.display(), dir = .dir.display()
-    )]
-    InsideInput {
-        /// The option that named the output.
-        option: String,
-        /// The output path.
-        out: PathBuf,
-        /// The input folder.
-        dir: PathBuf,
-    },
-    /// The output exists and is not a regular file.
-    #[error(
-        "{option} {out}: exists and is {found}; outputs are written as regular files only and \
-         this would replace it (choose another output path)",
-        out = .out.display()
-    )]
-    NotRegular {
-        /// The option that named the output.
-        option: String,
-        /// The output path.
-        out: PathBuf,
-        /// What it is, in words.
-        found: &'static str,
+        /// Why not.
+        why: Refusal,
     },
     /// Artefacts of this name exist and `--force` was not given.
     #[error("{}", exists_message(.paths))]
@@ -100,6 +68,28 @@ pub enum OutputError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// Why [`check_output`] refuses an output path.
+#[derive(Debug, thiserror::Error)]
+pub enum Refusal {
+    /// The output is one of the command's inputs (that input).
+    #[error(
+        "this is the same file as the input {}; refusing to overwrite an input",
+        .0.display()
+    )]
+    SameAsInput(PathBuf),
+    /// The output lies inside an input folder (that folder).
+    #[error(
+        "this is inside the input folder {}; refusing to write among the inputs",
+        .0.display()
+    )]
+    InsideInput(PathBuf),
+    /// The output exists and is not a regular file (what it is, in words).
+    #[error(
+        "exists and is {0}; outputs are written as regular files only and this would replace it"
+    )]
+    NotRegular(&'static str),
 }
 
 fn exists_message(paths: &[PathBuf]) -> String {
@@ -134,37 +124,34 @@ pub fn check_output(
     inputs: &[&Path],
     input_dirs: &[&Path],
 ) -> Result<(), OutputError> {
+    let refused = |why| OutputError::Refused {
+        option: option.to_string(),
+        out: out.to_path_buf(),
+        why,
+    };
     let md = match fs::metadata(out) {
         Ok(md) => Some(md),
         Err(_) => match fs::symlink_metadata(out) {
             // A link that leads nowhere (dangling, looping): renaming over it is not what
             // the user meant either.
             Ok(_) => {
-                return Err(OutputError::NotRegular {
-                    option: option.to_string(),
-                    out: out.to_path_buf(),
-                    found: "a symbolic link that leads to no file",
-                })
+                return Err(refused(Refusal::NotRegular(
+                    "a symbolic link that leads to no file",
+                )))
             }
             Err(_) => None,
         },
     };
     if let Some(md) = &md {
         if !md.is_file() {
-            return Err(OutputError::NotRegular {
-                option: option.to_string(),
-                out: out.to_path_buf(),
-                found: describe_file_type(md.file_type()),
-            });
+            return Err(refused(Refusal::NotRegular(describe_file_type(
+                md.file_type(),
+            ))));
         }
         for input in inputs {
             if let Ok(im) = fs::metadata(input) {
                 if im.dev() == md.dev() && im.ino() == md.ino() {
-                    return Err(OutputError::SameAsInput {
-                        option: option.to_string(),
-                        out: out.to_path_buf(),
-                        input: input.to_path_buf(),
-                    });
+                    return Err(refused(Refusal::SameAsInput(input.to_path_buf())));
                 }
             }
         }
@@ -181,11 +168,7 @@ pub fn check_output(
             for dir in input_dirs {
                 if let Ok(d) = fs::canonicalize(dir) {
                     if parent.starts_with(&d) {
-                        return Err(OutputError::InsideInput {
-                            option: option.to_string(),
-                            out: out.to_path_buf(),
-                            dir: dir.to_path_buf(),
-                        });
+                        return Err(refused(Refusal::InsideInput(dir.to_path_buf())));
                     }
                 }
             }
@@ -435,20 +418,38 @@ mod tests {
         let input = dir.path().join("in.gpec");
         fs::write(&input, b"x").unwrap();
         let e = check_output("--out", &input, &[&input], &[]).unwrap_err();
-        assert!(matches!(e, OutputError::SameAsInput { .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                OutputError::Refused {
+                    why: Refusal::SameAsInput(_),
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let link = dir.path().join("link.gpec");
         std::os::unix::fs::symlink(&input, &link).unwrap();
         assert!(matches!(
             check_output("--out", &link, &[&input], &[]),
-            Err(OutputError::SameAsInput { .. })
+            Err(OutputError::Refused {
+                why: Refusal::SameAsInput(_),
+                ..
+            })
         ));
         assert!(matches!(
             check_output("--out", Path::new("/dev/null"), &[], &[]),
-            Err(OutputError::NotRegular { .. })
+            Err(OutputError::Refused {
+                why: Refusal::NotRegular(_),
+                ..
+            })
         ));
         assert!(matches!(
             check_output("--out", dir.path(), &[], &[]),
-            Err(OutputError::NotRegular { .. })
+            Err(OutputError::Refused {
+                why: Refusal::NotRegular(_),
+                ..
+            })
         ));
         let dangling = dir.path().join("dangling");
         std::os::unix::fs::symlink(dir.path().join("nothing"), &dangling).unwrap();
@@ -457,14 +458,20 @@ mod tests {
         fs::create_dir(dir.path().join("sub")).unwrap();
         assert!(matches!(
             check_output("--draw", &inside, &[], &[dir.path()]),
-            Err(OutputError::InsideInput { .. })
+            Err(OutputError::Refused {
+                why: Refusal::InsideInput(_),
+                ..
+            })
         ));
         assert!(check_output("--out", &dir.path().join("new.gpec"), &[&input], &[]).is_ok());
         // A folder the write would create inside an input folder is inside it too.
         let deep = dir.path().join("sub/train/run.txt/config.toml");
         assert!(matches!(
             check_output("--out", &deep, &[], &[&dir.path().join("sub")]),
-            Err(OutputError::InsideInput { .. })
+            Err(OutputError::Refused {
+                why: Refusal::InsideInput(_),
+                ..
+            })
         ));
         assert!(!dir.path().join("sub/train").exists(), "nothing created");
     }
