@@ -326,6 +326,23 @@ fn run(g: &GraphProto, feeds: Vec<(&str, T)>) -> HashMap<String, T> {
     env
 }
 
+/// The graph's inputs for `past` as the core computes them: its frame, `x` and `pos`.
+fn graph_inputs(model: &gpecnet_core::Model<'_>, past: &[[f32; 2]]) -> (Frame, Vec<f64>, Vec<f64>) {
+    let c = model.config();
+    let (frame, pts) = Frame::inputs(past, model).unwrap();
+    let x = pts[..past.len()]
+        .iter()
+        .flatten()
+        .map(|&v| f64::from(v))
+        .collect();
+    let q = frame.predictor_position(past[past.len() - 1]);
+    let pos = vec![
+        f64::from(q[0] / c.initial_pos_divisor),
+        f64::from(q[1] / c.initial_pos_divisor),
+    ];
+    (frame, x, pos)
+}
+
 #[test]
 fn graph_computes_what_the_core_computes() {
     for name in ["sdd-small", "sdd-tiny-v2"] {
@@ -343,21 +360,11 @@ fn graph_computes_what_the_core_computes() {
                     [100.0 + 3.5 * t + w as f32 * t * t * 0.3, 200.0 - 2.0 * t]
                 })
                 .collect();
-            let (frame, pts) = Frame::inputs(&past, &model).unwrap();
-            let x: Vec<f64> = pts[..past.len()]
-                .iter()
-                .flatten()
-                .map(|&v| f64::from(v))
-                .collect();
+            let (frame, x, pos) = graph_inputs(&model, &past);
             let mut gs = Gaussian::new(w);
             let z: Vec<f64> = (0..k * zdim)
                 .map(|_| f64::from(c.sigma * gs.next()))
                 .collect();
-            let q = frame.predictor_position(past[past.len() - 1]);
-            let pos = vec![
-                f64::from(q[0] / c.initial_pos_divisor),
-                f64::from(q[1] / c.initial_pos_divisor),
-            ];
             let env = run(
                 &g,
                 vec![
@@ -430,17 +437,7 @@ fn proposal_graph_computes_the_cores_forecast() {
                     ]
                 })
                 .collect();
-            let (frame, pts) = Frame::inputs(&past, &model).unwrap();
-            let x: Vec<f64> = pts[..past.len()]
-                .iter()
-                .flatten()
-                .map(|&v| f64::from(v))
-                .collect();
-            let q = frame.predictor_position(past[past.len() - 1]);
-            let pos = vec![
-                f64::from(q[0] / c.initial_pos_divisor),
-                f64::from(q[1] / c.initial_pos_divisor),
-            ];
+            let (frame, x, pos) = graph_inputs(&model, &past);
             let env = run(
                 &g,
                 vec![("x", (vec![1, x.len()], x)), ("pos", (vec![1, 2], pos))],
