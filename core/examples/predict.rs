@@ -49,7 +49,8 @@ fn run(blob: &[u8]) -> Result<(), Error> {
     );
     // ~20 KiB for W = 1024: on the heap here; on an MCU pick W = scratch_width().
     let mut p = Box::new(Predictor::<LibmSine, W>::new(model)?);
-    // Eight positions 0.4 s apart (pixels, like the SDD training data), oldest first.
+    // Eight positions 0.4 s apart (pixels, like the SDD training data), oldest first:
+    // the walker firmware/src/profile.rs times on the MCU, so the outputs compare.
     let past = [
         [512.0, 300.0],
         [514.0, 301.0],

@@ -285,6 +285,8 @@ fn pick(m: u64, a: f64, b: f64) -> f64 {
     f64::from_bits(pick_bits(m, a.to_bits(), b.to_bits()))
 }
 
+// Each sine is its own zero-sized type implementing `Sine` (its `NAME` and
+// `sin`), so the derive and impl frame of `LibmSine` repeats here.
 /// Single-precision sine with a fixed evaluation order.
 ///
 /// Cody–Waite range reduction: `n = round(x / 2π)`, `r = (x − n·H) − n·L`

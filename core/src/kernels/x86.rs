@@ -128,7 +128,8 @@ fn dense_lanes_avx2<K: LaneArith, const L: usize>(
 }
 
 /// [`lanes::dense_lanes`], on AVX2 when [`has_avx2`]: the same bits either
-/// way (module docs).
+/// way (module docs). Its signature is that of `lanes::dense_lanes` on
+/// purpose: the float backend calls one or the other by target.
 #[inline]
 pub(crate) fn dense_lanes<K: LaneArith, const L: usize>(
     layer: &Layer<'_>,

@@ -267,6 +267,8 @@ impl<const N: usize> TimedTrackTable<N> {
         self.update_with(t_ms, observations, |_, _| {})
     }
 
+    // The same call as `TrackTable::update_with`, with this table's clock
+    // and outcome (`Sampled`): one way to feed either table.
     /// [`update`](Self::update), also calling `each(observation, outcome)`
     /// for every observation, in slice order, as it is applied.
     pub fn update_with(

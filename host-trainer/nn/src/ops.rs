@@ -397,6 +397,7 @@ impl CustomOp1 for SineOp {
 #[derive(Clone, Copy, Debug)]
 struct SineBackward(SineOp);
 
+// `cpu_fwd` as candle's `CustomOp2` declares it, the same signature as `BiasAdd`'s.
 impl CustomOp2 for SineBackward {
     fn name(&self) -> &'static str {
         "gpecnet-sine-backward"

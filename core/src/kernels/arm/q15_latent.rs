@@ -87,6 +87,8 @@ pub(crate) fn latent_rows_q15<'b, const N: usize>(
     // operand; the flags are clobbered (asm! assumes so). `rows ≥ 1`, so
     // the count reaches 0 after `rows` passes.
     unsafe {
+        // Operands listed per kernel, as in `q15_sine`/`q15_rows`/`fpu`: each
+        // program's registers are its own, checked against its own SAFETY note.
         asm!(
             "2:",
             q15_latent_row!(),
