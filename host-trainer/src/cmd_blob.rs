@@ -221,7 +221,8 @@ pub(crate) struct EvalArgs {
     /// Print exactly one JSON object on stdout (name, n, k, min_ade, min_fde, ade_k1, fde_k1,
     /// mean_ade, mean_fde, point_ade, point_fde, cv_n, cv_n_chosen_on, cv_ade, cv_fde,
     /// cv_last_ade, cv_last_fde, kde_nll, the hit rates at the unit's radii: hit_0.5m and
-    /// hit_1m, or hit_20px and hit_40px, scenes: the same per scene, matches_card,
+    /// hit_1m, or hit_20px and hit_40px, scenes: the same per scene, speeds: per observed
+    /// speed (standing, slow, walking, fast; metres only), matches_card,
     /// probabilities, planner: the planner metrics of a model with endpoint probabilities,
     /// ...) instead of the table.
     #[arg(long)]

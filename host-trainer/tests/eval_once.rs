@@ -118,3 +118,48 @@ fn eval_with_no_options_is_the_default_model_on_its_own_data_set() {
     let j: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(j["dataset"], "sdd", "{text}");
 }
+
+/// `gpecnet eval --json` on a metre set: the per-speed rows partition the test windows, their
+/// window-weighted best-of-K FDE is the overall one, and a pixel set has none.
+#[test]
+fn eval_reports_per_observed_speed_rows_that_partition_the_windows() {
+    let data = default_data_root();
+    let (ok, text) = run(&[
+        "eval",
+        "--blob",
+        s(&weights("sdd-m-lp-qe")),
+        "--dataset",
+        "eth_ucy:zara1",
+        "--data",
+        s(&data),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let rows = j["speeds"].as_array().unwrap();
+    assert!(rows.len() >= 3, "{rows:?}");
+    assert!(rows[0]["scene"].as_str().unwrap().starts_with("standing"));
+    let n: u64 = rows.iter().map(|r| r["n"].as_u64().unwrap()).sum();
+    assert_eq!(n, j["n"].as_u64().unwrap());
+    let weighted: f64 = rows
+        .iter()
+        .map(|r| r["n"].as_f64().unwrap() * r["min_fde"].as_f64().unwrap())
+        .sum::<f64>()
+        / n as f64;
+    let all = j["min_fde"].as_f64().unwrap();
+    assert!(
+        (weighted - all).abs() < 1e-9 * all.max(1.0),
+        "{weighted} vs {all}"
+    );
+    let (ok, text) = run(&[
+        "eval",
+        "--blob",
+        s(&weights("sdd-tiny-v2-qe")),
+        "--data",
+        s(&data),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(j["speeds"].as_array().map(Vec::len), Some(0));
+}

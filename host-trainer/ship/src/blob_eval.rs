@@ -61,6 +61,9 @@ pub struct EvalReport {
     pub pixels: Option<PixelEquivalent>,
     /// The same numbers per scene (the source file's stem), in the order scenes first appear.
     pub scenes: Vec<SceneRow>,
+    /// The same numbers per observed speed (`|p_7 − p_0|` over the 2.8 s observed:
+    /// [`SPEED_GROUPS_M_S`]), for data in metres; empty for pixels.
+    pub speeds: Vec<SceneRow>,
     /// The blob's card is about another data set (so it was not compared).
     pub card_on_other_data: bool,
     /// `Some(true)` when the blob's model card exists and its numbers (ADE/FDE and the
@@ -119,7 +122,28 @@ pub struct SceneRow {
     pub hits: [f64; 2],
 }
 
-/// The [`SceneRow`]s of `test` and its predictions (`point`: the point forecasts).
+/// Upper bounds (exclusive) of the observed-speed groups of [`BlobEval::speeds`], metres per
+/// second (the online loop's motion states): standing, slow, walking, fast.
+pub const SPEED_GROUPS_M_S: [f64; 3] = [0.3, 0.8, 2.0];
+
+/// The observed-speed group of a window in metres (`|p_7 − p_0| / 2.8 s` against
+/// [`SPEED_GROUPS_M_S`]), as a row label.
+fn speed_group(w: &crate::data::Window) -> String {
+    let obs = w.obs();
+    let (a, b) = (obs[0], obs[obs.len() - 1]);
+    let span = (obs.len() - 1) as f64 * f64::from(crate::data::PERIOD_S);
+    let v = f64::from(b[0] - a[0]).hypot(f64::from(b[1] - a[1])) / span;
+    let [s, m, f] = SPEED_GROUPS_M_S;
+    match SPEED_GROUPS_M_S.iter().position(|&t| v < t) {
+        Some(0) => format!("standing <{s} m/s"),
+        Some(1) => format!("slow {s}-{m} m/s"),
+        Some(2) => format!("walking {m}-{f} m/s"),
+        _ => format!("fast >={f} m/s"),
+    }
+}
+
+/// The [`SceneRow`]s of `test` and its predictions (`point`: the point forecasts), one per
+/// scene in the order scenes first appear.
 fn scene_rows(
     test: &Dataset,
     preds: &[crate::eval::Prediction],
@@ -127,11 +151,32 @@ fn scene_rows(
     cv_n: usize,
     radii: [f64; 2],
 ) -> Result<Vec<SceneRow>> {
+    group_rows(test, preds, point, cv_n, radii, &test.scenes(), |w| {
+        w.scene.clone()
+    })
+}
+
+/// Rows of `test` grouped by `key` of each window, one per label of `order` that has windows
+/// (labels in `order`'s order): best-of-K, point forecast, constant velocity and hit rates of
+/// each group, as [`scene_rows`] per scene.
+fn group_rows(
+    test: &Dataset,
+    preds: &[crate::eval::Prediction],
+    point: Option<&[crate::eval::Prediction]>,
+    cv_n: usize,
+    radii: [f64; 2],
+    order: &[String],
+    key: impl Fn(&crate::data::Window) -> String,
+) -> Result<Vec<SceneRow>> {
+    let keys: Vec<String> = test.windows.iter().map(&key).collect();
     let mut out = Vec::new();
-    for scene in test.scenes() {
+    for scene in order.iter().cloned() {
         let idx: Vec<usize> = (0..test.windows.len())
-            .filter(|&i| test.windows[i].scene == scene)
+            .filter(|&i| keys[i] == scene)
             .collect();
+        if idx.is_empty() {
+            continue;
+        }
         let sub = Dataset {
             name: scene.clone(),
             unit: test.unit,
@@ -412,6 +457,26 @@ pub fn eval_blob(
         cv_n,
         hit_radii,
     )?;
+    let speeds = if test.unit == Unit::Metres {
+        let [s, m, f] = SPEED_GROUPS_M_S;
+        let order = [
+            format!("standing <{s} m/s"),
+            format!("slow {s}-{m} m/s"),
+            format!("walking {m}-{f} m/s"),
+            format!("fast >={f} m/s"),
+        ];
+        group_rows(
+            &test,
+            &preds,
+            point_preds.as_ref().map(|p| p.1.as_slice()),
+            cv_n,
+            hit_radii,
+            &order,
+            speed_group,
+        )?
+    } else {
+        Vec::new()
+    };
     let (planner, planner_px) = match &planner_outs {
         Some(outs) => {
             let (p, px) = crate::card::planner_pair(data_root, spec, &test, outs)?;
@@ -484,6 +549,7 @@ pub fn eval_blob(
         n_val,
         pixels,
         scenes,
+        speeds,
         matches_card,
         card_on_other_data,
         svg,

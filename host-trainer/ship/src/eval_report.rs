@@ -53,6 +53,7 @@ pub fn json(r: &EvalReport, blob: &Path) -> serde_json::Value {
             None => "validation".to_string(),
         },
         "scenes": r.scenes,
+        "speeds": r.speeds,
         "min_ade_px": r.pixels.map(|p| p.metrics.min_ade),
         "min_fde_px": r.pixels.map(|p| p.metrics.min_fde),
         "point_ade_px": r.pixels.and_then(|p| p.point.map(|q| q.0)),
@@ -162,46 +163,18 @@ pub fn table(r: &EvalReport) -> String {
         ),
     }
     if r.scenes.len() > 1 {
-        let width = r
-            .scenes
-            .iter()
-            .map(|s| s.scene.len())
-            .max()
-            .unwrap_or(5)
-            .max(5);
-        w!(
-            out,
+        let title = format!(
             "per scene ({u}; point = the point forecast's FDE, CV = constant velocity n = {}):",
             r.cv_n
         );
-        w!(
-            out,
-            "  {:<width$} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9}",
-            "scene",
-            "windows",
-            "minADE",
-            "minFDE",
-            "point",
-            "CV ADE",
-            "CV FDE",
-            format!("<{}{u}", r.hits[0].0),
-            format!("<{}{u}", r.hits[1].0)
+        group_table(&mut out, &title, "scene", &r.scenes, r.hits, u);
+    }
+    if !r.speeds.is_empty() {
+        let title = format!(
+            "per observed speed (|p7 - p0| over the 2.8 s observed; {u}; CV n = {}):",
+            r.cv_n
         );
-        for s in &r.scenes {
-            w!(
-                out,
-                "  {:<width$} {:>7} {:>8.3} {:>8.3} {:>8} {:>8.3} {:>8.3} {:>8.1}% {:>8.1}%",
-                s.scene,
-                s.n,
-                s.min_ade,
-                s.min_fde,
-                s.point_fde.map_or("n/a".to_string(), |v| format!("{v:.3}")),
-                s.cv_ade,
-                s.cv_fde,
-                100.0 * s.hits[0],
-                100.0 * s.hits[1]
-            );
-        }
+        group_table(&mut out, &title, "speed", &r.speeds, r.hits, u);
     }
     match r.matches_card {
         Some(true) => w!(out, "model card: reproduced exactly"),
@@ -263,4 +236,52 @@ pub fn table(r: &EvalReport) -> String {
         w!(out, "drew the reliability diagram to {}", p.display());
     }
     out
+}
+
+/// One table of [`crate::blob_eval::SceneRow`]s under `title` (`what` names the first
+/// column): windows, best-of-K ADE/FDE, the point forecast's FDE, constant velocity, and the
+/// hit rates at the report's two radii `hits` in the unit `u`.
+fn group_table(
+    out: &mut String,
+    title: &str,
+    what: &str,
+    rows: &[crate::blob_eval::SceneRow],
+    hits: [(f64, f64); 2],
+    u: &str,
+) {
+    let width = rows
+        .iter()
+        .map(|s| s.scene.len())
+        .max()
+        .unwrap_or(5)
+        .max(what.len());
+    w!(out, "{title}");
+    w!(
+        out,
+        "  {:<width$} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9}",
+        what,
+        "windows",
+        "minADE",
+        "minFDE",
+        "point",
+        "CV ADE",
+        "CV FDE",
+        format!("<{}{u}", hits[0].0),
+        format!("<{}{u}", hits[1].0)
+    );
+    for s in rows {
+        w!(
+            out,
+            "  {:<width$} {:>7} {:>8.3} {:>8.3} {:>8} {:>8.3} {:>8.3} {:>8.1}% {:>8.1}%",
+            s.scene,
+            s.n,
+            s.min_ade,
+            s.min_fde,
+            s.point_fde.map_or("n/a".to_string(), |v| format!("{v:.3}")),
+            s.cv_ade,
+            s.cv_fde,
+            100.0 * s.hits[0],
+            100.0 * s.hits[1]
+        );
+    }
 }
