@@ -667,7 +667,7 @@ fn online_position(id: u32, t: f32) -> Option<[f32; 2]> {
 /// Out of line, with the predictor built in its own frame (as for the
 /// golden cases): it runs after the model's golden cases, whose predictor
 /// is gone by then. This frame holds only the predictor; the forecaster
-/// and the frames' buffers are [`play_scene`]'s, so the construction's
+/// and the frames' buffers are `play_scene`'s, so the construction's
 /// temporaries (`predictor_for`) and the forecasts are never on the stack
 /// together: the scene's peak fits the Cortex-M0's 16 KiB of RAM.
 /// `Err`: why the scene could not run.

@@ -105,7 +105,7 @@ impl<const N: usize, const P: usize> Forecaster<N, P> {
     /// Applies one camera frame: the detections go into the track table
     /// (its rules: `crate::tracks::timed`), each track's new grid points are
     /// fed back to its pending forecasts, and every track that gained a grid
-    /// point with a full history is forecast ([`forecast`], seed `id << 32 |
+    /// point with a full history is forecast ([`super::forecast`], seed `id << 32 |
     /// end_ms`) and handed to `each`, up to `K` endpoints each. A refused
     /// forecast (out-of-range input) is counted in the report and the other
     /// tracks go on.

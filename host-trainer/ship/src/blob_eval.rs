@@ -122,7 +122,7 @@ pub struct SceneRow {
     pub hits: [f64; 2],
 }
 
-/// Upper bounds (exclusive) of the observed-speed groups of [`BlobEval::speeds`], metres per
+/// Upper bounds (exclusive) of the observed-speed groups of [`EvalReport::speeds`], metres per
 /// second (the online loop's motion states): standing, slow, walking, fast.
 pub const SPEED_GROUPS_M_S: [f64; 3] = [0.3, 0.8, 2.0];
 
