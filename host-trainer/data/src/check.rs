@@ -16,13 +16,32 @@ use serde::Serialize;
 
 use super::detections::read_detections;
 use super::folder::parse_folder_file;
-use super::folder_info::{FolderError, FolderInfo, TimeColumn};
+use super::folder_info::{FolderError, FolderInfo};
 use super::rows::scene_name;
 use super::*;
 
 /// Upper bounds (exclusive) of the speed bins of [`FileCheck::speeds`], metres per second:
 /// standing, slow, walking, fast (the online loop's motion states' thresholds).
 pub const SPEED_BINS_M_S: [f64; 3] = [0.3, 0.8, 2.0];
+
+/// The names of the four speed bins of [`SPEED_BINS_M_S`], slowest first.
+pub const SPEED_BIN_NAMES: [&str; 4] = ["standing", "slow", "walking", "fast"];
+
+/// The observed speed of a window in its unit per second: `|p_7 − p_0|` over the 2.8 s the
+/// [`PAST`] positions span.
+pub fn observed_speed(w: &Window) -> f64 {
+    let (a, b) = (w.pos[0], w.pos[PAST - 1]);
+    let span = (PAST - 1) as f64 * f64::from(PERIOD_S);
+    f64::from(b[0] - a[0]).hypot(f64::from(b[1] - a[1])) / span
+}
+
+/// The bin of [`SPEED_BINS_M_S`] a speed in m/s falls in (0 = standing … 3 = fast).
+pub fn speed_bin(v: f64) -> usize {
+    SPEED_BINS_M_S
+        .iter()
+        .position(|&t| v < t)
+        .unwrap_or(SPEED_BINS_M_S.len())
+}
 
 /// The report of [`check_folder`].
 #[derive(Clone, Debug, Serialize)]
@@ -134,7 +153,8 @@ fn check_file(path: &Path, info: &FolderInfo) -> Result<FileCheck, FolderError> 
     let mut windows = parse_folder_file(path, info)?;
     let scene = scene_name(path);
     // To metres as the loader converts (a homography has been applied to the detections).
-    let factor = if info.homography_of(path)?.is_some() {
+    let mapped = info.homography_of(path)?.is_some();
+    let factor = if mapped {
         None
     } else {
         info.metres_per_pixel.get(&scene).map(|&s| s as f32)
@@ -144,7 +164,7 @@ fn check_file(path: &Path, info: &FolderInfo) -> Result<FileCheck, FolderError> 
             w.scale(s);
         }
     }
-    let metres = info.unit == "m" || factor.is_some() || info.homography_of(path)?.is_some();
+    let metres = info.unit == "m" || factor.is_some() || mapped;
     // The native clock: consecutive detections of each pedestrian, in time order.
     let secs = info.seconds_per_frame;
     let mut by_ped: Vec<Vec<f64>> = vec![Vec::new(); file.ped_ids.len()];
@@ -170,13 +190,8 @@ fn check_file(path: &Path, info: &FolderInfo) -> Result<FileCheck, FolderError> 
     }
     let speeds = metres.then(|| {
         let mut bins = [0usize; 4];
-        let span = (PAST - 1) as f64 * f64::from(PERIOD_S);
         for w in &windows {
-            let (a, b) = (w.pos[0], w.pos[PAST - 1]);
-            let d = f64::from(b[0] - a[0]).hypot(f64::from(b[1] - a[1]));
-            let v = d / span;
-            let bin = SPEED_BINS_M_S.iter().position(|&t| v < t).unwrap_or(3);
-            bins[bin] += 1;
+            bins[speed_bin(observed_speed(w))] += 1;
         }
         bins
     });
@@ -185,11 +200,7 @@ fn check_file(path: &Path, info: &FolderInfo) -> Result<FileCheck, FolderError> 
         scene,
         detections: file.dets.len(),
         pedestrians: file.ped_ids.len(),
-        native_step_s: if info.time == TimeColumn::Frame || !steps.is_empty() {
-            native_step_s
-        } else {
-            None
-        },
+        native_step_s,
         windows: windows.len(),
         speeds,
         pedestrians_without_window: peds_without,

@@ -62,7 +62,7 @@ pub struct EvalReport {
     /// The same numbers per scene (the source file's stem), in the order scenes first appear.
     pub scenes: Vec<SceneRow>,
     /// The same numbers per observed speed (`|p_7 − p_0|` over the 2.8 s observed:
-    /// [`SPEED_GROUPS_M_S`]), for data in metres; empty for pixels.
+    /// [`crate::data::SPEED_BINS_M_S`]), for data in metres; empty for pixels.
     pub speeds: Vec<SceneRow>,
     /// The blob's card is about another data set (so it was not compared).
     pub card_on_other_data: bool,
@@ -122,24 +122,17 @@ pub struct SceneRow {
     pub hits: [f64; 2],
 }
 
-/// Upper bounds (exclusive) of the observed-speed groups of [`EvalReport::speeds`], metres per
-/// second (the online loop's motion states): standing, slow, walking, fast.
-pub const SPEED_GROUPS_M_S: [f64; 3] = [0.3, 0.8, 2.0];
-
-/// The observed-speed group of a window in metres (`|p_7 − p_0| / 2.8 s` against
-/// [`SPEED_GROUPS_M_S`]), as a row label.
-fn speed_group(w: &crate::data::Window) -> String {
-    let obs = w.obs();
-    let (a, b) = (obs[0], obs[obs.len() - 1]);
-    let span = (obs.len() - 1) as f64 * f64::from(crate::data::PERIOD_S);
-    let v = f64::from(b[0] - a[0]).hypot(f64::from(b[1] - a[1])) / span;
-    let [s, m, f] = SPEED_GROUPS_M_S;
-    match SPEED_GROUPS_M_S.iter().position(|&t| v < t) {
-        Some(0) => format!("standing <{s} m/s"),
-        Some(1) => format!("slow {s}-{m} m/s"),
-        Some(2) => format!("walking {m}-{f} m/s"),
-        _ => format!("fast >={f} m/s"),
-    }
+/// The labels of the observed-speed groups of [`EvalReport::speeds`], slowest first: the
+/// data crate's bins ([`crate::data::SPEED_BINS_M_S`], the online loop's motion states).
+fn speed_labels() -> [String; 4] {
+    let [s, m, f] = crate::data::SPEED_BINS_M_S;
+    let [a, b, c, d] = crate::data::SPEED_BIN_NAMES;
+    [
+        format!("{a} <{s} m/s"),
+        format!("{b} {s}-{m} m/s"),
+        format!("{c} {m}-{f} m/s"),
+        format!("{d} >={f} m/s"),
+    ]
 }
 
 /// The [`SceneRow`]s of `test` and its predictions (`point`: the point forecasts), one per
@@ -458,21 +451,18 @@ pub fn eval_blob(
         hit_radii,
     )?;
     let speeds = if test.unit == Unit::Metres {
-        let [s, m, f] = SPEED_GROUPS_M_S;
-        let order = [
-            format!("standing <{s} m/s"),
-            format!("slow {s}-{m} m/s"),
-            format!("walking {m}-{f} m/s"),
-            format!("fast >={f} m/s"),
-        ];
+        let labels = speed_labels();
         group_rows(
             &test,
             &preds,
             point_preds.as_ref().map(|p| p.1.as_slice()),
             cv_n,
             hit_radii,
-            &order,
-            speed_group,
+            &labels,
+            |w| {
+                let bin = crate::data::speed_bin(crate::data::observed_speed(w));
+                labels[bin].clone()
+            },
         )?
     } else {
         Vec::new()
