@@ -52,7 +52,8 @@ pub(crate) fn cmd_select(a: SelectArgs) -> Result<()> {
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct TrainArgs {
-    /// Training config (TOML; see host-trainer/configs/). Required for a new run; with
+    /// Training config (TOML; see host-trainer/configs/). Required for a new run without
+    /// --init; with
     /// --resume the config stored in the checkpoint is used, and a --config given as well
     /// must equal it (num_epochs aside) or the resume is refused, naming the keys that differ.
     #[arg(long, value_name = "TOML")]
@@ -109,6 +110,36 @@ pub(crate) struct TrainArgs {
     /// only; overrides the config's obs_noise; 0 = none, today's training bit for bit).
     #[arg(long, value_name = "SIGMA")]
     obs_noise: Option<f32>,
+    /// Fine-tune: start from the weights of a run folder (its best validation epoch) or of an
+    /// f32 blob such as weights/sdd-m-lp.gpec (new runs only). The run takes the source's
+    /// config (for a blob, the training config in the <name>.json beside it), so its
+    /// architecture and data scale; --config may change how to train but not what the weights
+    /// depend on. A blob's latent encoder (training only, not in any blob) starts fresh and its
+    /// proposal is dropped: refit it on the new data with `gpecnet propose` and `gpecnet score`.
+    /// See docs/own-data.md, "Fine-tuning".
+    #[arg(long, value_name = "RUN_OR_BLOB")]
+    init: Option<PathBuf>,
+    /// Train on a part of the training split: the windows of a fixed FRACTION of its tracks
+    /// (the same tracks for every seed; validation is never reduced), in (0, 1] (new runs
+    /// only; overrides the config's train_fraction).
+    #[arg(long, value_name = "FRACTION")]
+    train_fraction: Option<f32>,
+    /// The data scale (multiplier from data units to model units; new runs only): a number,
+    /// or `auto` to compute it from the training windows (1.86 x 208.2 / their RMS span from
+    /// first observed point to endpoint, the rule of docs/ethucy.md). A config without
+    /// data_scale is `auto`. The number a run uses is written to its config.toml and card.
+    #[arg(long, value_name = "X|auto", value_parser = parse_data_scale)]
+    data_scale: Option<f32>,
+}
+
+fn parse_data_scale(s: &str) -> Result<f32, String> {
+    if s == "auto" {
+        return Ok(gpecnet_trainer::config::AUTO_DATA_SCALE);
+    }
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{s}` is neither `auto` nor a finite number > 0")),
+    }
 }
 
 pub(crate) fn cmd_train(a: TrainArgs) -> Result<()> {
@@ -132,9 +163,12 @@ pub(crate) fn cmd_train(a: TrainArgs) -> Result<()> {
             || a.mirror
             || a.cosine
             || a.obs_noise.is_some()
+            || a.init.is_some()
+            || a.train_fraction.is_some()
+            || a.data_scale.is_some()
         {
             anyhow::bail!(
-                "--resume uses the config stored in the checkpoint; drop --augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine/--obs-noise"
+                "--resume uses the config stored in the checkpoint; drop --augment/--pool/--seed/--heading-steps/--dataset/--mirror/--cosine/--obs-noise/--init/--train-fraction/--data-scale"
             );
         }
         let expected = a
@@ -144,10 +178,33 @@ pub(crate) fn cmd_train(a: TrainArgs) -> Result<()> {
             .transpose()?;
         train::train_resume_checked(&opts, expected.as_ref())?
     } else {
-        let Some(path) = a.config else {
-            anyhow::bail!("a new run needs --config <TOML> (or --resume to continue one)");
+        let given = a
+            .config
+            .as_deref()
+            .map(TrainConfig::from_file)
+            .transpose()?;
+        let mut cfg = match (&a.init, given) {
+            (Some(init), given) => {
+                let src = train::init::load_init(init)?;
+                train::init::init_config(&src, given)?
+            }
+            (None, Some(cfg)) => cfg,
+            (None, None) => anyhow::bail!(
+                "a new run needs --config <TOML> or --init <RUN_OR_BLOB> (or --resume to continue one)"
+            ),
         };
-        let mut cfg = TrainConfig::from_file(&path)?;
+        if let Some(f) = a.train_fraction {
+            cfg.train_fraction = f;
+        }
+        if let Some(x) = a.data_scale {
+            if a.init.is_some() && x != cfg.data_scale {
+                anyhow::bail!(
+                    "--data-scale {x}: a fine-tuning run keeps the data scale of --init ({})",
+                    cfg.data_scale
+                );
+            }
+            cfg.data_scale = x;
+        }
         if let Some(k) = a.augment {
             cfg.augment_pct = k;
         }

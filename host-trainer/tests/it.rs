@@ -12,6 +12,7 @@ mod data_loading;
 mod data_range_eval;
 mod eval_metrics;
 mod eval_once;
+mod finetune;
 mod obs_noise;
 mod own_data;
 mod propose;

@@ -118,7 +118,7 @@ fn every_offset_is_taken_from_the_noisy_observations() {
 fn obs_noise_is_checked_and_written_only_when_set() {
     let base = TrainConfig::default().to_toml_string().unwrap();
     assert!(!base.contains("obs_noise"), "{base}");
-    let zero = TrainConfig::from_toml_str("obs_noise = 0").unwrap();
+    let zero = TrainConfig::from_toml_str("obs_noise = 0\ndata_scale = 1.86").unwrap();
     assert_eq!(zero, TrainConfig::default());
     let c = TrainConfig::from_toml_str("obs_noise = 0.1").unwrap();
     assert!(c.to_toml_string().unwrap().contains("obs_noise = 0.1"));

@@ -16,6 +16,7 @@
 //! beyond it, and f32 arithmetic loses whole units there), else [`DataError::OutOfRange`].
 //!
 //! Files: `window.rs` (units, windows, data sets, the validation split, model-space samples),
+//! `fraction.rs` (a fixed part of a split's tracks, [`track_fraction`]),
 //! `error.rs` ([`DataError`]), `rows.rs` (the shared `frame ped_id x y` row reader and file
 //! helpers), `sdd.rs` and `eth_ucy.rs` (one loader per benchmark), `scales.rs` (SDD's
 //! metres-per-pixel table), `folder_info.rs` (a user's own data-set folder: `dataset.toml`, its keys, files and errors), `folder.rs` (its splits cut into windows), `detections.rs` (a
@@ -35,6 +36,7 @@ mod error;
 mod eth_ucy;
 mod folder;
 mod folder_info;
+mod fraction;
 mod homography;
 mod recording;
 mod resample;
@@ -52,6 +54,7 @@ pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};
 pub use folder::{load_folder, parse_folder_file};
 pub use folder_info::{Columns, FolderError, FolderInfo, TimeColumn, DATASET_TOML, MAX_GAP_S};
+pub use fraction::track_fraction;
 pub use homography::Homography;
 pub use recording::{read_recording, recordings, RecordedFrame, Recording};
 pub use rows::{default_data_root, read_rows, Row};

@@ -50,6 +50,18 @@ pub struct ProposeSettings {
     /// positions of the training windows, fresh every epoch; 0 (absent from older files) = none.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub obs_noise: f32,
+    /// The part of the training split's tracks trained on (`gpecnet_data::track_fraction`);
+    /// 1 (absent from older files) = all.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub train_fraction: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn is_one(x: &f32) -> bool {
+    *x == 1.0
 }
 
 fn is_zero(x: &f32) -> bool {

@@ -163,4 +163,64 @@ impl Mlp {
         }
         Ok(out)
     }
+
+    /// Overwrite the weights from exported `layers` (the inverse of [`Mlp::export`], for
+    /// fine-tuning from a blob): `w0` is divided out of every sine layer, `in_scale` back into
+    /// the first layer and `out_scale` out of the last. The shapes must be this network's and
+    /// the hidden activations its own; every error says which layer differs. The weights come
+    /// back equal to the exported ones up to the rounding of those divisions (exactly equal for
+    /// `w0 = 1` and power-of-two scales).
+    pub fn import(&self, layers: &[Layer]) -> candle_core::Result<()> {
+        if layers.len() != self.layers.len() {
+            candle_core::bail!(
+                "{} layers where this network has {}",
+                layers.len(),
+                self.layers.len()
+            );
+        }
+        let last = self.layers.len() - 1;
+        for (i, (dense, l)) in self.layers.iter().zip(layers).enumerate() {
+            let (out_dim, in_dim) = dense.weight.as_tensor().dims2()?;
+            if (l.out_dim, l.in_dim) != (out_dim, in_dim)
+                || l.w.len() != out_dim * in_dim
+                || l.b.len() != out_dim
+            {
+                candle_core::bail!(
+                    "layer {i} is {}x{} where this network's is {out_dim}x{in_dim}",
+                    l.out_dim,
+                    l.in_dim
+                );
+            }
+            let want = if i == last {
+                Act::Linear
+            } else {
+                self.activation
+            };
+            if l.act != want {
+                candle_core::bail!(
+                    "layer {i} has activation {:?} where this network has {want:?}",
+                    l.act
+                );
+            }
+            let mut weight = l.w.clone();
+            let mut bias = l.b.clone();
+            if i != last && self.activation == Act::Sine {
+                weight.iter_mut().for_each(|x| *x /= self.w0);
+                bias.iter_mut().for_each(|x| *x /= self.w0);
+            }
+            if i == last && self.out_scale != 1.0 {
+                weight.iter_mut().for_each(|x| *x /= self.out_scale);
+                bias.iter_mut().for_each(|x| *x /= self.out_scale);
+            }
+            if i == 0 && self.in_scale != 1.0 {
+                weight.iter_mut().for_each(|x| *x *= self.in_scale);
+            }
+            let dev = Device::Cpu;
+            dense
+                .weight
+                .set(&Tensor::from_vec(weight, (out_dim, in_dim), &dev)?)?;
+            dense.bias.set(&Tensor::from_vec(bias, out_dim, &dev)?)?;
+        }
+        Ok(())
+    }
 }

@@ -53,7 +53,7 @@ pub fn tiny_config(extra: &str) -> String {
     format!(
         "enc_past_size = [8]\nenc_dest_size = [8]\nenc_latent_size = [8]\ndec_size = [8]\n\
          predictor_hidden_size = [8]\nfdim = 4\nzdim = 2\nnum_epochs = 2\nbatch_size = 16\n\
-         learning_rate = 1e-3\nk = 3\nseed = 5\nthreads = 1\nval_scenes = [\"v\"]\n{extra}"
+         learning_rate = 1e-3\nk = 3\nseed = 5\nthreads = 1\nval_scenes = [\"v\"]\ndata_scale = 1.86\n{extra}"
     )
 }
 

@@ -73,7 +73,16 @@ pub struct TrainConfig {
     pub past_length: usize,
     /// Predicted steps (must equal `data::FUTURE` = 12).
     pub future_length: usize,
-    /// Multiplier applied after shifting the first observed point to the origin (1.86).
+    /// Multiplier applied after shifting the first observed point to the origin (PECNet's
+    /// 1.86 for SDD pixels). Left out of a config file, or `"auto"` ([`AUTO_DATA_SCALE`]), a new run
+    /// computes it from its training windows ([`data_scale_rule`]) and writes the number into
+    /// the run's `config.toml`, so every later step (resume, export, the card) sees it.
+    /// In TOML a number, or `"auto"` (what a missing key means).
+    #[serde(
+        default = "auto_data_scale",
+        serialize_with = "data_scale_ser",
+        deserialize_with = "data_scale_de"
+    )]
     pub data_scale: f32,
     /// Weight of the KL divergence term.
     pub kld_reg: f32,
@@ -204,6 +213,72 @@ pub struct TrainConfig {
     /// trains exactly as without the option, bit for bit; finite, in `[0, 1000]`.
     #[serde(skip_serializing_if = "is_zero_f32")]
     pub obs_noise: f32,
+    /// Fine-tuning: the weights the run starts from instead of a fresh initialisation, a run
+    /// folder (its best validation epoch) or an f32 blob (`gpecnet train --init`,
+    /// [`crate::train::init`]). Recorded for the card; a resumed run continues from its own
+    /// checkpoint. Omitted from the TOML when unset.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub init: Option<String>,
+    /// Train on a part of the real training data: the windows of the first
+    /// `ceil(train_fraction × tracks)` tracks in a fixed pseudo-random order of the tracks
+    /// (a hash of scene and id, the same for every seed), so a run on 10 % of a data set sees
+    /// whole tracks, as a user with less data would have. In `(0, 1]`; 1 (the default, omitted
+    /// from the TOML) = all. Validation is never reduced.
+    #[serde(skip_serializing_if = "is_one_f32")]
+    pub train_fraction: f32,
+}
+
+/// The [`TrainConfig::data_scale`] of a config that leaves it to the data: a new run replaces
+/// it by [`data_scale_rule`] of its training windows.
+pub const AUTO_DATA_SCALE: f32 = 0.0;
+
+fn auto_data_scale() -> f32 {
+    AUTO_DATA_SCALE
+}
+
+fn data_scale_ser<S: serde::Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
+    if *v == AUTO_DATA_SCALE {
+        s.serialize_str("auto")
+    } else {
+        s.serialize_f32(*v)
+    }
+}
+
+/// A number or `"auto"`; a written 0 is refused here, since 0 is how `"auto"` is held.
+fn data_scale_de<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Scale {
+        Number(f64),
+        Word(String),
+    }
+    match Scale::deserialize(d)? {
+        Scale::Word(w) if w == "auto" => Ok(AUTO_DATA_SCALE),
+        Scale::Word(w) => Err(serde::de::Error::custom(format!(
+            "data_scale = \"{w}\": allowed a finite number > 0 or \"auto\""
+        ))),
+        Scale::Number(x) if x == 0.0 => Err(serde::de::Error::custom(
+            "data_scale = 0 is out of range: allowed a finite number > 0 or \"auto\"",
+        )),
+        Scale::Number(x) => Ok(x as f32),
+    }
+}
+
+/// RMS span (first observed point to endpoint) of the SDD pixel training windows that
+/// PECNet's `data_scale = 1.86` was chosen for: 208.2 px.
+pub const REFERENCE_SPAN: f64 = 208.2;
+
+/// The data scale that gives windows of RMS span `rms_span` (first observed point to endpoint,
+/// in the data's unit) the model units of SDD pixel windows at PECNet's 1.86
+/// (docs/ethucy.md): `1.86 × 208.2 / rms_span`, rounded to 0.1. SDD in metres (7.84 m) gives
+/// 49.4, ETH/UCY (5.4 m) 71.7. `None` when the span is not a finite positive number.
+pub fn data_scale_rule(rms_span: f64) -> Option<f32> {
+    if !(rms_span.is_finite() && rms_span > 0.0) {
+        return None;
+    }
+    let s = 1.86 * REFERENCE_SPAN / rms_span;
+    let rounded = (s * 10.0).round() / 10.0;
+    (rounded > 0.0 && rounded.is_finite()).then_some(rounded as f32)
 }
 
 /// Learning-rate schedule (see [`TrainConfig::lr_schedule`]).
@@ -312,6 +387,8 @@ impl Default for TrainConfig {
             lr_schedule: LrSchedule::Constant,
             point_reg: 1.0,
             obs_noise: 0.0,
+            init: None,
+            train_fraction: 1.0,
         }
     }
 }

@@ -403,6 +403,43 @@ impl Model {
     }
 }
 
+impl Model {
+    /// Overwrite the networks a blob ships with `nets` (the inverse of
+    /// [`Model::export_networks`], for fine-tuning from a blob): the past and destination
+    /// encoders, the decoder, the predictor and, when both have one, the point head. The
+    /// latent encoder (training only, never exported) keeps its weights, and a proposal in
+    /// `nets` is ignored (it is refitted with `gpecnet propose`). Errors name the network whose
+    /// shape differs.
+    pub fn import_networks(&self, nets: &Networks) -> candle_core::Result<()> {
+        if self.has_social() {
+            candle_core::bail!("a model with social pooling cannot start from a blob (no blob holds its pooling networks)");
+        }
+        let named = [
+            ("encoder_past", &self.encoder_past, &nets.encoder_past),
+            ("encoder_dest", &self.encoder_dest, &nets.encoder_dest),
+            ("decoder", &self.decoder, &nets.decoder),
+            ("predictor", &self.predictor, &nets.predictor),
+        ];
+        for (name, mlp, layers) in named {
+            mlp.import(layers)
+                .map_err(|e| candle_core::Error::Msg(format!("{name}: {e}")))?;
+        }
+        match (&self.point_head, nets.point_head.is_empty()) {
+            (Some(h), false) => h
+                .import(&nets.point_head)
+                .map_err(|e| candle_core::Error::Msg(format!("point_head: {e}")))?,
+            (None, true) => {}
+            (Some(_), true) => candle_core::bail!(
+                "the config has a point head (point_head_size) and the blob has none"
+            ),
+            (None, false) => candle_core::bail!(
+                "the blob has a point head and the config none (set point_head_size)"
+            ),
+        }
+        Ok(())
+    }
+}
+
 /// Added under the square root of the point head's per-step squared distance (model units²),
 /// so the loss stays differentiable at zero error.
 pub const POINT_LOSS_EPS: f64 = 1e-4;

@@ -74,6 +74,10 @@ pub struct ScoreArgs {
     /// No mirrored (y → −y) copies of the training windows.
     #[arg(long)]
     pub no_mirror: bool,
+    /// Fit on the windows of a fixed FRACTION of the training split's tracks, as
+    /// `gpecnet train --train-fraction` (the same tracks); validation is never reduced.
+    #[arg(long, value_name = "FRACTION", default_value_t = 1.0)]
+    pub train_fraction: f32,
 }
 
 impl ScoreArgs {
@@ -163,7 +167,19 @@ impl ScoreArgs {
         }
         let k = model.proposal_latents();
         let val_scenes = data::default_sdd_val_scenes();
-        let mut train = data::load(&self.data, &spec, data::Split::Train, &val_scenes)?.windows;
+        if !(self.train_fraction.is_finite()
+            && self.train_fraction > 0.0
+            && self.train_fraction <= 1.0)
+        {
+            bail!(
+                "--train-fraction {} is out of range: allowed a finite number in (0, 1]",
+                self.train_fraction
+            );
+        }
+        let mut train = data::track_fraction(
+            data::load(&self.data, &spec, data::Split::Train, &val_scenes)?.windows,
+            self.train_fraction,
+        );
         if !self.no_mirror {
             let mir: Vec<_> = train.iter().map(data::mirrored).collect();
             train.extend(mir);

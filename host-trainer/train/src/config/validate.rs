@@ -24,7 +24,9 @@ impl TrainConfig {
     /// most [`MAX_HIDDEN_LAYERS`] hidden layers per network (the blob holds at most 8 layers
     /// per network); `num_epochs`, `batch_size`, `eval_every` at least 1 (`num_epochs`,
     /// `eval_every` and `seed` at most `i64::MAX`, a TOML integer); `learning_rate`
-    /// finite in `(0, 1]`; `data_scale`, `coord_scale`, `w0`, `point_reg` finite and `> 0`;
+    /// finite in `(0, 1]`; `data_scale` finite and `> 0`, or [`super::AUTO_DATA_SCALE`] (a new
+    /// run computes it); `train_fraction` finite in `(0, 1]`; `coord_scale`, `w0`,
+    /// `point_reg` finite and `> 0`;
     /// `sigma`, `kld_reg`, `adl_reg` finite and `>= 0`; `obs_noise` finite in
     /// `[0, `[`MAX_OBS_NOISE`]`]`; `threads` in `0..=`[`MAX_THREADS`].
     ///
@@ -99,7 +101,18 @@ impl TrainConfig {
                 self.learning_rate
             );
         }
-        positive("data_scale", f64::from(self.data_scale))?;
+        if self.data_scale != super::AUTO_DATA_SCALE {
+            positive("data_scale", f64::from(self.data_scale))?;
+        }
+        if !(self.train_fraction.is_finite()
+            && self.train_fraction > 0.0
+            && self.train_fraction <= 1.0)
+        {
+            bail!(
+                "train_fraction = {} is out of range: allowed a finite number in (0, 1]",
+                self.train_fraction
+            );
+        }
         positive("coord_scale", f64::from(self.coord_scale))?;
         positive("point_reg", f64::from(self.point_reg))?;
         if self.activation == Act::Linear {

@@ -99,6 +99,10 @@ pub struct ProposeArgs {
     /// 0 = none.
     #[arg(long, value_name = "SIGMA", default_value_t = 0.0)]
     pub obs_noise: f32,
+    /// Train on the windows of a fixed FRACTION of the training split's tracks, as
+    /// `gpecnet train --train-fraction` (the same tracks); validation is never reduced.
+    #[arg(long, value_name = "FRACTION", default_value_t = 1.0)]
+    pub train_fraction: f32,
 }
 
 /// Hidden activation of a proposal network.
@@ -169,6 +173,15 @@ impl ProposeArgs {
             bail!(
                 "--obs-noise {} is out of range: allowed a finite number in [0, {max_noise}] (the blob's unit)",
                 self.obs_noise
+            );
+        }
+        if !(self.train_fraction.is_finite()
+            && self.train_fraction > 0.0
+            && self.train_fraction <= 1.0)
+        {
+            bail!(
+                "--train-fraction {} is out of range: allowed a finite number in (0, 1]",
+                self.train_fraction
             );
         }
         if !(self.prior_weight.is_finite() && self.prior_weight >= 0.0) {
@@ -275,6 +288,7 @@ impl ProposeArgs {
             time_reversal: !self.no_time_reversal,
             mirror: !self.no_mirror,
             obs_noise: self.obs_noise,
+            train_fraction: self.train_fraction,
         };
         ProposeRun {
             model: &model,

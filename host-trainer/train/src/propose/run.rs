@@ -54,7 +54,12 @@ fn windows(
     split: data::Split,
     s: &ProposeSettings,
 ) -> Result<Vec<Window>> {
-    Ok(data::load(root, spec, split, &s.val_scenes)?.windows)
+    let windows = data::load(root, spec, split, &s.val_scenes)?.windows;
+    Ok(if split == data::Split::Train {
+        data::track_fraction(windows, s.train_fraction)
+    } else {
+        windows
+    })
 }
 
 fn build(s: &ProposeSettings, fdim: usize, zdim: usize) -> Result<Mlp> {

@@ -29,10 +29,12 @@
 //!
 //! Files: `prepare.rs` (the data a run trains and validates on), `trainer.rs` (the model,
 //! optimizer and RNG of a run and its epochs), `validate.rs` (validation metrics),
-//! `run.rs` (new and resumed runs, the epoch loop), `fingerprint.rs` (the data fingerprint
+//! `run.rs` (new and resumed runs, the epoch loop), `init.rs` (the weights a fine-tuning run
+//! starts from), `fingerprint.rs` (the data fingerprint
 //! `--resume` checks), `report.rs` (`metrics.csv`, `metrics.jsonl`, `curves.svg`).
 
 mod fingerprint;
+pub mod init;
 mod memory;
 mod prepare;
 mod report;
@@ -43,8 +45,8 @@ mod validate;
 pub use fingerprint::DataFingerprint;
 pub use memory::keep_freed_memory;
 pub use prepare::{
-    noisy_samples, prepare_data, social_train_groups, synthetic_windows, with_obs_noise,
-    PreparedData, OBS_NOISE_STREAMS,
+    auto_data_scale, noisy_samples, prepare_data, social_train_groups, synthetic_windows,
+    with_obs_noise, PreparedData, OBS_NOISE_STREAMS,
 };
 pub use report::{plot_curves, write_metrics};
 pub use run::{

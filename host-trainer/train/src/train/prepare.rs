@@ -129,10 +129,38 @@ pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>
     Ok(windows)
 }
 
+/// The data scale of a config that leaves it to the data ([`crate::config::AUTO_DATA_SCALE`]):
+/// [`crate::config::data_scale_rule`] of the RMS span (first observed point to endpoint) of
+/// the real training windows the run will see ([`TrainConfig::train_fraction`] applied),
+/// with that span and the window count. Errors when the split has no window.
+pub fn auto_data_scale(cfg: &TrainConfig, data_root: &Path) -> Result<(f32, f64, usize)> {
+    let spec = cfg.dataset_spec()?;
+    let train = data::load(data_root, &spec, data::Split::Train, &cfg.val_scenes)?;
+    let windows = data::track_fraction(train.windows, cfg.train_fraction);
+    let n = windows.len();
+    let sum: f64 = windows
+        .iter()
+        .map(|w| {
+            let dx = f64::from(w.pos[w.pos.len() - 1][0] - w.pos[0][0]);
+            let dy = f64::from(w.pos[w.pos.len() - 1][1] - w.pos[0][1]);
+            dx * dx + dy * dy
+        })
+        .sum();
+    let span = (sum / n.max(1) as f64).sqrt();
+    match crate::config::data_scale_rule(span) {
+        Some(s) if n > 0 => Ok((s, span, n)),
+        _ => bail!(
+            "cannot compute data_scale: {n} training windows in {} with RMS span {span}              (set data_scale in the config)",
+            spec.location(data_root)
+        ),
+    }
+}
+
 /// Load and prepare the data a config asks for. Never touches the test split.
 pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData> {
     let spec = cfg.dataset_spec()?;
     let mut train = data::load(data_root, &spec, data::Split::Train, &cfg.val_scenes)?;
+    train.windows = data::track_fraction(std::mem::take(&mut train.windows), cfg.train_fraction);
     let val = data::load(data_root, &spec, data::Split::Val, &cfg.val_scenes)?;
     if cfg.include_train_extra {
         let extra = data::load_sdd(data_root, data::SddSplit::TrainExtra)?;

@@ -107,6 +107,16 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
         );
     }
     set_num_threads(cfg.resolved_threads());
+    if cfg.data_scale == crate::config::AUTO_DATA_SCALE {
+        let (scale, span, n) = auto_data_scale(&cfg, &opts.data_root)?;
+        eprintln!(
+            "data_scale = {scale} (computed: 1.86 x 208.2 / {span:.3}, the RMS span of {n}              training windows; written to config.toml)"
+        );
+        cfg.data_scale = scale;
+    }
+    if let Some(init) = &cfg.init {
+        eprintln!("starting from {init} (fine-tuning: fresh optimizer, epochs from 1)");
+    }
     // Nothing is written before the data load: a run that fails there (wrong --data, a bad
     // file) leaves the folder as it was, so the corrected command needs no --force.
     let data = prepare_data(&cfg, &opts.data_root)?;
@@ -148,7 +158,12 @@ pub fn train_resume_checked(
     let ckpt = checkpoint::load_for_resume(&opts.run_dir)?;
     let cfg = ckpt.config()?;
     if let Some(e) = expected {
-        let d = config_diff(&cfg, e)?;
+        // A config that leaves data_scale to the data matches the number the run computed.
+        let mut e = e.clone();
+        if e.data_scale == crate::config::AUTO_DATA_SCALE {
+            e.data_scale = cfg.data_scale;
+        }
+        let d = config_diff(&cfg, &e)?;
         if !d.is_empty() {
             bail!(
                 "--config differs from the config of the run in {} ({}); resume without --config or start a new run in another --out",
@@ -209,7 +224,8 @@ pub fn train_resume_checked(
     run_loop(trainer, opts)
 }
 
-/// Keys whose values differ between two configs (`num_epochs` is ignored), as
+/// Keys whose values differ between two configs (`num_epochs` is ignored, and `init`: a
+/// resumed run continues from its own checkpoint, whatever it started from), as
 /// `key: a -> b`.
 pub fn config_diff(a: &TrainConfig, b: &TrainConfig) -> Result<Vec<String>> {
     let ta: toml::Table = toml::from_str(&a.to_toml_string()?)?;
@@ -221,7 +237,11 @@ pub fn config_diff(a: &TrainConfig, b: &TrainConfig) -> Result<Vec<String>> {
     Ok(keys
         .into_iter()
         // Compared as written: a float that is not a number equals itself here.
-        .filter(|k| k.as_str() != "num_epochs" && show(ta.get(*k)) != show(tb.get(*k)))
+        .filter(|k| {
+            k.as_str() != "num_epochs"
+                && k.as_str() != "init"
+                && show(ta.get(*k)) != show(tb.get(*k))
+        })
         .map(|k| format!("{k}: {} -> {}", show(ta.get(k)), show(tb.get(k))))
         .collect())
 }

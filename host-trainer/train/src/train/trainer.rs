@@ -44,12 +44,21 @@ pub struct Trainer {
 }
 
 impl Trainer {
-    /// Fresh run: weights from the INIT stream, shuffling/noise from the TRAIN stream.
+    /// Fresh run: weights from the INIT stream (then overwritten by those of
+    /// [`TrainConfig::init`] when it names a source, [`init`]), shuffling/noise from the TRAIN
+    /// stream.
     pub fn new(cfg: TrainConfig, data: PreparedData) -> Result<Self> {
         cfg.validate()?;
         set_num_threads(cfg.resolved_threads());
         keep_freed_memory();
+        if cfg.data_scale == crate::config::AUTO_DATA_SCALE {
+            bail!("data_scale is left to the data and not computed yet (train_new computes it)");
+        }
         let model = Model::new(&cfg, &mut Rng::with_stream(cfg.seed, streams::INIT))?;
+        if let Some(path) = &cfg.init {
+            let src = init::load_init(std::path::Path::new(path))?;
+            init::apply_init(&model, &src)?;
+        }
         let adam = Adam::new(model.vars(), AdamParams::with_lr(cfg.learning_rate));
         let rng = Rng::with_stream(cfg.seed, streams::TRAIN);
         Ok(Self {
