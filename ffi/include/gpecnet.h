@@ -323,6 +323,10 @@
 // `y_min > y_max`).
 #define GPECNET_E_CAMERA_BAD_BOX 111
 
+// Camera: a measurement-noise standard deviation is negative or not
+// finite.
+#define GPECNET_E_CAMERA_NOISE 112
+
 // Most trusted keys one `gpecnet_init_signed` call takes.
 #define GPECNET_MAX_TRUSTED_KEYS 8
 
@@ -1111,6 +1115,25 @@ int32_t gpecnet_ground_to_image(const struct GpecnetPose *pose,
                                 float north,
                                 float east,
                                 float *out_uv);
+
+// The first-order covariance of the ground point seen at pixel `(u, v)`
+// (the core's `Pose::ground_covariance`) under i.i.d. detector noise of
+// `sigma_px` pixels on `u` and `v` and camera-orientation noise of
+// `sigma_att` radians about each world axis: `out_cov` = `{nn, ne, ee}`,
+// metres². Its isotropic `sqrtf((nn + ee) / 2)` is the per-detection
+// sigma a Kalman filter takes. The refusals of [`gpecnet_image_to_ground`]
+// come after [`GPECNET_E_CAMERA_NOISE`] (a noise negative or not finite);
+// nothing is written on failure.
+//
+// # Safety
+// `pose` is NULL or valid for a read of a [`GpecnetPose`]; `out_cov` is
+// NULL or valid for writes of 3 floats (any alignment).
+int32_t gpecnet_ground_covariance(const struct GpecnetPose *pose,
+                                  float u,
+                                  float v,
+                                  float sigma_px,
+                                  float sigma_att,
+                                  float *out_cov);
 
 // Maps one frame's `n` boxes at `boxes` onto the ground, each at its foot
 // point ([`GpecnetBox`]), through the core's `to_observations`: box `i`'s

@@ -28,7 +28,7 @@
 //! core's `to_observations`.
 use gpecnet_core::camera::{
     attitude_from_ros, position_from_ros, to_observations, BoundingBox, Camera, CameraError,
-    Detection, Distortion, Euler, Intrinsics, Pose, State,
+    Detection, Distortion, Euler, Intrinsics, MeasurementNoise, Pose, State,
 };
 use gpecnet_core::tracks::Observation;
 
@@ -348,6 +348,48 @@ pub unsafe extern "C" fn gpecnet_ground_to_image(
         let uv = pose.ground_to_image([north, east]).map_err(camera_status)?;
         // SAFETY: non-null, room for 2 floats (caller's contract); any alignment.
         unsafe { crate::boundary::write_points(out_uv, &[uv]) };
+        Ok(())
+    })
+}
+
+/// The first-order covariance of the ground point seen at pixel `(u, v)`
+/// (the core's `Pose::ground_covariance`) under i.i.d. detector noise of
+/// `sigma_px` pixels on `u` and `v` and camera-orientation noise of
+/// `sigma_att` radians about each world axis: `out_cov` = `{nn, ne, ee}`,
+/// metres². Its isotropic `sqrtf((nn + ee) / 2)` is the per-detection
+/// sigma a Kalman filter takes. The refusals of [`gpecnet_image_to_ground`]
+/// come after [`GPECNET_E_CAMERA_NOISE`] (a noise negative or not finite);
+/// nothing is written on failure.
+///
+/// # Safety
+/// `pose` is NULL or valid for a read of a [`GpecnetPose`]; `out_cov` is
+/// NULL or valid for writes of 3 floats (any alignment).
+#[no_mangle]
+pub unsafe extern "C" fn gpecnet_ground_covariance(
+    pose: *const GpecnetPose,
+    u: f32,
+    v: f32,
+    sigma_px: f32,
+    sigma_att: f32,
+    out_cov: *mut f32,
+) -> i32 {
+    guard(|| {
+        non_null(out_cov)?;
+        // SAFETY: the caller's contract on `pose`.
+        let pose = unsafe { read_pose(pose) }?;
+        let noise = MeasurementNoise {
+            pixel: sigma_px,
+            attitude: sigma_att,
+        };
+        let c = pose
+            .ground_covariance([u, v], &noise)
+            .map_err(camera_status)?;
+        let out = [c.nn, c.ne, c.ee];
+        for (i, x) in out.iter().enumerate() {
+            // SAFETY: non-null, room for 3 floats (caller's contract); an
+            // unaligned write, as the caller may pass any alignment.
+            unsafe { out_cov.add(i).write_unaligned(*x) };
+        }
         Ok(())
     })
 }

@@ -177,6 +177,9 @@ pub const GPECNET_E_CAMERA_OUTPUT_FULL: i32 = 110;
 /// Camera: a bounding box's edges are out of order (`x_min > x_max` or
 /// `y_min > y_max`).
 pub const GPECNET_E_CAMERA_BAD_BOX: i32 = 111;
+/// Camera: a measurement-noise standard deviation is negative or not
+/// finite.
+pub const GPECNET_E_CAMERA_NOISE: i32 = 112;
 
 /// The status code of a blob error (exhaustive: a new core variant fails to compile here).
 pub fn blob_status(e: BlobError) -> i32 {
@@ -279,6 +282,7 @@ pub fn camera_status(e: CameraError) -> i32 {
         CameraError::Overflow => GPECNET_E_CAMERA_OVERFLOW,
         CameraError::OutputFull => GPECNET_E_CAMERA_OUTPUT_FULL,
         CameraError::BadBox => GPECNET_E_CAMERA_BAD_BOX,
+        CameraError::Noise => GPECNET_E_CAMERA_NOISE,
         _ => GPECNET_E_UNKNOWN_ERROR,
     }
 }
@@ -378,6 +382,7 @@ pub extern "C" fn gpecnet_status_str(status: i32) -> *const c_char {
         GPECNET_E_CAMERA_OVERFLOW => c"camera arithmetic overflowed",
         GPECNET_E_CAMERA_OUTPUT_FULL => c"detection array full: the box has no detection",
         GPECNET_E_CAMERA_BAD_BOX => c"bounding box edges out of order (x_min > x_max or y_min > y_max)",
+        GPECNET_E_CAMERA_NOISE => c"measurement noise standard deviation negative or not finite",
         GPECNET_E_UNKNOWN_ERROR => c"an error this build of the C ABI has no code for",
         _ => c"unknown status code",
     };

@@ -6,7 +6,7 @@
 use std::ptr::{null, null_mut};
 
 use gpecnet_core::camera::{
-    to_observations, BoundingBox, Camera, CameraError, Detection, Pose, State,
+    to_observations, BoundingBox, Camera, CameraError, Detection, MeasurementNoise, Pose, State,
 };
 use gpecnet_core::tracks::Observation;
 use gpecnet_ffi::*;
@@ -43,6 +43,7 @@ fn code(e: CameraError) -> i32 {
         CameraError::Overflow => 109,
         CameraError::OutputFull => 110,
         CameraError::BadBox => 111,
+        CameraError::Noise => 112,
         _ => unreachable!("a new CameraError variant: give it a code"),
     }
 }
@@ -426,6 +427,8 @@ fn every_camera_error_has_its_code_and_text() {
         CameraError::Undistortion,
         CameraError::Overflow,
         CameraError::OutputFull,
+        CameraError::BadBox,
+        CameraError::Noise,
     ];
     let mut texts = std::collections::BTreeSet::new();
     for e in all {
@@ -791,6 +794,70 @@ fn ros_conversions_are_the_cores() {
         assert_eq!(
             gpecnet_position_from_ros(enu.as_ptr(), null_mut()),
             GPECNET_E_NULL_POINTER
+        );
+    }
+}
+
+/// The ground point's covariance through C equals the core's bit for bit
+/// over the image; a bad noise, a NULL output, a refused pose and a pixel
+/// above the horizon are their status codes, with nothing written.
+#[test]
+fn ground_covariance_through_c_equals_the_core() {
+    let (st, p) = pose(&camera(), &state());
+    assert_eq!(st, GPECNET_OK);
+    let core = Pose::new(&Camera::from(camera()), &State::from(state())).unwrap();
+    let cov = |p: &GpecnetPose, uv: [f32; 2], sp: f32, sa: f32| -> Result<[f32; 3], i32> {
+        let mut out = [f32::NAN; 3];
+        // SAFETY: test: a pose, room for 3 floats.
+        match unsafe { gpecnet_ground_covariance(p, uv[0], uv[1], sp, sa, out.as_mut_ptr()) } {
+            GPECNET_OK => Ok(out),
+            e => {
+                assert!(out.iter().all(|x| x.is_nan()), "written on failure");
+                Err(e)
+            }
+        }
+    };
+    let mut seen = 0;
+    for iu in 0..=12 {
+        for iv in 0..=8 {
+            let uv = [iu as f32 * 160.0, iv as f32 * 135.0];
+            let noise = MeasurementNoise {
+                pixel: 1.5,
+                attitude: 0.008,
+            };
+            match core.ground_covariance(uv, &noise) {
+                Ok(c) => {
+                    let got = cov(&p, uv, 1.5, 0.008).unwrap();
+                    assert_eq!(got.map(f32::to_bits), [c.nn, c.ne, c.ee].map(f32::to_bits));
+                    seen += 1;
+                }
+                Err(e) => assert_eq!(cov(&p, uv, 1.5, 0.008), Err(code(e))),
+            }
+        }
+    }
+    assert!(seen > 40, "{seen} pixels see the ground");
+    assert_eq!(
+        cov(&p, [960.0, 900.0], -1.0, 0.0),
+        Err(GPECNET_E_CAMERA_NOISE)
+    );
+    assert_eq!(
+        cov(&p, [960.0, 900.0], 1.0, f32::NAN),
+        Err(GPECNET_E_CAMERA_NOISE)
+    );
+    assert_eq!(
+        cov(&p, [960.0, -4000.0], 1.0, 0.01),
+        Err(GPECNET_E_CAMERA_ABOVE_HORIZON)
+    );
+    // SAFETY: test: NULL output and NULL pose are refused before any access.
+    unsafe {
+        assert_eq!(
+            gpecnet_ground_covariance(&p, 960.0, 900.0, 1.0, 0.0, null_mut()),
+            GPECNET_E_NULL_POINTER
+        );
+        let mut out = [0.0f32; 3];
+        assert_ne!(
+            gpecnet_ground_covariance(null(), 960.0, 900.0, 1.0, 0.0, out.as_mut_ptr()),
+            GPECNET_OK
         );
     }
 }

@@ -49,6 +49,7 @@ fn header_has_every_entry_point_and_cpp_guards() {
         "gpecnet_camera_pose",
         "gpecnet_image_to_ground",
         "gpecnet_ground_to_image",
+        "gpecnet_ground_covariance",
         "gpecnet_boxes_to_detections",
         "gpecnet_attitude_from_ros",
         "gpecnet_position_from_ros",

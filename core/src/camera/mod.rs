@@ -69,7 +69,9 @@
 //!
 //! Every step is f32 `+ − × ÷`, libm 0.2.16's `sinf`/`cosf`/`sqrtf` and
 //! comparisons in the order each submodule writes down (`intrinsics`: the
-//! lens; `rotation`: the matrices; `pose`: the ray and its intersection).
+//! lens; `rotation`: the matrices; `pose`: the ray and its intersection;
+//! `uncertainty`: the ground point's first-order covariance,
+//! [`Pose::ground_covariance`]).
 //! Rust never fuses a multiply and an add, so the host, the Cortex-M and C
 //! callers of the same code get the same bits. The error against a
 //! double-precision reference is measured in `docs/camera.md` (under
@@ -87,6 +89,7 @@ mod detections;
 mod intrinsics;
 mod pose;
 mod rotation;
+mod uncertainty;
 
 pub use detections::{to_observations, BoundingBox, Detection};
 pub use intrinsics::{
@@ -94,6 +97,7 @@ pub use intrinsics::{
 };
 pub use pose::{Camera, Pose, State, QUATERNION_TOLERANCE};
 pub use rotation::{attitude_from_ros, position_from_ros, Euler};
+pub use uncertainty::{GroundCovariance, MeasurementNoise};
 
 /// Why a camera input or a point was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,6 +136,9 @@ pub enum CameraError {
     /// A bounding box whose edges are out of order (`x_min > x_max` or
     /// `y_min > y_max`: [`BoundingBox::check`]).
     BadBox,
+    /// A [`MeasurementNoise`] standard deviation that is negative or not
+    /// finite ([`Pose::ground_covariance`]).
+    Noise,
 }
 
 impl core::fmt::Display for CameraError {
@@ -149,6 +156,7 @@ impl core::fmt::Display for CameraError {
             CameraError::Overflow => "camera arithmetic overflowed",
             CameraError::OutputFull => "observation buffer full",
             CameraError::BadBox => "bounding box edges out of order",
+            CameraError::Noise => "measurement noise negative or not finite",
         })
     }
 }

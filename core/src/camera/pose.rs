@@ -170,6 +170,16 @@ impl Pose {
         self.height
     }
 
+    /// The lens's focal lengths and principal point.
+    pub(super) fn intrinsics(&self) -> &Intrinsics {
+        &self.intrinsics
+    }
+
+    /// Camera → NED, scaled by `|q|²`.
+    pub(super) fn rotation(&self) -> &Matrix3<f32> {
+        &self.r
+    }
+
     /// The ray through pixel `uv` in NED, `R·(x, y, 1)`: its direction only
     /// (length `|q|²·√(x² + y² + 1)`).
     pub fn ray(&self, uv: [f32; 2]) -> Result<[f32; 3], CameraError> {
@@ -184,6 +194,12 @@ impl Pose {
     /// The ground point `(north, east)` in metres seen at pixel `uv` (the
     /// module's rules), or why there is none.
     pub fn image_to_ground(&self, uv: [f32; 2]) -> Result<[f32; 2], CameraError> {
+        self.ground_and_ray(uv).map(|(g, _)| g)
+    }
+
+    /// [`Pose::image_to_ground`] with the ray it cast (for the measurement
+    /// model, `uncertainty`).
+    pub(super) fn ground_and_ray(&self, uv: [f32; 2]) -> Result<([f32; 2], [f32; 3]), CameraError> {
         let [dn, de, dd] = self.ray(uv)?;
         if dd.is_nan() {
             return Err(CameraError::Overflow);
@@ -198,7 +214,7 @@ impl Pose {
         let t = self.height / dd;
         let ground = [self.origin[0] + dn * t, self.origin[1] + de * t];
         if ground[0].is_finite() && ground[1].is_finite() {
-            Ok(ground)
+            Ok((ground, [dn, de, dd]))
         } else {
             Err(CameraError::Overflow)
         }
