@@ -32,6 +32,11 @@ pub fn run() -> bool {
         ),
     };
     crate::golden::resample_scene(&mut print);
+    // The synthetic flight's camera stage, where the golden image has room for it (the
+    // Cortex-M0 plays it in the online loop's image, `online`).
+    if crate::ONLINE_SCENE {
+        crate::golden::flight_scene(&mut print);
+    }
     defmt::println!(
         "golden summary: models={=u32} cases={=u32} mismatches={=u32} errors={=u32} xchecks={=u32}",
         s.models,
@@ -45,8 +50,9 @@ pub fn run() -> bool {
 
 /// The online loop's streamed scene alone ([`crate::golden::online_scene`]
 /// on [`crate::golden::ONLINE_MODEL`], one defmt line per camera frame, the
-/// lines `cargo xtask qemu` compares with the host's): the image of a class
-/// whose golden image leaves the scene out ([`crate::ONLINE_SCENE`]). It
+/// lines `cargo xtask qemu` compares with the host's), after the synthetic
+/// flight's camera stage ([`crate::golden::flight_scene`]): the image of a
+/// class whose golden image leaves both out ([`crate::ONLINE_SCENE`]). It
 /// embeds the scene's model alone, without its golden file, so the loop's
 /// code fits the Cortex-M0's flash; `true` when the scene ran to its end.
 pub fn online() -> bool {
@@ -63,6 +69,9 @@ pub fn online() -> bool {
         crate::watchdog::feed();
         print(l)
     };
+    // The synthetic flight's camera stage first: the golden image of this class has no
+    // flash for the camera module beside its models.
+    crate::golden::flight_scene(&mut print);
     match crate::golden::online_scene::<{ crate::SCRATCH }>(name, blob, &mut out) {
         Ok(()) => {
             defmt::println!(
@@ -127,6 +136,18 @@ fn print(l: crate::golden::Line<'_>) {
             points,
             hash,
         } => defmt::println!("resample {=u32} {=u32} {=u32:08x}", frames, points, hash),
+        Line::Flight {
+            frames,
+            detections,
+            points,
+            hash,
+        } => defmt::println!(
+            "flight {=u32} {=u32} {=u32} {=u32:08x}",
+            frames,
+            detections,
+            points,
+            hash
+        ),
         Line::Online {
             model,
             frame,

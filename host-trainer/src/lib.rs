@@ -7,8 +7,8 @@ pub use gpecnet_data as data;
 pub use gpecnet_data::units;
 pub use gpecnet_files::{csvfile, inpath, outpath, rundir};
 pub use gpecnet_metrics::{
-    baseline, card, core_eval, dist, draw, eval, fixed_eval, planner_metrics, proposal_file,
-    score_file, stream,
+    baseline, card, core_eval, dist, draw, eval, fixed_eval, flight, planner_metrics,
+    proposal_file, score_file, stream,
 };
 pub use gpecnet_nn::{mlp, ops, optim, pool, rng};
 pub use gpecnet_onnx as onnx;

@@ -21,7 +21,10 @@ const BAD: &[(&str, &[&str])] = &[
         &["activation = \"linear\"", "\"sine\" or \"relu\""],
     ),
     ("data_scale = 0.0", &["data_scale = 0", "> 0"]),
-    ("data_scale = \"big\"", &["data_scale = \"big\"", "\"auto\""]),
+    (
+        "data_scale = \"big\"",
+        &["data_scale = \"big\"", "\"auto\""],
+    ),
     ("sigma = inf", &["sigma = inf", ">= 0"]),
     ("sigma = -1.0", &["sigma = -1", ">= 0"]),
     ("w0 = 0.0", &["w0 = 0", "> 0"]),

@@ -14,6 +14,10 @@
 //!                                        (no expected values; host vs target only)
 //! resample <frames> <points> <fnv32>     the timed track table on a jittery 30 Hz scene
 //!                                        ([`resample_scene`]; host vs target only)
+//! flight <frames> <detections> <points> <fnv32>
+//!                                        the camera, the measurement model, the filter and
+//!                                        the table on a simulated drone's detections
+//!                                        ([`flight_scene`]; host vs target only)
 //! online <model> <frame> <t_ms> <forecasts> <feedback> <fnv32>
 //!                                        one per camera frame of the streamed scene through
 //!                                        the online loop, after [`ONLINE_MODEL`]'s cases
@@ -42,7 +46,10 @@ use gpecnet_core::tracks::{Observation, TimedTrackTable};
 use gpecnet_core::{fixed, Model, NumericKind, PredictError, Predictor, Trajectory};
 use heapless::Vec;
 
+mod flight;
 pub mod pack;
+
+pub use flight::{flight_camera, flight_scene, FLIGHT_FRAMES, FLIGHT_PEDESTRIANS};
 
 /// Maximum endpoints per golden case / prediction.
 pub const MAX_K: usize = 20;
@@ -104,6 +111,17 @@ pub enum Line<'a> {
         /// FNV-1a over every fresh history's id, end time and position bits.
         hash: u32,
     },
+    /// `flight <frames> <detections> <points> <hash>`: [`flight_scene`]'s result.
+    Flight {
+        /// Camera frames of the scene.
+        frames: u32,
+        /// Ground points given to the filter.
+        detections: u32,
+        /// Fresh full histories hashed.
+        points: u32,
+        /// FNV-1a over every ground point, σ, filtered position and fresh history.
+        hash: u32,
+    },
     /// `online <model> <frame> <t_ms> <forecasts> <feedback> <hash>`: one
     /// camera frame of [`online_scene`].
     Online {
@@ -142,7 +160,7 @@ pub enum Line<'a> {
 impl Line<'_> {
     /// The line as text through `print(text, error)`: `error` is `false` for
     /// the result lines `cargo xtask qemu` compares (`model`, `golden`,
-    /// `xcheck`, `resample`, `online`) and `true` for failures (printed on stderr on the host, at
+    /// `xcheck`, `resample`, `flight`, `online`) and `true` for failures (printed on stderr on the host, at
     /// error level by defmt); a golden case that differs from its sidecar is
     /// followed by the error line `MISMATCH <model> case <case>`.
     pub fn print(&self, print: &mut dyn FnMut(fmt::Arguments<'_>, bool)) {
@@ -178,6 +196,15 @@ impl Line<'_> {
                 points,
                 hash,
             } => print(format_args!("resample {frames} {points} {hash:08x}"), false),
+            Line::Flight {
+                frames,
+                detections,
+                points,
+                hash,
+            } => print(
+                format_args!("flight {frames} {detections} {points} {hash:08x}"),
+                false,
+            ),
             Line::Online {
                 model,
                 frame,

@@ -54,6 +54,16 @@ fn every_line_kind_has_its_text() {
         printed(resample),
         [("resample 400 77 01020304".into(), false)]
     );
+    let flight = Line::Flight {
+        frames: 360,
+        detections: 4_321,
+        points: 512,
+        hash: 0x00c0_ffee,
+    };
+    assert_eq!(
+        printed(flight),
+        [("flight 360 4321 512 00c0ffee".into(), false)]
+    );
     let online = Line::Online {
         model: "m",
         frame: 7,

@@ -504,6 +504,20 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
         host_resample.first().copied().unwrap_or("<none>"),
         if resampled { "" } else { "  <- NOT VERIFIED" }
     );
+    // The synthetic flight's camera stage: once per firmware image, once on the host.
+    let fw_flight = lines_with(&fw_out, &["flight "]);
+    let host_flight = lines_with(&host_out, &["flight "]);
+    let flown = !fw_flight.is_empty()
+        && host_flight.len() == 1
+        && fw_flight.iter().all(|l| Some(l) == host_flight.first());
+    outln!(
+        log,
+        "qemu: synthetic flight scene (camera, measurement model, filter, table): {} firmware image(s) {:?}, host {:?}{}",
+        fw_flight.len(),
+        fw_flight.first().copied().unwrap_or("<none>"),
+        host_flight.first().copied().unwrap_or("<none>"),
+        if flown { "" } else { "  <- NOT VERIFIED" }
+    );
     // The streamed scene through the online loop: one line per frame after the cases of
     // its model (compared line by line above), on every class that embeds that model.
     let online_model = gpecnet_replay::ONLINE_MODEL;
@@ -524,7 +538,7 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
             "  <- NOT VERIFIED"
         }
     );
-    let run_ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && resampled && online_ok;
+    let run_ok = fw_rc == 0 && host_rc == 0 && differ.is_empty() && resampled && flown && online_ok;
     // Every embedded model must have been verified, each with all its cases.
     let mut missing_models = 0;
     for m in &models {

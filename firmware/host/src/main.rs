@@ -75,6 +75,7 @@ fn main() {
         })
     });
     gpecnet_replay::resample_scene(&mut |l| l.print(&mut |text, _| println!("{text}")));
+    gpecnet_replay::flight_scene(&mut |l| l.print(&mut |text, _| println!("{text}")));
     println!("{s}");
     exit(if s.ok() { 0 } else { 1 })
 }

@@ -38,6 +38,7 @@ use gpecnet_core::{LibmSine, Model, Predictor};
 use serde::Serialize;
 
 use crate::data::Recording;
+use crate::flight::{Flight, FlightSettings, FlightStats};
 
 /// Endpoints per forecast (the shipped models' K).
 pub const K: usize = 20;
@@ -68,6 +69,12 @@ pub struct StreamSettings {
     /// The core's per-track Kalman filter in front of the forecaster, its config in metres
     /// (scaled to each recording's unit); `None`: detections go in as they are.
     pub filter: Option<FilterConfig>,
+    /// A simulated drone's camera between the recording and the forecaster
+    /// ([`crate::flight`]): each detection is projected into its image, detected with pixel
+    /// noise and misses, and mapped back to the ground through a pose with attitude error;
+    /// the filter then takes each detection's σ from the measurement model. Metre recordings
+    /// only. `None`: the recording's positions (with [`StreamSettings::noise_m`]) go in.
+    pub flight: Option<FlightSettings>,
 }
 
 impl Default for StreamSettings {
@@ -79,6 +86,7 @@ impl Default for StreamSettings {
             noise_m: 0.0,
             noise_seed: 0,
             filter: None,
+            flight: None,
         }
     }
 }
@@ -161,6 +169,9 @@ pub struct StreamReport {
     pub rolling_r90: Vec<f64>,
     /// The endpoint's multipliers `[c50, c90]` per motion state at the end.
     pub final_multipliers: BTreeMap<String, [f32; 2]>,
+    /// What the simulated drone's camera and detector did ([`StreamSettings::flight`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flight: Option<FlightStats>,
 }
 
 /// A forecast waiting for its truth.
@@ -305,6 +316,34 @@ fn stream_with<const P: usize>(
         bail!("noise of {} m: expected a finite value >= 0", s.noise_m);
     }
     let mut normal = Gaussian::new(s.noise_seed);
+    let mut flight = match s.flight {
+        Some(fs) => {
+            if rec.metres_per_unit != Some(1.0) {
+                bail!(
+                    "{}: a synthetic flight needs a recording in metres (--dataset sdd-m, \
+                     eth_ucy:<scene> or a metre folder)",
+                    rec.scene
+                );
+            }
+            if noise > 0.0 {
+                bail!("a synthetic flight makes its own detection noise: drop --noise-m");
+            }
+            let (mut sum, mut n) = ([0.0f64; 2], 0usize);
+            for f in &rec.frames {
+                for (_, p) in &f.detections {
+                    sum[0] += f64::from(p[0]);
+                    sum[1] += f64::from(p[1]);
+                    n += 1;
+                }
+            }
+            let centre = [sum[0] / n.max(1) as f64, sum[1] / n.max(1) as f64];
+            let t0 = rec.frames.first().map_or(0, |f| f.t_ms);
+            Some(Flight::new(fs, centre, t0).map_err(|e| anyhow!("{e}"))?)
+        }
+        None => None,
+    };
+    let mut seen: Vec<(u32, [f32; 2], f32)> = Vec::new();
+    let mut sigmas: Vec<f32> = Vec::new();
     let mut clean_obs: Vec<Observation> = Vec::new();
     let mut truth: HashMap<u32, BTreeMap<u32, [f32; 2]>> = HashMap::new();
     let mut obs: Vec<Observation> = Vec::new();
@@ -327,8 +366,26 @@ fn stream_with<const P: usize>(
                 o.pos[1] += noise * normal.next();
             }
         }
+        sigmas.clear();
+        if let Some(fl) = flight.as_mut() {
+            seen.clear();
+            fl.detect(frame.t_ms, &frame.detections, &mut seen)
+                .map_err(|e| {
+                    anyhow!(
+                        "{}: the simulated drone at {} ms: {e}",
+                        rec.scene,
+                        frame.t_ms
+                    )
+                })?;
+            obs.clear();
+            obs.extend(seen.iter().map(|&(id, pos, _)| Observation { id, pos }));
+            sigmas.extend(seen.iter().map(|d| d.2));
+        }
         if let Some(fl) = filter.as_mut() {
-            fl.update(frame.t_ms, &mut obs);
+            // With a flight, each detection's σ is the measurement model's.
+            fl.update_with(frame.t_ms, &mut obs, |i, _| {
+                sigmas.get(i).copied().unwrap_or(f32::NAN)
+            });
         }
         made.clear();
         let mut left: Vec<u32> = Vec::new();
@@ -415,6 +472,7 @@ fn stream_with<const P: usize>(
         };
         r.forecasts = run.issued_n;
         r.failed = run.failed;
+        r.flight = flight.as_ref().map(Flight::stats);
         let cal = run.f.calibration();
         r.final_multipliers = MotionState::ALL
             .iter()
@@ -633,6 +691,10 @@ pub fn pool(name: &str, reports: &[StreamReport]) -> StreamReport {
             point_ade: w(&|r| r.fde.point_ade),
             min_k: w(&|r| r.fde.min_k),
         },
+        flight: reports.iter().all(|r| r.flight.is_some()).then(|| {
+            let parts: Vec<FlightStats> = reports.iter().filter_map(|r| r.flight).collect();
+            FlightStats::pooled(&parts)
+        }),
         ..StreamReport::default()
     }
 }

@@ -15,7 +15,7 @@ use gpecnet_data as data;
 use gpecnet_data::units;
 use gpecnet_files::{inpath, outpath, rundir};
 use gpecnet_metrics::{
-    baseline, card, core_eval, dist, draw, eval, fixed_eval, planner_metrics, proposal_file,
-    score_file, stream,
+    baseline, card, core_eval, dist, draw, eval, fixed_eval, flight, planner_metrics,
+    proposal_file, score_file, stream,
 };
 use gpecnet_reference::{export, network, quantize, reference, signing};

@@ -45,6 +45,9 @@ pub struct StreamSet {
     /// The Kalman filter's config (metres) when it was on.
     #[serde(serialize_with = "filter_config")]
     pub filter: Option<gpecnet_core::tracks::filter::FilterConfig>,
+    /// The simulated drone, when the recordings were seen through one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flight: Option<crate::flight::FlightSettings>,
     /// Per recording: `(off, on)`.
     pub recordings: Vec<[StreamReport; 2]>,
     /// All recordings pooled: `[off, on]`.
@@ -109,6 +112,7 @@ pub fn stream_blob(t: &StreamTarget, s: &StreamSettings, plot: Option<&Path>) ->
         noise_m: s.noise_m,
         noise_seed: s.noise_seed,
         filter: s.filter,
+        flight: s.flight,
         pooled: [pool(&name, &offs), pool(&name, &ons)],
         recordings: per,
     };
