@@ -257,7 +257,7 @@ fn data_scale_de<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f32, D::Error
         Scale::Word(w) => Err(serde::de::Error::custom(format!(
             "data_scale = \"{w}\": allowed a finite number > 0 or \"auto\""
         ))),
-        Scale::Number(x) if x == 0.0 => Err(serde::de::Error::custom(
+        Scale::Number(0.0) => Err(serde::de::Error::custom(
             "data_scale = 0 is out of range: allowed a finite number > 0 or \"auto\"",
         )),
         Scale::Number(x) => Ok(x as f32),
