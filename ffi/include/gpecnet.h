@@ -1122,7 +1122,7 @@ int32_t gpecnet_ground_to_image(const struct GpecnetPose *pose,
 // `sigma_att` radians about each world axis: `out_cov` = `{nn, ne, ee}`,
 // metres². Its isotropic `sqrtf((nn + ee) / 2)` is the per-detection
 // sigma a Kalman filter takes. The refusals of [`gpecnet_image_to_ground`]
-// come after [`GPECNET_E_CAMERA_NOISE`] (a noise negative or not finite);
+// come after `GPECNET_E_CAMERA_NOISE` (a noise negative or not finite);
 // nothing is written on failure.
 //
 // # Safety

@@ -7,8 +7,11 @@
 //! (`--features board`) DWT CYCCNT gives the cycles. A second window,
 //! once per image after the models, measures the timed track table: one
 //! model period (12 camera frames at 30 Hz) of 16 tracks in steady state
-//! ([`track_table_period`]); a third, when the image embeds a signed blob,
-//! one signature verification ([`verify_first_signed`]). An image built with
+//! ([`track_table_period`]); a third, the camera stage for the same 16
+//! pedestrians over the same period (pose, ground points, the measurement
+//! model's σ, the per-track filter: [`camera_period`]); a fourth, when the
+//! image embeds a signed blob, one signature verification
+//! ([`verify_first_signed`]). An image built with
 //! `GPECNET_PROFILE_EXTRAS=online` instead measures, after the models'
 //! windows, one grid step of one pedestrian through the online forecaster:
 //! its forecast (endpoints, probabilities, point forecast, per-step radii)
@@ -274,6 +277,98 @@ fn online_step(name: &str, model: Model<'static>) -> bool {
 }
 
 #[cfg(prof_extras)]
+/// The camera stage's frame `f` (30 Hz): the reported pose of a drone 30 m
+/// up, flying at 0.5 m/s, its camera 56° down, and 16 pedestrians' pixels
+/// (walking, spread over the image).
+fn camera_frame(f: u32) -> (u32, gpecnet_core::camera::State, [[f32; 2]; TRACKS]) {
+    let t_ms = f * 1000 / 30;
+    let t = t_ms as f32 / 1000.0;
+    let state = gpecnet_core::camera::State {
+        attitude: [1.0, 0.0, 0.0, 0.0],
+        position: [-20.0 + 0.5 * t, 0.2 * t, -30.0],
+        gimbal: gpecnet_core::camera::Euler {
+            roll: 0.0,
+            pitch: -0.98,
+            yaw: 0.0,
+        },
+        ground_down: 0.0,
+    };
+    let mut px = [[0.0f32; 2]; TRACKS];
+    for (id, p) in px.iter_mut().enumerate() {
+        let k = id as f32;
+        *p = [200.0 + 95.0 * k + 12.0 * t, 300.0 + 30.0 * k - 5.0 * t];
+    }
+    (t_ms, state, px)
+}
+
+#[cfg(prof_extras)]
+/// The measured camera stage: frames `from .. from + n`, each the reported
+/// pose (`Pose::new`), every pedestrian's pixel to the ground with the
+/// measurement model's σ (`image_to_ground`, `ground_covariance`) and the
+/// per-track filter (`TrackFilter::update_with`); returns the detections
+/// filtered.
+#[inline(never)]
+#[no_mangle]
+pub fn gpecnet_camera_frames(
+    filter: &mut gpecnet_core::tracks::filter::TrackFilter<TRACKS>,
+    from: u32,
+    n: u32,
+) -> u32 {
+    use gpecnet_core::camera::{MeasurementNoise, Pose};
+    let camera = crate::golden::flight_camera();
+    let noise = MeasurementNoise {
+        pixel: 2.0,
+        attitude: 0.0087,
+    };
+    let mut filtered = 0;
+    for f in from..from + n {
+        let (t_ms, state, px) = camera_frame(f);
+        let Ok(pose) = Pose::new(&camera, &state) else {
+            continue;
+        };
+        let mut obs: Vec<gpecnet_core::tracks::Observation, TRACKS> = Vec::new();
+        let mut sigma = [0.0f32; TRACKS];
+        for (id, uv) in px.iter().enumerate() {
+            if let (Ok(g), Ok(c)) = (pose.image_to_ground(*uv), pose.ground_covariance(*uv, &noise)) {
+                sigma[obs.len()] = c.sigma();
+                let _ = obs.push(gpecnet_core::tracks::Observation {
+                    id: id as u32,
+                    pos: g,
+                });
+            }
+        }
+        let r = filter.update_with(t_ms, &mut obs, |i, _| sigma.get(i).copied().unwrap_or(f32::NAN));
+        filtered += r.filtered;
+    }
+    filtered
+}
+
+#[cfg(prof_extras)]
+/// One model period (12 frames at 30 Hz) of the camera stage for 16
+/// pedestrians in steady state (every track filtered for 3.6 s before),
+/// between the markers; logs the filter's size. `true` when every
+/// detection of the window was filtered.
+fn camera_period() -> bool {
+    use gpecnet_core::tracks::filter::{FilterConfig, TrackFilter};
+    let Ok(mut filter) = TrackFilter::<TRACKS>::new(FilterConfig::metres()) else {
+        return false;
+    };
+    let warm = 108;
+    gpecnet_camera_frames(&mut filter, 0, warm);
+    bench_start();
+    let filtered = gpecnet_camera_frames(black_box(&mut filter), warm, black_box(FRAMES_PER_PERIOD));
+    bench_end();
+    defmt::println!(
+        "camera tracks={=usize} frames={=u32} filtered={=u32} filter_size={=u32}",
+        TRACKS,
+        FRAMES_PER_PERIOD,
+        filtered,
+        core::mem::size_of_val(&filter) as u32
+    );
+    filtered == TRACKS as u32 * FRAMES_PER_PERIOD
+}
+
+#[cfg(prof_extras)]
 /// The measured verification: a signed blob against the compiled-in keys.
 #[inline(never)]
 #[no_mangle]
@@ -386,6 +481,8 @@ pub fn run() -> bool {
     {
         crate::watchdog::feed();
         ok &= track_table_period();
+        crate::watchdog::feed();
+        ok &= camera_period();
         crate::watchdog::feed();
         ok &= verify_first_signed();
     }

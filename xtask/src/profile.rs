@@ -288,7 +288,9 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
     let mut failed = false;
     // The timed track table's window (the second of every image; the same code in each).
     let mut table: Option<(u64, String)> = None;
-    // The signature verification's window (the third, in images of signed blobs) and the
+    // The camera stage's window (the third of every image; the same code in each).
+    let mut camera: Option<(u64, String)> = None;
+    // The signature verification's window (the fourth, in images of signed blobs) and the
     // verifier's code: the functions of ed25519-dalek, curve25519-dalek, sha2 and the trailer.
     let mut verify: Option<(u64, String, u64)> = None;
     // The online forecaster's window (its own image, for a model the loop takes), per model.
@@ -356,8 +358,20 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
                     }
                 }
             }
-            if let (Some(&n), Some(l)) = (
+            match (
                 run.windows().get(2),
+                run.text.lines().find(|l| l.contains("camera tracks=")),
+            ) {
+                (Some(&n), Some(l)) => {
+                    camera.get_or_insert((n, l.trim().to_string()));
+                }
+                _ => {
+                    eprintln!("xtask: profile run {m}/{sine}: no camera-stage window");
+                    failed = true;
+                }
+            }
+            if let (Some(&n), Some(l)) = (
+                run.windows().get(3),
                 run.text.lines().find(|l| l.contains("verify model=")),
             ) {
                 let code: u64 = elf
@@ -526,6 +540,27 @@ pub(crate) fn profile(o: &Opts, only_fixed: Option<bool>, out: Option<&Path>) ->
             per_frame = insns / frames,
             size = num("table_size"),
             track = num("track_size"),
+        );
+    }
+    if let Some((insns, line)) = &camera {
+        let num = |k: &str| {
+            field(line, k)
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(0)
+        };
+        let frames = num("frames").max(1);
+        let per_frame = insns / frames;
+        let _ = writeln!(
+            t,
+            "\nCamera stage (`camera::Pose::new`, then per pedestrian `image_to_ground` and \
+             `ground_covariance`, then `TrackFilter<{tracks}>::update_with`), {tracks} pedestrians at 30 Hz in \
+             steady state: {insns} instructions per 0.4 s ({frames} frames) = {per_frame} per frame = \
+             {per_second} per second, {share:.1} % of a 168 MHz Cortex-M4F at one instruction per cycle; \
+             the filter's RAM {size} B.",
+            tracks = num("tracks"),
+            per_second = per_frame * 30,
+            share = 100.0 * (per_frame * 30) as f64 / 168e6,
+            size = num("filter_size"),
         );
     }
     for (what, insns, line) in &online {
