@@ -209,3 +209,91 @@ fn noisy_detections_are_scored_against_the_clean_truth_and_the_filter_helps() {
     // Best of 20 is never worse than the point.
     assert!(c.fde.min_k < c.fde.point);
 }
+
+/// The synthetic flight on HOTEL's test recording: every position is accounted for
+/// (detected, outside the image, missed, refused), the draws reproduce, the measurement
+/// model's σ matches the realised ground error, a 90° yaw adds no error, the filter with the
+/// model's σ wins back accuracy, and pixel noise alone costs less than pixel and attitude
+/// noise; a pixel data set and metre noise on top are refused.
+#[test]
+fn the_synthetic_flight_sees_hotel_through_a_drone_camera() {
+    use gpecnet_core::tracks::filter::FilterConfig;
+    use gpecnet_trainer::flight::FlightSettings;
+    let clean = stream_blob(&hotel(), &StreamSettings::default(), None).unwrap();
+    let flown = StreamSettings {
+        flight: Some(FlightSettings::default()),
+        ..StreamSettings::default()
+    };
+    let raw = stream_blob(&hotel(), &flown, None).unwrap();
+    assert_eq!(
+        raw.pooled,
+        stream_blob(&hotel(), &flown, None).unwrap().pooled,
+        "the same seed, the same flight"
+    );
+    let st = raw.pooled[0].flight.expect("flight statistics");
+    assert_eq!(st.positions, 6_543, "every detection of the recording");
+    assert_eq!(
+        st.detections + st.outside + st.missed + st.refused,
+        st.positions
+    );
+    let miss = st.missed as f64 / (st.positions - st.outside) as f64;
+    assert!((0.04..0.06).contains(&miss), "5 % misses: {miss}");
+    assert!(st.altitude_range_m[0] >= 25.0 - 1e-6 && st.altitude_range_m[1] <= 35.0 + 1e-6);
+    // First order is enough: the model's σ per axis within 10 % of the realised error.
+    let per_axis = st.rms_error_m / 2f64.sqrt();
+    assert!(
+        (st.rms_model_sigma_m / per_axis - 1.0).abs() < 0.1,
+        "{} vs {per_axis}",
+        st.rms_model_sigma_m
+    );
+    // No jump from the drone's yaw: the error while yawing is the error at other times.
+    assert!(st.detections_yawing > 100);
+    assert!(
+        (st.rms_error_yawing_m / st.rms_error_m - 1.0).abs() < 0.15,
+        "{st:?}"
+    );
+    let filtered = stream_blob(
+        &hotel(),
+        &StreamSettings {
+            filter: Some(FilterConfig::metres()),
+            ..flown
+        },
+        None,
+    )
+    .unwrap();
+    let pixels_only = stream_blob(
+        &hotel(),
+        &StreamSettings {
+            filter: Some(FilterConfig::metres()),
+            flight: Some(FlightSettings {
+                attitude_noise_deg: 0.0,
+                ..FlightSettings::default()
+            }),
+            ..StreamSettings::default()
+        },
+        None,
+    )
+    .unwrap();
+    let fde = |s: &gpecnet_trainer::stream_eval::StreamSet| s.pooled[0].fde.min_k;
+    assert!(fde(&clean) < fde(&pixels_only) && fde(&pixels_only) < fde(&filtered));
+    assert!(fde(&filtered) < fde(&raw), "the filter helps");
+    let pixel_data = StreamTarget {
+        dataset: DatasetSpec::parse("sdd").unwrap(),
+        ..hotel()
+    };
+    let e = stream_blob(&pixel_data, &flown, None).unwrap_err();
+    assert!(
+        format!("{e:#}").contains("metres") || format!("{e:#}").contains("unit"),
+        "{e:#}"
+    );
+    let e = stream_blob(
+        &hotel(),
+        &StreamSettings {
+            noise_m: 0.1,
+            ..flown
+        },
+        None,
+    )
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("drop --noise-m"), "{e:#}");
+}

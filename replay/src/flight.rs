@@ -126,7 +126,6 @@ pub fn flight_scene(out: &mut dyn FnMut(Line<'_>)) {
     let deg = core::f32::consts::PI / 180.0;
     let mut h = fnv1a([]);
     let (mut detections, mut points) = (0u32, 0u32);
-    let mut hash_words = [0u32; 2 + 16];
     for frame in 0..FLIGHT_FRAMES {
         let t_ms = frame * 100;
         let t = t_ms as f32 / 1000.0;
@@ -214,16 +213,9 @@ pub fn flight_scene(out: &mut dyn FnMut(Line<'_>)) {
                 ),
         );
         table.update(t_ms, &obs);
-        for track in table.fresh() {
-            hash_words[0] = track.id();
-            hash_words[1] = track.end_ms();
-            for (w, p) in hash_words[2..].chunks_exact_mut(2).zip(track.past().iter()) {
-                w[0] = p[0].to_bits();
-                w[1] = p[1].to_bits();
-            }
-            h = fnv1a_continue(h, hash_words.iter().copied());
-            points += 1;
-        }
+        let (hashed, fresh) = crate::hash_fresh(h, &table);
+        h = hashed;
+        points += fresh;
     }
     out(Line::Flight {
         frames: FLIGHT_FRAMES,

@@ -584,7 +584,6 @@ pub fn resample_scene(out: &mut dyn FnMut(Line<'_>)) {
         state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
         state >> 8
     };
-    let mut hash_words: [u32; 2 + 16] = [0; 18];
     let mut h = fnv1a([]);
     let mut points = 0u32;
     let start = u32::MAX - 5_000;
@@ -619,22 +618,33 @@ pub fn resample_scene(out: &mut dyn FnMut(Line<'_>)) {
             }
         }
         table.update(t_ms, &seen);
-        for track in table.fresh() {
-            hash_words[0] = track.id();
-            hash_words[1] = track.end_ms();
-            for (w, p) in hash_words[2..].chunks_exact_mut(2).zip(track.past().iter()) {
-                w[0] = p[0].to_bits();
-                w[1] = p[1].to_bits();
-            }
-            h = fnv1a_continue(h, hash_words.iter().copied());
-            points += 1;
-        }
+        let (hashed, fresh) = hash_fresh(h, &table);
+        h = hashed;
+        points += fresh;
     }
     out(Line::Resample {
         frames: RESAMPLE_FRAMES,
         points,
         hash: h,
     });
+}
+
+/// `h` continued over every fresh full history of `table` (its id, end time
+/// and the positions' bits), and how many there were.
+pub(crate) fn hash_fresh<const N: usize>(h: u32, table: &TimedTrackTable<N>) -> (u32, u32) {
+    let mut words = [0u32; 2 + 2 * gpecnet_core::tracks::HISTORY];
+    let (mut h, mut n) = (h, 0);
+    for track in table.fresh() {
+        words[0] = track.id();
+        words[1] = track.end_ms();
+        for (w, p) in words[2..].chunks_exact_mut(2).zip(track.past().iter()) {
+            w[0] = p[0].to_bits();
+            w[1] = p[1].to_bits();
+        }
+        h = fnv1a_continue(h, words.iter().copied());
+        n += 1;
+    }
+    (h, n)
 }
 
 /// The model [`online_scene`] runs on, after its golden cases: the metric

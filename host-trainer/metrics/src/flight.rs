@@ -29,9 +29,7 @@
 //! frame three attitude normals (north, east, down), then per pedestrian in the frame's order
 //! one uniform (miss) and, when detected, two normals (u, v).
 
-use gpecnet_core::camera::{
-    Camera, CameraError, Distortion, Euler, Intrinsics, MeasurementNoise, Pose, State,
-};
+use gpecnet_core::camera::{Camera, CameraError, Euler, MeasurementNoise, Pose, State};
 use gpecnet_core::prng::{Gaussian, Xoshiro128PlusPlus};
 use serde::Serialize;
 
@@ -132,24 +130,10 @@ impl FlightSettings {
         Ok(())
     }
 
-    /// The camera (module docs).
+    /// The camera (module docs): the golden replay's flight scene's, so the host's flight
+    /// and the MCUs' replay of its camera stage see through the same lens.
     pub fn camera() -> Camera {
-        Camera {
-            intrinsics: Intrinsics {
-                fx: 1100.0,
-                fy: 1100.0,
-                cx: 960.0,
-                cy: 540.0,
-            },
-            distortion: Distortion {
-                k1: -0.12,
-                k2: 0.03,
-                p1: 0.0,
-                p2: 0.0,
-            },
-            mount: Euler::ZERO,
-            max_range: 150.0,
-        }
+        gpecnet_replay::flight_camera()
     }
 }
 
