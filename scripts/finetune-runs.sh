@@ -10,9 +10,11 @@
 # Per run <scene>-<ft|scratch>-f<10|100>-s<seed> under $RUNS (default target/finetune/runs),
 # each stage skipped when its output exists, training and the proposal resumed when
 # interrupted:
-#   1. train    ft:      --init weights/sdd-m-lp.gpec --epochs $FT_EPOCHS (default 100)
+#   1. train    ft:      --init weights/sdd-m-lp.gpec --epochs $FT_EPOCHS (default 100 at
+#                        10 %, $FT_EPOCHS_FULL = 30 at 100 %)
 #               scratch: --config host-trainer/configs/sdd-m-tiny.toml --mirror
-#                        --data-scale auto --epochs $SCRATCH_EPOCHS (default 300)
+#                        --data-scale auto --epochs $SCRATCH_EPOCHS (default 300 at 10 %,
+#                        $SCRATCH_EPOCHS_FULL = 150 at 100 %, as docs/ethucy.md's runs)
 #               both:    --dataset eth_ucy:<scene> --train-fraction <0.1|1> --seed <seed>
 #   2. export   the best-validation epoch (f32, --sigma 1.3 --tts 0)
 #   3. propose  the shipped settings (--seed 1 --k 20 --hidden 8 --act relu --batch 256
@@ -35,6 +37,8 @@ seeds=${SEEDS:-"1 2 3"}
 scenes=${SCENES:-"eth hotel univ zara1 zara2"}
 ft_epochs=${FT_EPOCHS:-100}
 scratch_epochs=${SCRATCH_EPOCHS:-300}
+ft_epochs_full=${FT_EPOCHS_FULL:-30}
+scratch_epochs_full=${SCRATCH_EPOCHS_FULL:-150}
 pepochs=${PEPOCHS:-100}
 pepochs_full=${PEPOCHS_FULL:-30}
 init=${INIT:-weights/sdd-m-lp.gpec}
@@ -58,9 +62,18 @@ one() { # scene method fraction(10|100) seed
   local sc=$1 method=$2 pct=$3 seed=$4
   local name=$sc-$method-f$pct-s$seed frac pe
   local out=$runs/$name log=$runs/$name.log
-  if [ "$pct" = 100 ]; then frac=1; pe=$pepochs_full; else frac=0.$pct; pe=$pepochs; fi
-  local epochs=$ft_epochs
-  [ "$method" = scratch ] && epochs=$scratch_epochs
+  local epochs
+  if [ "$pct" = 100 ]; then
+    frac=1
+    pe=$pepochs_full
+    epochs=$ft_epochs_full
+    [ "$method" = scratch ] && epochs=$scratch_epochs_full
+  else
+    frac=0.$pct
+    pe=$pepochs
+    epochs=$ft_epochs
+    [ "$method" = scratch ] && epochs=$scratch_epochs
+  fi
   if [ -f "$out/checkpoint.bin" ]; then
     [ "$(wc -l <"$out/metrics.jsonl")" -ge "$epochs" ] ||
       "$BIN" train --resume --out "$out" --quiet --epochs "$epochs" >>"$log" 2>&1 || return 1

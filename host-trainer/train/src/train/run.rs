@@ -110,7 +110,8 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
     if cfg.data_scale == crate::config::AUTO_DATA_SCALE {
         let (scale, span, n) = auto_data_scale(&cfg, &opts.data_root)?;
         eprintln!(
-            "data_scale = {scale} (computed: 1.86 x 208.2 / {span:.3}, the RMS span of {n}              training windows; written to config.toml)"
+            "data_scale = {scale} (computed: 1.86 x 208.2 / {span:.3}, the RMS span of {n} \
+             training windows; written to config.toml)"
         );
         cfg.data_scale = scale;
     }
