@@ -222,7 +222,8 @@ pub(crate) struct EvalArgs {
     /// mean_ade, mean_fde, point_ade, point_fde, cv_n, cv_n_chosen_on, cv_ade, cv_fde,
     /// cv_last_ade, cv_last_fde, kde_nll, the hit rates at the unit's radii: hit_0.5m and
     /// hit_1m, or hit_20px and hit_40px, scenes: the same per scene, speeds: per observed
-    /// speed (standing, slow, walking, fast; metres only), matches_card,
+    /// speed (standing, slow, walking, fast; metres only), changes: starters and stoppers
+    /// (metres only), matches_card,
     /// probabilities, planner: the planner metrics of a model with endpoint probabilities,
     /// ...) instead of the table.
     #[arg(long)]

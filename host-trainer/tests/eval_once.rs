@@ -154,3 +154,71 @@ fn eval_reports_per_observed_speed_rows_that_partition_the_windows() {
         "{weighted} vs {all}"
     );
 }
+
+/// Starters and stoppers (`motion_change`) on windows built for each case, and `gpecnet eval
+/// --json`'s `changes` rows on a metre set: they partition the windows, and the starters of
+/// ZARA1 are counted by the same rule here.
+#[test]
+fn eval_reports_starters_and_stoppers() {
+    use gpecnet_trainer::data::{motion_change, DatasetSpec, Split, Window, PAST, WINDOW};
+    let window = |pos: &dyn Fn(usize) -> [f32; 2]| Window {
+        scene: "s".into(),
+        ped_id: 1.0,
+        frames: std::array::from_fn(|i| i as i64 * 10),
+        pos: std::array::from_fn(pos),
+    };
+    // Standing for 2.8 s, then walking 1.2 m/s: a starter.
+    let starter = window(&|i| {
+        [
+            if i < PAST {
+                0.0
+            } else {
+                0.48 * (i - PAST + 1) as f32
+            },
+            0.0,
+        ]
+    });
+    // Walking 1.2 m/s, then standing for the last 1.6 s: a stopper.
+    let stopper = window(&|i| [0.48 * i.min(WINDOW - 5) as f32, 0.0]);
+    // Walking throughout, and standing throughout: neither.
+    let walker = window(&|i| [0.48 * i as f32, 0.0]);
+    let still = window(&|_| [3.0, -2.0]);
+    assert_eq!(
+        [&starter, &stopper, &walker, &still].map(motion_change),
+        [0, 1, 2, 2]
+    );
+    let data = default_data_root();
+    let (ok, text) = run(&[
+        "eval",
+        "--blob",
+        s(&weights("sdd-m-lp-qe")),
+        "--dataset",
+        "eth_ucy:zara1",
+        "--data",
+        s(&data),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let rows = j["changes"].as_array().unwrap();
+    let n: u64 = rows.iter().map(|r| r["n"].as_u64().unwrap()).sum();
+    assert_eq!(n, j["n"].as_u64().unwrap());
+    let test = gpecnet_trainer::data::load(
+        &data,
+        &DatasetSpec::parse("eth_ucy:zara1").unwrap(),
+        Split::Test,
+        &[],
+    )
+    .unwrap();
+    let starters = test
+        .windows
+        .iter()
+        .filter(|w| motion_change(w) == 0)
+        .count() as u64;
+    assert!(starters > 10, "ZARA1 has starters: {starters}");
+    let row = rows.iter().find(|r| r["scene"] == "starters").unwrap();
+    assert_eq!(row["n"].as_u64(), Some(starters));
+    // Starting from standstill is the hard case: worse than the rest at best-of-20.
+    let rest = rows.iter().find(|r| r["scene"] == "neither").unwrap();
+    assert!(row["min_fde"].as_f64() > rest["min_fde"].as_f64());
+}

@@ -35,6 +35,30 @@ pub fn observed_speed(w: &Window) -> f64 {
     f64::from(b[0] - a[0]).hypot(f64::from(b[1] - a[1])) / span
 }
 
+/// A window's change of motion state between its past and its future, in metres:
+/// [`MOTION_CHANGE_NAMES`] `[0]` a **starter** (standing when forecast, observed speed under
+/// the first bin of [`SPEED_BINS_M_S`], and more than 1 m from its last observed position at
+/// the endpoint), `[1]` a **stopper** (moving when forecast, at least that speed, and standing
+/// over the last 4 predicted steps, 1.6 s: moving less than that speed's distance), `[2]`
+/// neither.
+pub fn motion_change(w: &Window) -> usize {
+    let standing = SPEED_BINS_M_S[0];
+    let last = w.pos[PAST - 1];
+    let end = w.pos[WINDOW - 1];
+    let far = f64::from(end[0] - last[0]).hypot(f64::from(end[1] - last[1])) > 1.0;
+    let before = w.pos[WINDOW - 5];
+    let tail_s = 4.0 * f64::from(PERIOD_S);
+    let tail = f64::from(end[0] - before[0]).hypot(f64::from(end[1] - before[1])) / tail_s;
+    match observed_speed(w) < standing {
+        true if far => 0,
+        false if tail < standing => 1,
+        _ => 2,
+    }
+}
+
+/// The names of [`motion_change`]'s groups.
+pub const MOTION_CHANGE_NAMES: [&str; 3] = ["starters", "stoppers", "neither"];
+
 /// The bin of [`SPEED_BINS_M_S`] a speed in m/s falls in (0 = standing … 3 = fast).
 pub fn speed_bin(v: f64) -> usize {
     SPEED_BINS_M_S

@@ -47,8 +47,8 @@ mod spec;
 mod window;
 
 pub use check::{
-    check_folder, observed_speed, speed_bin, FileCheck, FolderCheck, SplitCheck, SPEED_BINS_M_S,
-    SPEED_BIN_NAMES,
+    check_folder, motion_change, observed_speed, speed_bin, FileCheck, FolderCheck, SplitCheck,
+    MOTION_CHANGE_NAMES, SPEED_BINS_M_S, SPEED_BIN_NAMES,
 };
 pub use error::{Column, DataError};
 pub use eth_ucy::{load_eth_ucy, parse_eth_ucy_file, EthUcySplit, ETH_UCY_FRAME_STEP};

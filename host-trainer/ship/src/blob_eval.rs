@@ -64,6 +64,9 @@ pub struct EvalReport {
     /// The same numbers per observed speed (`|p_7 − p_0|` over the 2.8 s observed:
     /// [`crate::data::SPEED_BINS_M_S`]), for data in metres; empty for pixels.
     pub speeds: Vec<SceneRow>,
+    /// The same numbers for the windows whose motion state changes, for data in metres:
+    /// starters, stoppers and the rest ([`crate::data::motion_change`]); empty for pixels.
+    pub changes: Vec<SceneRow>,
     /// The blob's card is about another data set (so it was not compared).
     pub card_on_other_data: bool,
     /// `Some(true)` when the blob's model card exists and its numbers (ADE/FDE and the
@@ -467,6 +470,20 @@ pub fn eval_blob(
     } else {
         Vec::new()
     };
+    let changes = if test.unit == Unit::Metres {
+        let labels = crate::data::MOTION_CHANGE_NAMES.map(String::from);
+        group_rows(
+            &test,
+            &preds,
+            point_preds.as_ref().map(|p| p.1.as_slice()),
+            cv_n,
+            hit_radii,
+            &labels,
+            |w| labels[crate::data::motion_change(w)].clone(),
+        )?
+    } else {
+        Vec::new()
+    };
     let (planner, planner_px) = match &planner_outs {
         Some(outs) => {
             let (p, px) = crate::card::planner_pair(data_root, spec, &test, outs)?;
@@ -540,6 +557,7 @@ pub fn eval_blob(
         pixels,
         scenes,
         speeds,
+        changes,
         matches_card,
         card_on_other_data,
         svg,

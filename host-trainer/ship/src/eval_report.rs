@@ -54,6 +54,7 @@ pub fn json(r: &EvalReport, blob: &Path) -> serde_json::Value {
         },
         "scenes": r.scenes,
         "speeds": r.speeds,
+        "changes": r.changes,
         "min_ade_px": r.pixels.map(|p| p.metrics.min_ade),
         "min_fde_px": r.pixels.map(|p| p.metrics.min_fde),
         "point_ade_px": r.pixels.and_then(|p| p.point.map(|q| q.0)),
@@ -175,6 +176,14 @@ pub fn table(r: &EvalReport) -> String {
             r.cv_n
         );
         group_table(&mut out, &title, "speed", &r.speeds, r.hits, u);
+    }
+    if !r.changes.is_empty() {
+        let title = format!(
+            "starters (standing when forecast, > 1 m away at 4.8 s) and stoppers (moving, then \
+             standing over the last 1.6 s); {u}; CV n = {}:",
+            r.cv_n
+        );
+        group_table(&mut out, &title, "change", &r.changes, r.hits, u);
     }
     match r.matches_card {
         Some(true) => w!(out, "model card: reproduced exactly"),
