@@ -177,6 +177,18 @@ fn fine_tuning_keeps_the_source_architecture_and_refuses_what_it_cannot_start_fr
         !ok && text.contains("alone.json is missing") && text.contains("--config"),
         "{text}"
     );
+    // With --config instead, the config must describe the blob (its data scale here).
+    let other_scale = root.join("scale72.toml");
+    std::fs::write(
+        &other_scale,
+        json["config_toml"]
+            .as_str()
+            .unwrap()
+            .replace("data_scale = 49.0", "data_scale = 72.0"),
+    )
+    .unwrap();
+    let (ok, text) = train(&out, &["--init", s(&alone), "--config", s(&other_scale)]);
+    assert!(!ok && text.contains("data_scale: 72 / 49"), "{text}");
     // A folder that is no run, and --init on a resume.
     let (ok, text) = train(&out, &["--init", s(&root)]);
     assert!(!ok && text.contains("not a training run folder"), "{text}");

@@ -62,6 +62,8 @@ pub struct InitSource {
     pub config: Option<TrainConfig>,
     /// Its weights.
     pub weights: InitWeights,
+    /// A blob's own hyper-parameters (what a config used with it must agree with).
+    pub blob_config: Option<crate::network::RefConfig>,
     /// What was loaded, in words (for the run's first line).
     pub what: String,
 }
@@ -105,6 +107,7 @@ pub fn load_init(path: &Path) -> Result<InitSource> {
             path: path.to_path_buf(),
             config: Some(config),
             weights: InitWeights::Run(weights),
+            blob_config: None,
             what,
         });
     }
@@ -118,25 +121,13 @@ pub fn load_init(path: &Path) -> Result<InitSource> {
     })?;
     let config = blob_config(path)?;
     if let Some(c) = &config {
-        let r = &model.config;
-        let same = c.fdim == r.fdim
-            && c.zdim == r.zdim
-            && c.data_scale == r.data_scale
-            && c.heading_steps == r.heading_steps;
-        if !same {
+        let d = blob_diff(c, &model.config);
+        if !d.is_empty() {
             bail!(
-                "--init {}: the training config in {} does not describe this blob \
-                 (fdim {}/{}, zdim {}/{}, data_scale {}/{}, heading_steps {}/{})",
+                "--init {}: the training config in {} does not describe this blob ({})",
                 path.display(),
                 path.with_extension("json").display(),
-                c.fdim,
-                r.fdim,
-                c.zdim,
-                r.zdim,
-                c.data_scale,
-                r.data_scale,
-                c.heading_steps,
-                r.heading_steps
+                d.join("; ")
             );
         }
     }
@@ -145,7 +136,36 @@ pub fn load_init(path: &Path) -> Result<InitSource> {
         config,
         what: format!("blob {} ({})", path.display(), model.name),
         weights: InitWeights::Blob(Box::new(model.nets)),
+        blob_config: Some(model.config),
     })
+}
+
+/// The hyper-parameters a blob fixes that `c` states otherwise, as `key: config / blob`:
+/// the feature and latent widths, the data scale, the heading frame and (for sine models)
+/// `w0` (the layer shapes are checked when the weights are set).
+fn blob_diff(c: &TrainConfig, r: &crate::network::RefConfig) -> Vec<String> {
+    let mut d = Vec::new();
+    let mut check = |key: &str, a: String, b: String| {
+        if a != b {
+            d.push(format!("{key}: {a} / {b}"));
+        }
+    };
+    check("fdim", c.fdim.to_string(), r.fdim.to_string());
+    check("zdim", c.zdim.to_string(), r.zdim.to_string());
+    check(
+        "data_scale",
+        c.data_scale.to_string(),
+        r.data_scale.to_string(),
+    );
+    check(
+        "heading_steps",
+        c.heading_steps.to_string(),
+        r.heading_steps.to_string(),
+    );
+    if c.activation == crate::network::Act::Sine {
+        check("w0", c.w0.to_string(), r.w0.to_string());
+    }
+    d
 }
 
 /// The config of a run that starts from `src`: `given` (a `--config`) when there is one,
@@ -188,6 +208,16 @@ pub fn init_config(src: &InitSource, given: Option<TrainConfig>) -> Result<Train
             src.path.with_extension("json").display()
         ),
     };
+    if let Some(r) = &src.blob_config {
+        let d = blob_diff(&cfg, r);
+        if !d.is_empty() {
+            bail!(
+                "--config does not describe the blob --init {} (config / blob: {})",
+                src.path.display(),
+                d.join("; ")
+            );
+        }
+    }
     cfg.init = Some(src.path.to_string_lossy().into_owned());
     Ok(cfg)
 }
