@@ -504,12 +504,18 @@ fn replay(o: &Opts, mcu: &'static Mcu, dir: &Path, all: &[String], log: &mut Str
         host_resample.first().copied().unwrap_or("<none>"),
         if resampled { "" } else { "  <- NOT VERIFIED" }
     );
-    // The synthetic flight's camera stage: once per firmware image, once on the host.
+    // The synthetic flight's camera stage: once per golden image of a class with room for it,
+    // else once in the online loop's own image (when that runs), and once on the host.
     let fw_flight = lines_with(&fw_out, &["flight "]);
     let host_flight = lines_with(&host_out, &["flight "]);
-    let flown = !fw_flight.is_empty()
-        && host_flight.len() == 1
-        && fw_flight.iter().all(|l| Some(l) == host_flight.first());
+    let flight_expected = mcu.online || models.iter().any(|m| m == gpecnet_replay::ONLINE_MODEL);
+    let flown = if flight_expected {
+        !fw_flight.is_empty()
+            && host_flight.len() == 1
+            && fw_flight.iter().all(|l| Some(l) == host_flight.first())
+    } else {
+        fw_flight.is_empty()
+    };
     outln!(
         log,
         "qemu: synthetic flight scene (camera, measurement model, filter, table): {} firmware image(s) {:?}, host {:?}{}",
