@@ -84,7 +84,7 @@ fn pedestrian(id: u32, t: f32) -> [f32; 2] {
 /// image is projected through the true pose, missed one time in 20 and
 /// otherwise detected with ±3.5 px of pixel noise (the sum of two uniform
 /// draws of ±1.75 px, σ 1.4 px) per coordinate; the flight stack reports
-/// the body's angles with the same kind of error (σ 0.35°). The detection
+/// the body's angles with the same kind of error (±0.43°, σ 0.18°). The detection
 /// goes back to the ground through the reported pose with
 /// [`Pose::ground_covariance`]'s σ (2 px, 0.5°), into
 /// [`TrackFilter::update_with`] and a [`TimedTrackTable`] of 0.4 s. The
