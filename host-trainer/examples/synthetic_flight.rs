@@ -54,17 +54,8 @@ fn main() -> Result<()> {
         Box::new(Forecaster::new(&model, Config::metres(), 1_000).map_err(|e| anyhow!("{e}"))?);
     let mut filter: Box<TrackFilter<128>> =
         Box::new(TrackFilter::new(FilterConfig::metres()).map_err(|e| anyhow!("{e:?}"))?);
-    let n = rec.detections().max(1) as f64;
-    let centre = rec
-        .frames
-        .iter()
-        .flat_map(|f| &f.detections)
-        .fold([0.0; 2], |c, d| {
-            [c[0] + f64::from(d.1[0]) / n, c[1] + f64::from(d.1[1]) / n]
-        });
+    let mut flight = Flight::over(FlightSettings::default(), rec).map_err(anyhow::Error::msg)?;
     let t0 = rec.frames.first().map_or(0, |f| f.t_ms);
-    let mut flight =
-        Flight::new(FlightSettings::default(), centre, t0).map_err(anyhow::Error::msg)?;
     let (mut tracks, mut drone, mut forecasts) = (
         std::collections::BTreeMap::<u32, Vec<[f32; 2]>>::new(),
         Vec::new(),

@@ -125,19 +125,7 @@ fn eval_with_no_options_is_the_default_model_on_its_own_data_set() {
 /// window-weighted best-of-K FDE is the overall one (a pixel set has none: checked above).
 #[test]
 fn eval_reports_per_observed_speed_rows_that_partition_the_windows() {
-    let data = default_data_root();
-    let (ok, text) = run(&[
-        "eval",
-        "--blob",
-        s(&weights("sdd-m-lp-qe")),
-        "--dataset",
-        "eth_ucy:zara1",
-        "--data",
-        s(&data),
-        "--json",
-    ]);
-    assert!(ok, "{text}");
-    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let j = zara1_eval_json();
     let rows = j["speeds"].as_array().unwrap();
     assert!(rows.len() >= 3, "{rows:?}");
     assert!(rows[0]["scene"].as_str().unwrap().starts_with("standing"));
@@ -188,18 +176,7 @@ fn eval_reports_starters_and_stoppers() {
         [0, 1, 2, 2]
     );
     let data = default_data_root();
-    let (ok, text) = run(&[
-        "eval",
-        "--blob",
-        s(&weights("sdd-m-lp-qe")),
-        "--dataset",
-        "eth_ucy:zara1",
-        "--data",
-        s(&data),
-        "--json",
-    ]);
-    assert!(ok, "{text}");
-    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let j = zara1_eval_json();
     let rows = j["changes"].as_array().unwrap();
     let n: u64 = rows.iter().map(|r| r["n"].as_u64().unwrap()).sum();
     assert_eq!(n, j["n"].as_u64().unwrap());
@@ -221,4 +198,20 @@ fn eval_reports_starters_and_stoppers() {
     // Starting from standstill is the hard case: worse than the rest at best-of-20.
     let rest = rows.iter().find(|r| r["scene"] == "neither").unwrap();
     assert!(row["min_fde"].as_f64() > rest["min_fde"].as_f64());
+}
+
+/// `gpecnet eval --json` of the shipped default on ZARA1's test windows.
+fn zara1_eval_json() -> serde_json::Value {
+    let (ok, text) = run(&[
+        "eval",
+        "--blob",
+        s(&weights("sdd-m-lp-qe")),
+        "--dataset",
+        "eth_ucy:zara1",
+        "--data",
+        s(&default_data_root()),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    serde_json::from_str(&text).unwrap()
 }

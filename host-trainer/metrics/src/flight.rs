@@ -167,6 +167,15 @@ pub struct FlightStats {
     pub altitude_range_m: [f64; 2],
 }
 
+/// The root of the mean of `n` squares summing to `sum_sq` (0 for none).
+fn rms(sum_sq: f64, n: usize) -> f64 {
+    if n == 0 {
+        0.0
+    } else {
+        (sum_sq / n as f64).sqrt()
+    }
+}
+
 impl FlightStats {
     /// Counts summed and errors pooled over `parts` (weighted by their detections).
     pub fn pooled(parts: &[FlightStats]) -> FlightStats {
@@ -190,7 +199,6 @@ impl FlightStats {
             o.altitude_range_m[0] = o.altitude_range_m[0].min(p.altitude_range_m[0]);
             o.altitude_range_m[1] = o.altitude_range_m[1].max(p.altitude_range_m[1]);
         }
-        let rms = |s: f64, n: usize| if n == 0 { 0.0 } else { (s / n as f64).sqrt() };
         o.rms_error_m = rms(se, o.detections);
         o.rms_error_yawing_m = rms(sy, o.detections_yawing);
         o.rms_model_sigma_m = rms(ss, o.detections);
@@ -308,6 +316,19 @@ fn quaternion(m: &M3) -> [f64; 4] {
 }
 
 impl Flight {
+    /// The drone over `rec` (metres): its centre is the mean of every detection, its clock
+    /// starts at the first frame.
+    pub fn over(s: FlightSettings, rec: &crate::data::Recording) -> Result<Flight, String> {
+        let (mut sum, mut n) = ([0.0f64; 2], 0usize);
+        for (_, p) in rec.frames.iter().flat_map(|f| &f.detections) {
+            sum[0] += f64::from(p[0]);
+            sum[1] += f64::from(p[1]);
+            n += 1;
+        }
+        let centre = [sum[0] / n.max(1) as f64, sum[1] / n.max(1) as f64];
+        Flight::new(s, centre, rec.frames.first().map_or(0, |f| f.t_ms))
+    }
+
     /// The drone over a recording whose detections (metres) have mean `centre` and whose
     /// first frame is at `t0_ms`.
     pub fn new(s: FlightSettings, centre: [f64; 2], t0_ms: u32) -> Result<Flight, String> {
@@ -470,7 +491,6 @@ impl Flight {
     /// What happened so far.
     pub fn stats(&self) -> FlightStats {
         let mut o = self.stats;
-        let rms = |s: f64, n: usize| if n == 0 { 0.0 } else { (s / n as f64).sqrt() };
         o.rms_error_m = rms(self.sum_sq[0], o.detections);
         o.rms_error_yawing_m = rms(self.sum_sq[1], o.detections_yawing);
         o.rms_model_sigma_m = rms(self.sum_sq[2], o.detections);

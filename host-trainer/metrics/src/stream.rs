@@ -328,17 +328,7 @@ fn stream_with<const P: usize>(
             if noise > 0.0 {
                 bail!("a synthetic flight makes its own detection noise: drop --noise-m");
             }
-            let (mut sum, mut n) = ([0.0f64; 2], 0usize);
-            for f in &rec.frames {
-                for (_, p) in &f.detections {
-                    sum[0] += f64::from(p[0]);
-                    sum[1] += f64::from(p[1]);
-                    n += 1;
-                }
-            }
-            let centre = [sum[0] / n.max(1) as f64, sum[1] / n.max(1) as f64];
-            let t0 = rec.frames.first().map_or(0, |f| f.t_ms);
-            Some(Flight::new(fs, centre, t0).map_err(|e| anyhow!("{e}"))?)
+            Some(Flight::over(fs, rec).map_err(|e| anyhow!("{e}"))?)
         }
         None => None,
     };

@@ -453,37 +453,28 @@ pub fn eval_blob(
         cv_n,
         hit_radii,
     )?;
-    let speeds = if test.unit == Unit::Metres {
-        let labels = speed_labels();
+    // Per observed speed and per change of motion state: metre data only (the bins are m/s).
+    let metre_rows = |labels: &[String], key: &dyn Fn(&crate::data::Window) -> usize| {
+        if test.unit != Unit::Metres {
+            return Ok(Vec::new());
+        }
         group_rows(
             &test,
             &preds,
             point_preds.as_ref().map(|p| p.1.as_slice()),
             cv_n,
             hit_radii,
-            &labels,
-            |w| {
-                let bin = crate::data::speed_bin(crate::data::observed_speed(w));
-                labels[bin].clone()
-            },
-        )?
-    } else {
-        Vec::new()
+            labels,
+            |w| labels[key(w)].clone(),
+        )
     };
-    let changes = if test.unit == Unit::Metres {
-        let labels = crate::data::MOTION_CHANGE_NAMES.map(String::from);
-        group_rows(
-            &test,
-            &preds,
-            point_preds.as_ref().map(|p| p.1.as_slice()),
-            cv_n,
-            hit_radii,
-            &labels,
-            |w| labels[crate::data::motion_change(w)].clone(),
-        )?
-    } else {
-        Vec::new()
-    };
+    let speeds = metre_rows(&speed_labels(), &|w| {
+        crate::data::speed_bin(crate::data::observed_speed(w))
+    })?;
+    let changes = metre_rows(
+        &crate::data::MOTION_CHANGE_NAMES.map(String::from),
+        &crate::data::motion_change,
+    )?;
     let (planner, planner_px) = match &planner_outs {
         Some(outs) => {
             let (p, px) = crate::card::planner_pair(data_root, spec, &test, outs)?;
