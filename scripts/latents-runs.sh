@@ -1,19 +1,25 @@
 #!/usr/bin/env bash
 # The learned-latent study of docs/latents.md: every proposal variant, 3 seeds, trained
-# post hoc on the frozen metric model weights/sdd-m-tiny.gpec, two runs at a time, one
-# thread each. Resumable: a finished run (proposal.json present) is skipped, an
-# interrupted one continues from its checkpoint (`gpecnet propose --resume`).
+# on the metric model weights/sdd-m-tiny.gpec (post hoc, its networks frozen; or jointly
+# with its decoder: the `j` variants), two runs at a time, one thread each. Resumable: a
+# finished run (proposal.json present) is skipped, an interrupted one continues from its
+# checkpoint (`gpecnet propose --resume`).
 #
-#   scripts/latents-runs.sh [OUT]          # OUT defaults to runs/latents
-#   scripts/latents-summary.sh [OUT]       # mean ± std of each variant's best validation epoch
+#   scripts/latents-runs.sh [OUT [VARIANT...]]   # OUT defaults to runs/latents; all variants
+#   scripts/latents-summary.sh [OUT]             # mean ± std of each variant's best validation epoch
 #
-# About 1 s per epoch and run on a 2020s x86 core (100 epochs: ~2 min); 16 runs, ~25 min on 2 cores.
+# BIN names another gpecnet binary (default: target/release/gpecnet, built first).
+# About 1 s per epoch and run on a 2020s x86 core (100 epochs: ~2 min); 16 runs of the
+# post-hoc variants, ~25 min on 2 cores; the 15 joint and starter runs, ~30 min.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-runs/latents}
+shift || true
 mkdir -p "$out"
-cargo build --release -q -p gpecnet-trainer
-bin=target/release/gpecnet
+if [ -z "${BIN:-}" ]; then
+  cargo build --release -q -p gpecnet-trainer
+fi
+bin=${BIN:-target/release/gpecnet}
 variants=(
   "cb --epochs 100 --codebook"
   "h8 --epochs 100 --hidden 8"
@@ -21,10 +27,20 @@ variants=(
   "h10 --epochs 200 --hidden 10"
   "h12 --epochs 100 --hidden 12"
   "h64 --epochs 150 --hidden 64"
+  # joint training: the decoder trained with the proposal (its own learning rate)
+  "j8 --epochs 100 --hidden 8 --tune-decoder --decoder-lr 1e-4"
+  "j8lr3 --epochs 100 --hidden 8 --tune-decoder --decoder-lr 3e-4"
+  "j64 --epochs 150 --hidden 64 --tune-decoder --decoder-lr 1e-4"
+  # starters (standing when forecast, > 1 m away at the horizon) weigh 3 windows each
+  "h8st3 --epochs 100 --hidden 8 --starter-weight 3"
+  "j8st3 --epochs 100 --hidden 8 --tune-decoder --decoder-lr 1e-4 --starter-weight 3"
 )
 jobs=()
 for v in "${variants[@]}"; do
   read -r name args <<<"$v"
+  if [ $# -gt 0 ] && ! printf '%s\n' "$@" | grep -qx "$name"; then
+    continue
+  fi
   for seed in 0 1 2; do
     jobs+=("$name-s$seed --seed $seed $args")
   done

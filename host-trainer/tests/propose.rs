@@ -1,7 +1,8 @@
 //! `gpecnet propose` on the real SDD-in-metres data and the shipped metric model: it
 //! trains, selects on validation and beats the prior's draws there, refuses to mix runs,
 //! resumes, and its proposal joins only the model it was trained for (then the core and
-//! the reference agree bit for bit, in f32 and in fixed point).
+//! the reference agree bit for bit, in f32 and in fixed point); joint training tunes the
+//! decoder alone, and starters may weigh more (data in metres only).
 
 use crate::common;
 
@@ -137,5 +138,103 @@ fn a_proposal_joins_only_its_own_model_and_runs_bit_exact() {
     .unwrap();
     let (qb, qpb) = gpecnet_trainer::fixed_eval::evaluate_reference_fixed(&q, &val, 20, 0).unwrap();
     assert_eq!((qa, qpa), (qb, qpb));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn joint_training_tunes_the_decoder_only_and_the_export_carries_it() {
+    let dir = temp_dir("propose-joint");
+    let out = dir.join("run");
+    let joint = [
+        "--hidden",
+        "6",
+        "--tune-decoder",
+        "--decoder-lr",
+        "3e-4",
+        "--starter-weight",
+        "3",
+    ];
+    let (ok, text) = propose(&out, "1", &joint);
+    assert!(ok, "{text}");
+    let p = ProposalFile::read(&out.join("proposal.json")).unwrap();
+    assert_eq!(p.settings.decoder_lr, Some(3e-4));
+    assert_eq!(p.settings.starter_weight, 3.0);
+    let bytes = std::fs::read(blob()).unwrap();
+    let m = gpecnet_trainer::export::read_blob(&bytes).unwrap();
+    // The tuned decoder has the frozen one's shapes and other weights; the proposal still
+    // belongs to the blob's encoder and decoder (the fingerprint is the source model's).
+    let tuned = p.decoder_layers().expect("the tuned decoder");
+    assert_eq!(p.frozen, frozen_fingerprint(&m));
+    assert_eq!(tuned.len(), m.nets.decoder.len());
+    for (t, f) in tuned.iter().zip(&m.nets.decoder) {
+        assert_eq!((t.in_dim, t.out_dim, t.act), (f.in_dim, f.out_dim, f.act));
+    }
+    assert_ne!(tuned[0].w, m.nets.decoder[0].w);
+    // Through gpecnet-core, with the tuned decoder joined: the loop's validation minFDE.
+    let core = p.val_core.expect("validation through gpecnet-core");
+    assert!(
+        (core.min_fde - p.val.val_min_fde).abs() < 1e-3,
+        "{core:?} {:?}",
+        p.val
+    );
+    // Starters on validation: counted, and harder than the average window.
+    let st = core
+        .starters
+        .expect("SDD in metres has starters on validation");
+    assert!(st.n > 0 && st.n < core.n, "{st:?}");
+    assert!(st.min_fde > core.min_fde, "{st:?} {core:?}");
+    // The export joins the tuned decoder; the encoder and point head stay the source's.
+    let mut joined = m.clone();
+    joined.config.tts_samples = 0;
+    p.join(&mut joined).unwrap();
+    assert_eq!(joined.nets.decoder[0].w, tuned[0].w);
+    assert_eq!(joined.nets.encoder_past[0].w, m.nets.encoder_past[0].w);
+    assert_eq!(joined.nets.point_head[0].w, m.nets.point_head[0].w);
+    // Its record in the card says so and retrains it.
+    let card = gpecnet_trainer::proposal_file::ProposalCard::of(&p, &out.join("proposal.json"));
+    assert!(card.decoder_tuned);
+    assert!(
+        card.command.contains("--tune-decoder --decoder-lr 0.0003")
+            && card.command.contains("--starter-weight 3"),
+        "{}",
+        card.command
+    );
+    // A resume with another decoder learning rate mixes runs: refused.
+    let mut other = joint;
+    other[4] = "1e-4";
+    let (ok, text) = propose(&out, "1", &[&other[..], &["--resume"]].concat());
+    assert!(!ok && text.contains("other settings"), "{text}");
+    // Options out of range or without their switch: refused before anything is read.
+    for bad in [
+        &["--decoder-lr", "1e-4"][..],
+        &["--tune-decoder", "--decoder-lr", "0"],
+        &["--starter-weight", "-1"],
+        &["--starter-weight", "inf"],
+    ] {
+        let (ok, text) = propose(&dir.join("bad"), "1", bad);
+        assert!(!ok, "{bad:?}: {text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn starter_weights_need_data_in_metres() {
+    let dir = temp_dir("propose-starters-px");
+    let blob = root().join("weights/sdd-tiny-v2.gpec");
+    let (ok, text) = run(&[
+        "propose",
+        "--blob",
+        s(&blob),
+        "--dataset",
+        "sdd",
+        "--out",
+        s(&dir.join("run")),
+        "--epochs",
+        "1",
+        "--starter-weight",
+        "2",
+    ]);
+    assert!(!ok && text.contains("metres"), "{text}");
+    assert!(!dir.join("run/proposal.json").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

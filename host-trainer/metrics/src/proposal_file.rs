@@ -54,6 +54,16 @@ pub struct ProposeSettings {
     /// 1 (absent from older files) = all.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub train_fraction: f32,
+    /// Adam learning rate of the decoder when it is trained together with the proposal
+    /// (joint training: `gpecnet propose --tune-decoder`); `None` (absent from older files) =
+    /// the decoder stays frozen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decoder_lr: Option<f64>,
+    /// Weight of a *starter*'s window in the loss (standing when forecast, then more than
+    /// 1 m away at the horizon: `gpecnet_data::motion_change`); every other window weighs 1.
+    /// 1 (absent from older files) = no re-weighting.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub starter_weight: f32,
 }
 
 fn one() -> f32 {
@@ -102,6 +112,10 @@ pub struct ProposalFile {
     /// The selected proposal with its model, through `gpecnet-core` on the validation windows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub val_core: Option<ValCore>,
+    /// The decoder trained together with the proposal (`settings.decoder_lr` set), exported
+    /// layers; `None` = the frozen model's decoder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decoder: Option<Vec<LayerFile>>,
 }
 
 /// Validation numbers of the selected proposal computed through `gpecnet-core` (the f32
@@ -123,6 +137,21 @@ pub struct ValCore {
     pub radii: [f64; 2],
     /// Share of windows with an endpoint within each radius.
     pub hits: [f64; 2],
+    /// The same best-of-K numbers on the validation windows whose pedestrian starts walking
+    /// (`gpecnet_data::motion_change`), for data in metres with at least one such window.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub starters: Option<GroupVal>,
+}
+
+/// Best-of-K numbers of one group of validation windows.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroupVal {
+    /// Windows.
+    pub n: usize,
+    /// minADE, best of K.
+    pub min_ade: f64,
+    /// minFDE, best of K.
+    pub min_fde: f64,
 }
 
 /// One exported layer.
@@ -149,6 +178,38 @@ impl ProposalFile {
             .collect()
     }
 
+    /// The tuned decoder's layers, if the decoder was trained with the proposal.
+    pub fn decoder_layers(&self) -> Option<Vec<Layer>> {
+        self.decoder.as_ref().map(|ls| {
+            ls.iter()
+                .map(|l| Layer::new(l.in_dim, l.out_dim, l.act, l.w.clone(), l.b.clone()))
+                .collect()
+        })
+    }
+
+    /// Joins the proposal to `m`, the frozen model it was trained for: its layers become
+    /// the proposal network, its bound the latent bound, test-time sampling is off, and a
+    /// decoder trained with it replaces the frozen one. Refused when `m` is not that model
+    /// ([`frozen_fingerprint`]) or the decoder's shape differs.
+    pub fn join(&self, m: &mut RefModel) -> Result<()> {
+        if self.frozen != frozen_fingerprint(m) {
+            anyhow::bail!("this proposal was trained for other encoder/decoder weights");
+        }
+        if let Some(dec) = self.decoder_layers() {
+            let shapes = |ls: &[Layer]| -> Vec<(usize, usize, Act)> {
+                ls.iter().map(|l| (l.in_dim, l.out_dim, l.act)).collect()
+            };
+            if shapes(&dec) != shapes(&m.nets.decoder) {
+                anyhow::bail!("the proposal's tuned decoder has another shape than the model's");
+            }
+            m.nets.decoder = dec;
+        }
+        m.config.tts_samples = 0;
+        m.nets.proposal = self.layers();
+        m.config.latent_bound = self.settings.bound;
+        Ok(())
+    }
+
     /// Reads `proposal.json`.
     pub fn read(path: &Path) -> Result<Self> {
         let text = crate::inpath::read_text_limited(path, crate::inpath::FileKind::Text)?;
@@ -171,6 +232,10 @@ pub struct ProposalCard {
     pub val_min_fde: String,
     /// The `gpecnet propose` command that trains it.
     pub command: String,
+    /// Whether the decoder was trained together with the proposal (joint training); the
+    /// blob then holds that decoder, not the frozen model's.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub decoder_tuned: bool,
 }
 
 impl ProposalCard {
@@ -206,7 +271,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -224,8 +289,21 @@ impl ProposalCard {
                 } else {
                     String::new()
                 },
+                if s.train_fraction < 1.0 {
+                    format!(" --train-fraction {}", s.train_fraction)
+                } else {
+                    String::new()
+                },
+                s.decoder_lr
+                    .map_or(String::new(), |lr| format!(" --tune-decoder --decoder-lr {lr}")),
+                if s.starter_weight == 1.0 {
+                    String::new()
+                } else {
+                    format!(" --starter-weight {}", s.starter_weight)
+                },
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
+            decoder_tuned: p.decoder.is_some(),
         }
     }
 }

@@ -408,12 +408,6 @@ impl ExportSettings {
         }
         if let Some(path) = &self.proposal {
             let p = crate::proposal_file::ProposalFile::read(path)?;
-            if p.frozen != crate::proposal_file::frozen_fingerprint(m) {
-                bail!(
-                    "{}: this proposal was trained for other encoder/decoder weights",
-                    path.display()
-                );
-            }
             if p.settings.k != k {
                 bail!(
                     "{}: the proposal gives {} latents, the card evaluates K = {k}",
@@ -424,8 +418,8 @@ impl ExportSettings {
             if m.config.tts_samples != 0 {
                 bail!("a proposal model draws no test-time samples: use --tts 0");
             }
-            m.nets.proposal = p.layers();
-            m.config.latent_bound = p.settings.bound;
+            p.join(m)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         }
         if let Some(path) = &self.score {
             if self.proposal.is_none() {

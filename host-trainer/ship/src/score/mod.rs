@@ -144,16 +144,9 @@ impl ScoreArgs {
         }
         if let Some(path) = &self.proposal {
             let p = crate::proposal_file::ProposalFile::read(path)?;
-            if p.frozen != crate::proposal_file::frozen_fingerprint(&model) {
-                bail!(
-                    "{}: this proposal was trained for other encoder/decoder weights than {}",
-                    path.display(),
-                    self.blob.display()
-                );
-            }
-            model.config.tts_samples = 0;
-            model.nets.proposal = p.layers();
-            model.config.latent_bound = p.settings.bound;
+            p.join(&mut model).map_err(|e| {
+                anyhow::anyhow!("{} with {}: {e}", path.display(), self.blob.display())
+            })?;
             model.validate()?;
         }
         if model.is_scored() {

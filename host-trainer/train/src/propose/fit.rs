@@ -17,6 +17,8 @@ pub struct Encoded {
     pub features: Tensor,
     /// `[n, 2]`.
     pub targets: Tensor,
+    /// Each window's weight in the loss (`[n]`), `None` = all 1.
+    pub weights: Option<Tensor>,
     /// Windows.
     pub n: usize,
 }
@@ -43,23 +45,40 @@ impl Encoded {
         Ok(Self {
             features: Tensor::from_vec(feats, (n, c.fdim), &Device::Cpu)?,
             targets: Tensor::from_vec(targets, (n, 2), &Device::Cpu)?,
+            weights: None,
             n,
         })
     }
 
-    /// Rows `idx` of both tensors.
-    pub fn rows(&self, idx: &[u32]) -> Result<(Tensor, Tensor)> {
+    /// The same windows, each weighing `weights[i]` in the loss (one weight per window).
+    pub fn with_weights(self, weights: Vec<f32>) -> Result<Self> {
+        if weights.len() != self.n {
+            bail!("{} weights for {} windows", weights.len(), self.n);
+        }
+        let n = self.n;
+        Ok(Self {
+            weights: Some(Tensor::from_vec(weights, n, &Device::Cpu)?),
+            ..self
+        })
+    }
+
+    /// Rows `idx` of the features and targets, and of the weights if there are any.
+    pub fn rows(&self, idx: &[u32]) -> Result<(Tensor, Tensor, Option<Tensor>)> {
         let i = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
         Ok((
             self.features.index_select(&i, 0)?,
             self.targets.index_select(&i, 0)?,
+            self.weights
+                .as_ref()
+                .map(|w| w.index_select(&i, 0))
+                .transpose()?,
         ))
     }
 }
 
-/// A network of exported (w0-folded) layers as a candle MLP; its parameters are left out of
-/// every optimiser (the decoder stays frozen).
-pub fn frozen_mlp(layers: &[Layer]) -> Result<Mlp> {
+/// A network of exported (w0-folded) layers as a candle MLP. Its parameters are trained only
+/// when given to an optimiser (the decoder under joint training); otherwise it stays frozen.
+pub fn mlp_of(layers: &[Layer]) -> Result<Mlp> {
     let hidden = layers
         .first()
         .filter(|_| layers.len() > 1)
@@ -126,13 +145,15 @@ pub fn distances(d: &Tensor, t: &Tensor) -> Result<Tensor> {
 }
 
 /// The training loss of one batch: the soft minimum over the K endpoint errors
-/// (`m − T·ln Σ_k exp(−(d_k − m)/T)`, `m` the hard minimum, not differentiated) plus
+/// (`m − T·ln Σ_k exp(−(d_k − m)/T)`, `m` the hard minimum, not differentiated), averaged
+/// over the windows (weighted by `w` when given: `Σ wᵢ sᵢ / Σ wᵢ`), plus
 /// `prior_weight · ½‖z‖²` averaged over the latents.
 pub fn loss(
     proposal: &Mlp,
     decoder: &Mlp,
     f: &Tensor,
     t: &Tensor,
+    w: Option<&Tensor>,
     spec: &LossSpec,
 ) -> Result<Tensor> {
     let (d, z) = endpoints(proposal, decoder, f, spec)?;
@@ -148,7 +169,11 @@ pub fn loss(
             .log()?
             * temp)?)?;
     let prior = (z.sqr()?.sum(1)?.mean_all()? * (0.5 * f64::from(spec.prior_weight)))?;
-    Ok((soft.mean_all()? + prior)?)
+    let data = match w {
+        Some(w) => (soft.mul(w)?.sum_all()? / f64::from(w.sum_all()?.to_scalar::<f32>()?))?,
+        None => soft.mean_all()?,
+    };
+    Ok((data + prior)?)
 }
 
 /// Validation numbers of one pass (normalised units; divide by `data_scale` for the
@@ -168,7 +193,7 @@ pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -
     let (mut fde, mut clamped, mut norm, mut comps) = (0.0f64, 0.0f64, 0.0f64, 0usize);
     let idx: Vec<u32> = (0..enc.n as u32).collect();
     for chunk in idx.chunks(1024) {
-        let (f, t) = enc.rows(chunk)?;
+        let (f, t, _) = enc.rows(chunk)?;
         let (d, z) = endpoints(proposal, decoder, &f, spec)?;
         let dist = distances(&d, &t)?.min(1)?.to_dtype(DType::F64)?;
         fde += dist.sum_all()?.to_scalar::<f64>()?;

@@ -1,12 +1,15 @@
-//! `gpecnet propose`: a learned latent proposal for a **frozen** model.
+//! `gpecnet propose`: a learned latent proposal for a trained model.
 //!
 //! A CVAE's endpoint set is normally K latents drawn from the prior (or many more, reduced
 //! by k-means, [`gpecnet_reference::tts`]). A proposal replaces the draw with K latents computed from
 //! the past: a small network `f → K·zdim` (DLow, Yuan & Kitani, ECCV 2020) on the frozen
 //! encoder's features, or, with `codebook`, K fixed latent vectors (its bias alone). It is
-//! trained post hoc, the CVAE's networks untouched, against the soft minimum over the K
-//! endpoint errors (a differentiable best-of-K) plus a small weight on the prior's
-//! `½‖z‖²`. Every latent component is clamped to `±bound`, in training exactly as in
+//! trained post hoc against the soft minimum over the K endpoint errors (a differentiable
+//! best-of-K) plus a small weight on the prior's `½‖z‖²`. The CVAE's networks stay
+//! untouched, or, with `tune_decoder` (joint training), the decoder is trained together with
+//! the proposal, starting from the blob's, while the encoder and the point head stay frozen.
+//! A starter's window (standing when forecast, far at the horizon) may weigh more in the
+//! loss (`starter_weight`). Every latent component is clamped to `±bound`, in training exactly as in
 //! `gpecnet-core`, so the fixed-point decoder's input range is respected by construction.
 //!
 //! The run folder holds `checkpoint.json` (after every epoch, atomically: the current and
@@ -103,6 +106,25 @@ pub struct ProposeArgs {
     /// `gpecnet train --train-fraction` (the same tracks); validation is never reduced.
     #[arg(long, value_name = "FRACTION", default_value_t = 1.0)]
     pub train_fraction: f32,
+    /// Joint training: train the decoder together with the proposal, from the blob's
+    /// decoder, under the same loss (its own Adam, --decoder-lr). The encoder and the point
+    /// head stay frozen, so the point forecast does not change; `proposal.json` then holds
+    /// the tuned decoder, and `gpecnet export --proposal` and `gpecnet score` use it.
+    #[arg(long)]
+    pub tune_decoder: bool,
+    /// Adam learning rate of the decoder under --tune-decoder.
+    #[arg(
+        long,
+        value_name = "LR",
+        default_value_t = 1e-4,
+        requires = "tune_decoder"
+    )]
+    pub decoder_lr: f64,
+    /// Weight in the loss of a training window whose pedestrian starts walking (standing
+    /// when forecast, then more than 1 m away at the horizon); every other window weighs 1.
+    /// Needs data in metres.
+    #[arg(long, value_name = "W", default_value_t = 1.0)]
+    pub starter_weight: f32,
 }
 
 /// Hidden activation of a proposal network.
@@ -117,6 +139,10 @@ pub enum ActArg {
 /// The most latents a proposal may give: the core's limit
 /// (`gpecnet_core::blob::MAX_PROPOSAL_LATENTS`).
 pub const MAX_PROPOSAL_K: usize = gpecnet_core::blob::MAX_PROPOSAL_LATENTS;
+
+/// The largest `--starter-weight`: starters are 1–15 % of a training split, so a larger
+/// weight would let a few windows decide every step.
+pub const MAX_STARTER_WEIGHT: f32 = 100.0;
 
 impl ProposeArgs {
     /// Every numeric option in its range, before anything is read or allocated; each error
@@ -157,10 +183,17 @@ impl ProposeArgs {
                 bail!("--hidden has a layer of width {w}: allowed widths 1..={MAX_WIDTH}");
             }
         }
-        if !(self.lr.is_finite() && self.lr > 0.0 && self.lr <= 1.0) {
+        for (name, lr) in [("--lr", self.lr), ("--decoder-lr", self.decoder_lr)] {
+            if !(lr.is_finite() && lr > 0.0 && lr <= 1.0) {
+                bail!("{name} {lr} is out of range: allowed a finite number in (0, 1]");
+            }
+        }
+        if !(self.starter_weight.is_finite()
+            && (0.0..=MAX_STARTER_WEIGHT).contains(&self.starter_weight))
+        {
             bail!(
-                "--lr {} is out of range: allowed a finite number in (0, 1]",
-                self.lr
+                "--starter-weight {} is out of range: allowed a finite number in [0, {MAX_STARTER_WEIGHT}]",
+                self.starter_weight
             );
         }
         for (name, v) in [("--temperature", self.temperature), ("--bound", self.bound)] {
@@ -289,6 +322,8 @@ impl ProposeArgs {
             mirror: !self.no_mirror,
             obs_noise: self.obs_noise,
             train_fraction: self.train_fraction,
+            decoder_lr: self.tune_decoder.then_some(self.decoder_lr),
+            starter_weight: self.starter_weight,
         };
         ProposeRun {
             model: &model,

@@ -13,7 +13,7 @@ use crate::data::{self, DatasetSpec, Window};
 use crate::mlp::Mlp;
 use crate::optim::{Adam, AdamParams, AdamState};
 use crate::proposal_file::{
-    frozen_fingerprint, EpochRow, LayerFile, ProposalFile, ProposeSettings, ValCore,
+    frozen_fingerprint, EpochRow, GroupVal, LayerFile, ProposalFile, ProposeSettings, ValCore,
 };
 use crate::reference::RefModel;
 use crate::rng::{Rng, RngState};
@@ -30,6 +30,17 @@ struct Checkpoint {
     best_epoch: usize,
     best_weights: Vec<Vec<f32>>,
     rows: Vec<EpochRow>,
+    /// The decoder's part under joint training (absent when it stays frozen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    decoder: Option<DecoderCheckpoint>,
+}
+
+/// The decoder's weights and optimiser under joint training.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct DecoderCheckpoint {
+    weights: Vec<Vec<f32>>,
+    adam: AdamState,
+    best_weights: Vec<Vec<f32>>,
 }
 
 /// A proposal run.
@@ -54,11 +65,36 @@ fn windows(
     split: data::Split,
     s: &ProposeSettings,
 ) -> Result<Vec<Window>> {
-    let windows = data::load(root, spec, split, &s.val_scenes)?.windows;
+    let set = data::load(root, spec, split, &s.val_scenes)?;
+    if s.starter_weight != 1.0 && set.unit != data::Unit::Metres {
+        bail!(
+            "--starter-weight needs data in metres (a starter is defined in m/s and m); {} is in {}",
+            set.name,
+            set.unit.words()
+        );
+    }
+    let windows = set.windows;
     Ok(if split == data::Split::Train {
         data::track_fraction(windows, s.train_fraction)
     } else {
         windows
+    })
+}
+
+/// The loss weight of each window: `starter_weight` for a starter
+/// ([`data::motion_change`] group 0), 1 for every other; `None` when all are 1.
+fn window_weights(windows: &[Window], starter_weight: f32) -> Option<Vec<f32>> {
+    (starter_weight != 1.0).then(|| {
+        windows
+            .iter()
+            .map(|w| {
+                if data::motion_change(w) == 0 {
+                    starter_weight
+                } else {
+                    1.0
+                }
+            })
+            .collect()
     })
 }
 
@@ -147,9 +183,14 @@ impl ProposeRun<'_> {
         let train_windows = augment(windows(&self.data_root, &spec, data::Split::Train, s)?, s);
         let val = windows(&self.data_root, &spec, data::Split::Val, s)?;
         // With observation noise the windows are encoded again every epoch, noisy.
-        let mut train = Encoded::of(self.model, &train_windows)?;
+        let weights = window_weights(&train_windows, s.starter_weight);
+        let weigh = |enc: Encoded| match &weights {
+            Some(w) => enc.with_weights(w.clone()),
+            None => Ok(enc),
+        };
+        let mut train = weigh(Encoded::of(self.model, &train_windows)?)?;
         let val = Encoded::of(self.model, &val)?;
-        let decoder = fit::frozen_mlp(&self.model.nets.decoder)?;
+        let decoder = fit::mlp_of(&self.model.nets.decoder)?;
         let proposal = build(s, c.fdim, c.zdim)?;
         let ds = f64::from(c.data_scale);
         let loss_spec = LossSpec {
@@ -160,6 +201,10 @@ impl ProposeRun<'_> {
             prior_weight: s.prior_weight,
         };
         let mut adam = Adam::new(trainable(&proposal, s.codebook), AdamParams::with_lr(s.lr));
+        // Joint training: the decoder's own Adam, with its own learning rate.
+        let mut dec_adam = s
+            .decoder_lr
+            .map(|lr| Adam::new(decoder.vars(), AdamParams::with_lr(lr)));
         let mut rng = Rng::with_stream(s.seed, 1);
         let mut ck = Checkpoint {
             settings: s.clone(),
@@ -170,6 +215,14 @@ impl ProposeRun<'_> {
             best_epoch: 0,
             best_weights: weights_of(&proposal)?,
             rows: Vec::new(),
+            decoder: match &dec_adam {
+                Some(a) => Some(DecoderCheckpoint {
+                    weights: weights_of(&decoder)?,
+                    adam: a.state().clone(),
+                    best_weights: weights_of(&decoder)?,
+                }),
+                None => None,
+            },
         };
         if ckpt_path.exists() {
             if !self.resume {
@@ -195,6 +248,15 @@ impl ProposeRun<'_> {
                 AdamParams::with_lr(s.lr),
                 old.adam.clone(),
             )?;
+            if let (Some(a), Some(d)) = (&mut dec_adam, &old.decoder) {
+                set_weights(&decoder, &d.weights)?;
+                *a = Adam::from_state(decoder.vars(), a.params(), d.adam.clone())?;
+            } else if dec_adam.is_some() {
+                bail!(
+                    "{} holds no decoder state for a joint run",
+                    ckpt_path.display()
+                );
+            }
             rng = Rng::from_state(&old.rng);
             ck = old;
         }
@@ -208,14 +270,21 @@ impl ProposeRun<'_> {
         let mut order: Vec<u32> = (0..train.n as u32).collect();
         while ck.epoch < s.epochs {
             if s.obs_noise > 0.0 {
-                train = self.noisy_encoding(&train_windows, ck.epoch)?;
+                train = weigh(self.noisy_encoding(&train_windows, ck.epoch)?)?;
             }
             rng.shuffle(&mut order);
             let (mut sum, mut n) = (0.0f64, 0usize);
             for chunk in order.chunks(s.batch) {
-                let (f, t) = train.rows(chunk)?;
-                let l = fit::loss(&proposal, &decoder, &f, &t, &loss_spec)?;
-                adam.backward_step(&l)?;
+                let (f, t, w) = train.rows(chunk)?;
+                let l = fit::loss(&proposal, &decoder, &f, &t, w.as_ref(), &loss_spec)?;
+                match &mut dec_adam {
+                    Some(da) => {
+                        let grads = l.backward()?;
+                        adam.step(&grads)?;
+                        da.step(&grads)?;
+                    }
+                    None => adam.backward_step(&l)?,
+                }
                 sum += f64::from(l.to_scalar::<f32>()?);
                 n += 1;
             }
@@ -246,6 +315,13 @@ impl ProposeRun<'_> {
                 ck.best_epoch = ck.epoch;
                 ck.best_weights = ck.weights.clone();
             }
+            if let (Some(d), Some(da)) = (&mut ck.decoder, &dec_adam) {
+                d.weights = weights_of(&decoder)?;
+                d.adam = da.state().clone();
+                if best {
+                    d.best_weights = d.weights.clone();
+                }
+            }
             bar.set_message(format!(
                 "val minFDE {:.4} (best {:.4} @ {})",
                 row.val_min_fde,
@@ -272,6 +348,13 @@ impl ProposeRun<'_> {
         bar.finish();
         set_weights(&proposal, &ck.best_weights)?;
         let exported = proposal.export()?;
+        let tuned_decoder = match &ck.decoder {
+            Some(d) => {
+                set_weights(&decoder, &d.best_weights)?;
+                Some(decoder.export()?.iter().map(layer_file).collect())
+            }
+            None => None,
+        };
         let val_row = ck
             .rows
             .iter()
@@ -284,17 +367,9 @@ impl ProposeRun<'_> {
             source: self.source.display().to_string(),
             epoch: ck.best_epoch,
             val: val_row,
-            layers: exported
-                .iter()
-                .map(|l| LayerFile {
-                    in_dim: l.in_dim,
-                    out_dim: l.out_dim,
-                    act: l.act,
-                    w: l.w.clone(),
-                    b: l.b.clone(),
-                })
-                .collect(),
+            layers: exported.iter().map(layer_file).collect(),
             val_core: None,
+            decoder: tuned_decoder,
         };
         let file = ProposalFile {
             val_core: Some(self.val_core(&file, &spec)?),
@@ -326,9 +401,7 @@ impl ProposeRun<'_> {
     /// [`ValCore`] of `file` joined to the frozen model.
     fn val_core(&self, file: &ProposalFile, spec: &DatasetSpec) -> Result<ValCore> {
         let mut m = self.model.clone();
-        m.config.tts_samples = 0;
-        m.nets.proposal = file.layers();
-        m.config.latent_bound = file.settings.bound;
+        file.join(&mut m)?;
         let blob = crate::export::blob_bytes(&m)?;
         let val = data::load(
             &self.data_root,
@@ -342,7 +415,32 @@ impl ProposeRun<'_> {
         let acc = crate::dist::dist_accumulator(&val, &preds).context("no validation windows")?;
         let dist = acc.finish().context("no validation windows")?;
         let radii = crate::dist::hit_radii(val.unit);
+        let starters = if val.unit == data::Unit::Metres {
+            let (windows, preds): (Vec<Window>, Vec<_>) = val
+                .windows
+                .iter()
+                .zip(&preds)
+                .filter(|(w, _)| data::motion_change(w) == 0)
+                .map(|(w, p)| (w.clone(), p.clone()))
+                .unzip();
+            let group = data::Dataset {
+                name: format!("{} (starters)", val.name),
+                unit: val.unit,
+                windows,
+            };
+            (!group.windows.is_empty())
+                .then(|| crate::core_eval::accumulate(&group, &preds))
+                .transpose()?
+                .map(|m| GroupVal {
+                    n: m.n,
+                    min_ade: m.min_ade,
+                    min_fde: m.min_fde,
+                })
+        } else {
+            None
+        };
         Ok(ValCore {
+            starters,
             n: metrics.n,
             min_ade: metrics.min_ade,
             min_fde: metrics.min_fde,
@@ -351,6 +449,16 @@ impl ProposeRun<'_> {
             radii,
             hits: radii.map(|r| acc.within(r)),
         })
+    }
+}
+
+fn layer_file(l: &crate::network::Layer) -> LayerFile {
+    LayerFile {
+        in_dim: l.in_dim,
+        out_dim: l.out_dim,
+        act: l.act,
+        w: l.w.clone(),
+        b: l.b.clone(),
     }
 }
 
