@@ -2,7 +2,8 @@
 //! trains, selects on validation and beats the prior's draws there, refuses to mix runs,
 //! resumes, and its proposal joins only the model it was trained for (then the core and
 //! the reference agree bit for bit, in f32 and in fixed point); joint training tunes the
-//! decoder alone, and starters may weigh more (data in metres only).
+//! decoder alone, starters may weigh more (data in metres only), and the parts of a
+//! combined data set the same.
 
 use crate::common;
 
@@ -236,5 +237,65 @@ fn starter_weights_need_data_in_metres() {
     ]);
     assert!(!ok && text.contains("metres"), "{text}");
     assert!(!dir.join("run/proposal.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn balance_makes_every_part_of_a_combined_set_weigh_the_same() {
+    let dir = temp_dir("propose-balance");
+    let out = dir.join("run");
+    let blob = blob();
+    let base = [
+        "propose",
+        "--blob",
+        s(&blob),
+        "--hidden",
+        "6",
+        "--epochs",
+        "1",
+        "--train-fraction",
+        "0.1",
+        "--balance",
+    ];
+    // One data set has nothing to balance: refused before anything is written.
+    let (ok, text) = run(&[&base[..], &["--dataset", "sdd-m", "--out", s(&out)]].concat());
+    assert!(!ok && text.contains("combined"), "{text}");
+    assert!(!out.exists());
+    let union = "sdd-m+eth_ucy:zara1";
+    let (ok, text) = run(&[&base[..], &["--dataset", union, "--out", s(&out)]].concat());
+    assert!(ok, "{text}");
+    let p = ProposalFile::read(&out.join("proposal.json")).unwrap();
+    assert!(p.settings.balance);
+    // The epoch was selected on the mean of the two parts' validation minFDE (ETH/UCY has
+    // about 6 times SDD's validation windows), which the core reproduces part by part.
+    let mut m = gpecnet_trainer::export::read_blob(&std::fs::read(&blob).unwrap()).unwrap();
+    p.join(&mut m).unwrap();
+    let bytes = gpecnet_trainer::export::blob_bytes(&m).unwrap();
+    let root_data = data::default_data_root();
+    let part = |name: &str| {
+        let val = data::load(
+            &root_data,
+            &DatasetSpec::parse(name).unwrap(),
+            Split::Val,
+            &data::default_sdd_val_scenes(),
+        )
+        .unwrap();
+        let (metrics, _) =
+            gpecnet_trainer::core_eval::evaluate_core(&bytes, SineKind::Libm, &val, 20, 0).unwrap();
+        (metrics.n, metrics.min_fde)
+    };
+    let (sdd, eth) = (part("sdd-m"), part("eth_ucy:zara1"));
+    assert!(eth.0 > 2 * sdd.0, "{sdd:?} {eth:?}");
+    let balanced = (sdd.1 + eth.1) / 2.0;
+    assert!(
+        (p.val.val_min_fde - balanced).abs() < 1e-3,
+        "{} vs the parts' mean {balanced} ({sdd:?}, {eth:?})",
+        p.val.val_min_fde
+    );
+    // The plain validation mean (every window alike) is another number.
+    let plain = p.val_core.unwrap().min_fde;
+    let pooled = (sdd.1 * sdd.0 as f64 + eth.1 * eth.0 as f64) / (sdd.0 + eth.0) as f64;
+    assert!((plain - pooled).abs() < 1e-6, "{plain} vs {pooled}");
+    assert!((plain - balanced).abs() > 1e-3, "{plain} vs {balanced}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -64,6 +64,11 @@ pub struct ProposeSettings {
     /// 1 (absent from older files) = no re-weighting.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub starter_weight: f32,
+    /// Each part of a combined data set (`A+B`) weighs the same in the training loss and in
+    /// the validation score that selects the epoch, however many windows it has; false
+    /// (absent from older files) = every window weighs the same.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub balance: bool,
 }
 
 fn one() -> f32 {
@@ -271,7 +276,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -301,6 +306,7 @@ impl ProposalCard {
                 } else {
                     format!(" --starter-weight {}", s.starter_weight)
                 },
+                if s.balance { " --balance" } else { "" },
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
             decoder_tuned: p.decoder.is_some(),

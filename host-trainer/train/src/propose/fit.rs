@@ -180,7 +180,7 @@ pub fn loss(
 /// caller's).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ValScore {
-    /// Mean over windows of the smallest endpoint error.
+    /// Mean over windows of the smallest endpoint error (weighted, if the windows are).
     pub min_fde: f64,
     /// Share of latent components at the clamp.
     pub clamped: f64,
@@ -188,15 +188,27 @@ pub struct ValScore {
     pub z_norm: f64,
 }
 
-/// Best-of-K endpoint error of `proposal` on all of `enc`, in chunks.
+/// Best-of-K endpoint error of `proposal` on all of `enc`, in chunks; with weights, the
+/// weighted mean `Σ wᵢ dᵢ / Σ wᵢ`.
 pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -> Result<ValScore> {
-    let (mut fde, mut clamped, mut norm, mut comps) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    let (mut fde, mut weight, mut clamped, mut norm, mut comps) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
     let idx: Vec<u32> = (0..enc.n as u32).collect();
     for chunk in idx.chunks(1024) {
-        let (f, t, _) = enc.rows(chunk)?;
+        let (f, t, w) = enc.rows(chunk)?;
         let (d, z) = endpoints(proposal, decoder, &f, spec)?;
-        let dist = distances(&d, &t)?.min(1)?.to_dtype(DType::F64)?;
-        fde += dist.sum_all()?.to_scalar::<f64>()?;
+        let dist = distances(&d, &t)?.min(1)?;
+        let dist = match &w {
+            Some(w) => {
+                weight += f64::from(w.sum_all()?.to_scalar::<f32>()?);
+                dist.mul(w)?
+            }
+            None => {
+                weight += chunk.len() as f64;
+                dist
+            }
+        };
+        fde += dist.to_dtype(DType::F64)?.sum_all()?.to_scalar::<f64>()?;
         let zv = z.flatten_all()?.to_vec1::<f32>()?;
         clamped += zv.iter().filter(|v| v.abs() >= spec.bound).count() as f64;
         comps += zv.len();
@@ -210,7 +222,7 @@ pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -
     }
     let n = enc.n.max(1) as f64;
     Ok(ValScore {
-        min_fde: fde / n,
+        min_fde: fde / weight.max(f64::MIN_POSITIVE),
         clamped: clamped / comps.max(1) as f64,
         z_norm: norm / (n * spec.k as f64),
     })

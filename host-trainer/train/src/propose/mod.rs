@@ -9,7 +9,8 @@
 //! untouched, or, with `tune_decoder` (joint training), the decoder is trained together with
 //! the proposal, starting from the blob's, while the encoder and the point head stay frozen.
 //! A starter's window (standing when forecast, far at the horizon) may weigh more in the
-//! loss (`starter_weight`). Every latent component is clamped to `±bound`, in training exactly as in
+//! loss (`starter_weight`), and the parts of a combined data set may weigh the same
+//! (`balance`). Every latent component is clamped to `±bound`, in training exactly as in
 //! `gpecnet-core`, so the fixed-point decoder's input range is respected by construction.
 //!
 //! The run folder holds `checkpoint.json` (after every epoch, atomically: the current and
@@ -125,6 +126,11 @@ pub struct ProposeArgs {
     /// Needs data in metres.
     #[arg(long, value_name = "W", default_value_t = 1.0)]
     pub starter_weight: f32,
+    /// With a combined data set (`A+B`): every part weighs the same in the training loss
+    /// and in the validation score that selects the epoch, however many windows it has (a
+    /// window of a part with n of the N windows weighs N / (parts · n)).
+    #[arg(long)]
+    pub balance: bool,
 }
 
 /// Hidden activation of a proposal network.
@@ -284,6 +290,12 @@ impl ProposeArgs {
         // The blob's unit and clock must be the data's, and the run folder outside the
         // data and apart from the blob's files.
         let spec = data::DatasetSpec::parse(&self.dataset).map_err(anyhow::Error::msg)?;
+        if self.balance && !matches!(spec, data::DatasetSpec::Combined(_)) {
+            bail!(
+                "--balance weighs the parts of a combined data set (`A+B`); {} is one data set",
+                self.dataset
+            );
+        }
         let meta = gpecnet_core::blob::Meta::of_blob(&bytes)
             .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?;
         data::units::check_unit(&core, &meta, &spec, None)
@@ -324,6 +336,7 @@ impl ProposeArgs {
             train_fraction: self.train_fraction,
             decoder_lr: self.tune_decoder.then_some(self.decoder_lr),
             starter_weight: self.starter_weight,
+            balance: self.balance,
         };
         ProposeRun {
             model: &model,

@@ -59,43 +59,87 @@ pub struct ProposeRun<'a> {
     pub source: PathBuf,
 }
 
+/// The windows of one split and, for each, the index of the part of a combined data set
+/// it comes from (0 for a single data set). The training split is cut to the settings'
+/// fraction of each part's tracks.
 fn windows(
     root: &Path,
     spec: &DatasetSpec,
     split: data::Split,
     s: &ProposeSettings,
-) -> Result<Vec<Window>> {
-    let set = data::load(root, spec, split, &s.val_scenes)?;
-    if s.starter_weight != 1.0 && set.unit != data::Unit::Metres {
-        bail!(
-            "--starter-weight needs data in metres (a starter is defined in m/s and m); {} is in {}",
-            set.name,
-            set.unit.words()
-        );
+) -> Result<(Vec<Window>, Vec<usize>)> {
+    let parts = match spec {
+        DatasetSpec::Combined(parts) if s.balance => parts.iter().collect(),
+        _ => vec![spec],
+    };
+    let (mut out, mut part_of) = (Vec::new(), Vec::new());
+    for (i, part) in parts.into_iter().enumerate() {
+        let set = data::load(root, part, split, &s.val_scenes)?;
+        if s.starter_weight != 1.0 && set.unit != data::Unit::Metres {
+            bail!(
+                "--starter-weight needs data in metres (a starter is defined in m/s and m); {} is in {}",
+                set.name,
+                set.unit.words()
+            );
+        }
+        let windows = if split == data::Split::Train {
+            data::track_fraction(set.windows, s.train_fraction)
+        } else {
+            set.windows
+        };
+        if windows.is_empty() && s.balance {
+            bail!(
+                "--balance: {} has no {} windows to weigh",
+                set.name,
+                split.dir_name()
+            );
+        }
+        part_of.extend(std::iter::repeat_n(i, windows.len()));
+        out.extend(windows);
     }
-    let windows = set.windows;
-    Ok(if split == data::Split::Train {
-        data::track_fraction(windows, s.train_fraction)
-    } else {
-        windows
-    })
+    Ok((out, part_of))
 }
 
-/// The loss weight of each window: `starter_weight` for a starter
-/// ([`data::motion_change`] group 0), 1 for every other; `None` when all are 1.
-fn window_weights(windows: &[Window], starter_weight: f32) -> Option<Vec<f32>> {
-    (starter_weight != 1.0).then(|| {
+/// Each window's weight for `balance`: `N / (parts · n_p)` for a window of part `p` with
+/// `n_p` of the `N` windows, so every part totals `N / parts`.
+fn balance_weights(part_of: &[usize]) -> Vec<f32> {
+    let parts = part_of.iter().max().map_or(0, |&m| m + 1);
+    let mut count = vec![0usize; parts];
+    for &p in part_of {
+        count[p] += 1;
+    }
+    let n = part_of.len() as f64;
+    part_of
+        .iter()
+        .map(|&p| (n / (parts as f64 * count[p] as f64)) as f32)
+        .collect()
+}
+
+/// The training loss weight of each window: `starter_weight` for a starter
+/// ([`data::motion_change`] group 0), 1 for every other, times its part's weight under
+/// `balance`; `None` when all are 1.
+fn window_weights(windows: &[Window], part_of: &[usize], s: &ProposeSettings) -> Option<Vec<f32>> {
+    if s.starter_weight == 1.0 && !s.balance {
+        return None;
+    }
+    let parts = if s.balance {
+        balance_weights(part_of)
+    } else {
+        vec![1.0; windows.len()]
+    };
+    Some(
         windows
             .iter()
-            .map(|w| {
+            .zip(parts)
+            .map(|(w, b)| {
                 if data::motion_change(w) == 0 {
-                    starter_weight
+                    s.starter_weight * b
                 } else {
-                    1.0
+                    b
                 }
             })
-            .collect()
-    })
+            .collect(),
+    )
 }
 
 fn build(s: &ProposeSettings, fdim: usize, zdim: usize) -> Result<Mlp> {
@@ -146,16 +190,24 @@ fn set_weights(mlp: &Mlp, w: &[Vec<f32>]) -> Result<()> {
     Ok(())
 }
 
-fn augment(mut ws: Vec<Window>, s: &ProposeSettings) -> Vec<Window> {
+/// The training windows with their time-reversed and mirrored copies, as the settings ask,
+/// and each window's part index carried along.
+fn augment(
+    mut ws: Vec<Window>,
+    mut part_of: Vec<usize>,
+    s: &ProposeSettings,
+) -> (Vec<Window>, Vec<usize>) {
     if s.time_reversal {
         let rev: Vec<Window> = ws.iter().map(data::time_reversed).collect();
         ws.extend(rev);
+        part_of.extend_from_within(..);
     }
     if s.mirror {
         let mir: Vec<Window> = ws.iter().map(data::mirrored).collect();
         ws.extend(mir);
+        part_of.extend_from_within(..);
     }
-    ws
+    (ws, part_of)
 }
 
 impl ProposeRun<'_> {
@@ -180,16 +232,24 @@ impl ProposeRun<'_> {
         let _lock = RunLock::acquire(&self.out)?;
         let ckpt_path = self.out.join("checkpoint.json");
         let spec = DatasetSpec::parse(&s.dataset).map_err(anyhow::Error::msg)?;
-        let train_windows = augment(windows(&self.data_root, &spec, data::Split::Train, s)?, s);
-        let val = windows(&self.data_root, &spec, data::Split::Val, s)?;
+        let (train_windows, train_parts) = {
+            let (ws, parts) = windows(&self.data_root, &spec, data::Split::Train, s)?;
+            augment(ws, parts, s)
+        };
+        let (val, val_parts) = windows(&self.data_root, &spec, data::Split::Val, s)?;
         // With observation noise the windows are encoded again every epoch, noisy.
-        let weights = window_weights(&train_windows, s.starter_weight);
+        let weights = window_weights(&train_windows, &train_parts, s);
         let weigh = |enc: Encoded| match &weights {
             Some(w) => enc.with_weights(w.clone()),
             None => Ok(enc),
         };
         let mut train = weigh(Encoded::of(self.model, &train_windows)?)?;
-        let val = Encoded::of(self.model, &val)?;
+        // Validation weighs the parts under `balance` (never the starters): the epoch is
+        // selected on the mean of the parts' minFDE.
+        let val = match s.balance {
+            true => Encoded::of(self.model, &val)?.with_weights(balance_weights(&val_parts))?,
+            false => Encoded::of(self.model, &val)?,
+        };
         let decoder = fit::mlp_of(&self.model.nets.decoder)?;
         let proposal = build(s, c.fdim, c.zdim)?;
         let ds = f64::from(c.data_scale);
