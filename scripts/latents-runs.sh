@@ -6,7 +6,7 @@
 # checkpoint (`gpecnet propose --resume`).
 #
 #   scripts/latents-runs.sh [OUT [VARIANT...]]   # OUT defaults to runs/latents; all variants
-#   scripts/latents-summary.sh [OUT]             # mean ± std of each variant's best validation epoch
+#   scripts/latents-summary.py [OUT]             # mean ± std of each variant's validation numbers
 #
 # BIN names another gpecnet binary (default: target/release/gpecnet, built first).
 # About 1 s per epoch and run on a 2020s x86 core (100 epochs: ~2 min); 16 runs of the
