@@ -1,38 +1,60 @@
 #!/usr/bin/env bash
 # Protocol (a) of docs/generalisation.md ("One model for every scene"): SDD in metres
-# + four ETH/UCY scenes -> the fifth, the shipped default's recipe (sdd-m-tiny.toml, --mirror,
-# then a learned 8-wide proposal, endpoint scores, endpoint-only fixed point), 3 seeds per
-# target scene. Every choice is made on the combined validation split (the five SDD validation
-# scenes + the four training scenes' val/); the test sets are read only by export (combined test,
+# + four ETH/UCY scenes -> the fifth, 3 seeds per target scene, in one of two modes. Every
+# choice is made on the combined validation split (the five SDD validation scenes + the four
+# training scenes' val/); the test sets are read only by export (the CVAE's own test set,
 # reported nowhere) and eval (each target separately, the numbers of the doc).
 #
-# Per run uni-<scene>-s<seed> under $RUNS (default runs/universal), each stage skipped when its
-# output exists, training resumed from its checkpoint when interrupted:
+# MODE=cvae (default): the shipped default's recipe trained on the combined data: per run
+# uni-<scene>-s<seed> under $RUNS (default runs/universal)
 #   1. train    --config host-trainer/configs/sdd-m-tiny.toml --mirror
 #               --dataset sdd-m+eth_ucy:<scene> --seed <seed> --epochs $EPOCHS (default 150)
 #   2. export   the best-validation epoch's CVAE (f32; sigma unused once a proposal is attached)
 #   3. propose  --hidden 8 --seed <seed> --epochs $PEPOCHS (default 25) on the combined data
+# MODE=joint: the shipped default's CVAE kept (encoder and point head trained on SDD alone),
+# its decoder and the 8-wide proposal trained jointly on the combined data, each data set
+# weighing half of the loss and of the validation score: per run jb-<scene>-s<seed> under
+# $RUNS (default runs/universal-joint)
+#   3. propose  --blob weights/sdd-m-tiny.gpec --hidden 8 --tune-decoder --decoder-lr
+#               $DECODER_LR (default 1e-4) --balance --seed <seed> --epochs $PEPOCHS (default 30)
+#      with the CVAE's run $CVAE (default runs/gen/sdd-m-mirror-s2: weights/sdd-m-tiny.gpec,
+#      bit for bit, from `gpecnet train --config host-trainer/configs/sdd-m-tiny.toml --mirror
+#      --seed 2 --epochs 600 --out runs/gen/sdd-m-mirror-s2`)
+# then, in both modes:
 #   4. score    endpoint probabilities and radii (the shipped settings)
 #   5. export   with proposal + scores, then quantize --endpoint-only (the MCU form)
 #   6. eval     the fixed-point blob on eth_ucy:<scene> and on sdd-m -> <run>-<target>.json
 # plus the shipped default weights/sdd-m-lp-qe.gpec on the same targets (baseline/).
+# Each stage is skipped when its output exists; training and proposals resume from their
+# checkpoints when interrupted.
 #
-# Usage: [BIN=path/to/gpecnet] [JOBS=1] [SEEDS="1 2 3"] scripts/universal-runs.sh [SCENE...]
+# Usage: [MODE=cvae|joint] [BIN=path/to/gpecnet] [JOBS=1] [SEEDS="1 2 3"] scripts/universal-runs.sh [SCENE...]
 #        (scenes: eth hotel univ zara1 zara2; default: all five, as run for the doc)
-# Cost on one 2020s x86 core (the dev-profile binary, measured): eth 2.0 s per training epoch
-# (37,457 windows x 4 with time reversal + mirror), ~7 s per proposal epoch; univ about half.
-# One eth run ~10-12 min, one univ run ~5.5 min; the 15 runs took 121 min of wall time on 2
-# shared cores (one process, a second only while the machine was idle).
+# Cost on one 2020s x86 core (the dev-profile binary, measured): MODE=cvae: eth 2.0 s per
+# training epoch (37,457 windows x 4 with time reversal + mirror), ~7 s per proposal epoch;
+# univ about half. One eth run ~10-12 min, one univ run ~5.5 min; the 15 runs took 121 min of
+# wall time on 2 shared cores (one process, a second only while the machine was idle).
+# MODE=joint (release binary): ~5 s per proposal epoch on the eth split, one run ~5 min.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-runs=${RUNS:-runs/universal}
+mode=${MODE:-cvae}
+case $mode in
+  cvae) runs=${RUNS:-runs/universal} pepochs=${PEPOCHS:-25} prefix=uni ;;
+  joint) runs=${RUNS:-runs/universal-joint} pepochs=${PEPOCHS:-30} prefix=jb ;;
+  *) echo "MODE is cvae or joint, not $mode" >&2; exit 2 ;;
+esac
 jobs=${JOBS:-1}
 seeds=${SEEDS:-"1 2 3"}
 epochs=${EPOCHS:-150}
-pepochs=${PEPOCHS:-25}
+dlr=${DECODER_LR:-1e-4}
+cvae=${CVAE:-runs/gen/sdd-m-mirror-s2}
 if [ -z "${BIN:-}" ]; then
   cargo build --release -q -p gpecnet-trainer
   BIN=target/release/gpecnet
+fi
+if [ "$mode" = joint ] && [ ! -f "$cvae/checkpoint.bin" ]; then
+  echo "no CVAE run at $cvae (see the header)" >&2
+  exit 1
 fi
 scenes=${*:-"eth hotel univ zara1 zara2"}
 models=$runs/models
@@ -43,9 +65,10 @@ eval_to() { # blob, target, json
   "$BIN" eval --blob "$1" --dataset "$2" --json --draw "${3%.json}.svg" >"$3.tmp" && mv "$3.tmp" "$3"
 }
 
-one() { # scene seed
-  local sc=$1 s=$2 name=uni-$1-s$2
-  local out=$runs/$name ds=sdd-m+eth_ucy:$1 log=$runs/$name.log
+# Stages 1-3 of MODE=cvae: the CVAE trained on the combined data, its proposal; sets
+# `src` (the run export reads) and `blob` (the f32 blob the proposal was trained for).
+cvae_stages() { # scene seed name out ds log
+  local sc=$1 s=$2 name=$3 out=$4 ds=$5 log=$6
   local done_epochs=0
   [ -f "$out/metrics.jsonl" ] && done_epochs=$(wc -l <"$out/metrics.jsonl")
   if [ -f "$out/checkpoint.bin" ]; then
@@ -59,12 +82,29 @@ one() { # scene seed
   [ -f "$out-h8/proposal.json" ] ||
     "$BIN" propose --blob "$models/$name.gpec" --dataset "$ds" --hidden 8 --seed "$s" \
       --epochs "$pepochs" --out "$out-h8" --resume >>"$log" 2>&1 || return 1
+  src=$out blob=$models/$name.gpec prop=$out-h8
+}
+
+# Stage 3 of MODE=joint: the shipped CVAE's decoder and a proposal, trained jointly, balanced.
+joint_stages() { # scene seed name out ds log
+  local s=$2 out=$4 ds=$5 log=$6
+  [ -f "$out/proposal.json" ] ||
+    "$BIN" propose --blob weights/sdd-m-tiny.gpec --dataset "$ds" --hidden 8 --tune-decoder \
+      --decoder-lr "$dlr" --balance --seed "$s" --epochs "$pepochs" --out "$out" --resume >"$log" 2>&1 || return 1
+  src=$cvae blob=weights/sdd-m-tiny.gpec prop=$out
+}
+
+one() { # scene seed
+  local sc=$1 s=$2 name=$prefix-$1-s$2
+  local out=$runs/$name ds=sdd-m+eth_ucy:$1 log=$runs/$name.log
+  local src blob prop
+  "${mode}_stages" "$sc" "$s" "$name" "$out" "$ds" "$log" || return 1
   [ -f "$out-score/score.json" ] ||
-    "$BIN" score --blob "$models/$name.gpec" --proposal "$out-h8/proposal.json" --dataset "$ds" \
+    "$BIN" score --blob "$blob" --proposal "$prop/proposal.json" --dataset "$ds" \
       --l2 0,0.0001,0.001,0.01 --iters 400 --lr 0.05 --out "$out-score" >>"$log" 2>&1 || return 1
   [ -f "$models/$name-lp.gpec" ] ||
-    "$BIN" export --run "$out" --name "$name-lp" --out "$models" --sigma 1.3 --tts 0 \
-      --proposal "$out-h8/proposal.json" --score "$out-score/score.json" >>"$log" 2>&1 || return 1
+    "$BIN" export --run "$src" --name "$name-lp" --out "$models" --sigma 1.3 --tts 0 \
+      --proposal "$prop/proposal.json" --score "$out-score/score.json" >>"$log" 2>&1 || return 1
   [ -f "$models/$name-lp-qe.gpec" ] ||
     "$BIN" quantize --endpoint-only --blob "$models/$name-lp.gpec" --out "$models/$name-lp-qe.gpec" >>"$log" 2>&1 || return 1
   eval_to "$models/$name-lp-qe.gpec" "eth_ucy:$sc" "$runs/$name-eth_ucy_$sc.json" || return 1
@@ -81,7 +121,7 @@ wait_slot() { while [ "$(jobs -rp | wc -l)" -ge "$jobs" ]; do sleep 5; done; }
 for sc in $scenes; do
   for s in $seeds; do
     wait_slot
-    one "$sc" "$s" || echo "FAILED uni-$sc-s$s (see $runs/uni-$sc-s$s.log)" &
+    one "$sc" "$s" || echo "FAILED $prefix-$sc-s$s (see $runs/$prefix-$sc-s$s.log)" &
   done
 done
 wait
