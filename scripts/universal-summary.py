@@ -2,11 +2,13 @@
 """The tables of docs/generalisation.md, "One model for every scene", from the eval JSONs that
 scripts/universal-runs.sh writes (every number through gpecnet-core, fixed point, K = 20).
 
-Usage: scripts/universal-summary.py [RUNS]   (default runs/universal)
+Usage: scripts/universal-summary.py [RUNS [PREFIX]]   (default runs/universal uni;
+       runs/universal-joint jb for MODE=joint)
 """
 import glob, json, os, re, statistics, sys
 
 runs = sys.argv[1] if len(sys.argv) > 1 else "runs/universal"
+prefix = sys.argv[2] if len(sys.argv) > 2 else "uni"
 ETH = ["eth", "hotel", "univ", "zara1", "zara2"]
 
 
@@ -22,21 +24,25 @@ def ms(xs, d=3):
 
 def seeds_of(sc):
     out = {}
-    for p in glob.glob(os.path.join(runs, f"uni-{sc}-s*-eth_ucy_{sc}.json")):
+    for p in glob.glob(os.path.join(runs, f"{prefix}-{sc}-s*-eth_ucy_{sc}.json")):
         s = int(re.search(r"-s(\d+)-eth_ucy", p).group(1))
-        sdd = load(os.path.join(runs, f"uni-{sc}-s{s}-sdd-m.json"))
+        sdd = load(os.path.join(runs, f"{prefix}-{sc}-s{s}-sdd-m.json"))
         if sdd is None:
             continue
-        rd = os.path.join(runs, f"uni-{sc}-s{s}")
-        lines = [json.loads(l) for l in open(os.path.join(rd, "metrics.jsonl"))]
-        best = min(lines, key=lambda r: r["val"]["min_fde"])
-        prop = load(rd + "-h8/proposal.json")
-        out[s] = {"t": load(p), "sdd": sdd, "best_epoch": best["epoch"], "epochs": len(lines),
-                  "val_fde": best["val"]["min_fde"],
+        rd = os.path.join(runs, f"{prefix}-{sc}-s{s}")
+        jsonl = os.path.join(rd, "metrics.jsonl")
+        if os.path.exists(jsonl):  # MODE=cvae: the CVAE's training run, then its proposal
+            lines = [json.loads(l) for l in open(jsonl)]
+            best = min(lines, key=lambda r: r["val"]["min_fde"])
+            prop = load(rd + "-h8/proposal.json")
+            cvae = {"best_epoch": best["epoch"], "epochs": len(lines), "val_fde": best["val"]["min_fde"]}
+        else:  # MODE=joint: the proposal run alone (the CVAE is the shipped one)
+            prop = load(os.path.join(rd, "proposal.json"))
+            cvae = {"best_epoch": "–", "epochs": "–", "val_fde": float("nan")}
+        out[s] = {"t": load(p), "sdd": sdd, **cvae,
                   "prop_val": prop["val"]["val_min_fde"] if prop else None,
                   "prop_epoch": prop["epoch"] if prop else None}
     return dict(sorted(out.items()))
-
 
 print("| target | seeds | universal on target: minADE / minFDE (m) | universal on SDD test (m; px) "
       "| sdd-m-lp-qe on target (zero-shot) | universal point FDE | CV FDE | best epoch (val) / proposal val minFDE |")
@@ -56,8 +62,8 @@ for sc in ETH:
           f"{ms([x['min_fde'] for x in s])}; {ms([x['min_ade_px'] for x in s], 2)} / "
           f"{ms([x['min_fde_px'] for x in s], 2)} px | {b['min_ade']:.3f} / {b['min_fde']:.3f} | "
           f"{ms([x['point_fde'] for x in t])} (zero-shot: {b['point_fde']:.3f}) | {t[0]['cv_fde']:.3f} | "
-          + ", ".join(f"{x['best_epoch']}/{x['epochs']} {x['val_fde']:.3f} m / {x['prop_val']:.3f} m"
-                      for x in r.values()) + " |")
+          + ", ".join(f"{x['best_epoch']}/{x['epochs']} {x['val_fde']:.3f} m / {x['prop_val']:.3f} m "
+                      f"(epoch {x['prop_epoch']})" for x in r.values()) + " |")
 print(f"| SDD, shipped `sdd-m-lp-qe` (in domain) | – | – | {base_sdd['min_ade']:.3f} / "
       f"{base_sdd['min_fde']:.3f}; {base_sdd['min_ade_px']:.2f} / {base_sdd['min_fde_px']:.2f} px | – | – | "
       f"{base_sdd['cv_fde']:.3f} | – |")
