@@ -210,6 +210,8 @@ fn joint_training_tunes_the_decoder_only_and_the_export_carries_it() {
         &["--decoder-lr", "1e-4"][..],
         &["--tune-decoder", "--decoder-lr", "0"],
         &["--starter-weight", "-1"],
+        &["--starter-weight", "0"],
+        &["--starter-weight", "NaN"],
         &["--starter-weight", "inf"],
     ] {
         let (ok, text) = propose(&dir.join("bad"), "1", bad);

@@ -194,11 +194,10 @@ impl ProposeArgs {
                 bail!("{name} {lr} is out of range: allowed a finite number in (0, 1]");
             }
         }
-        if !(self.starter_weight.is_finite()
-            && (0.0..=MAX_STARTER_WEIGHT).contains(&self.starter_weight))
-        {
+        // Not 0: a batch of starters alone would weigh nothing and its loss divide by 0.
+        if !(self.starter_weight > 0.0 && self.starter_weight <= MAX_STARTER_WEIGHT) {
             bail!(
-                "--starter-weight {} is out of range: allowed a finite number in [0, {MAX_STARTER_WEIGHT}]",
+                "--starter-weight {} is out of range: allowed a number in (0, {MAX_STARTER_WEIGHT}]",
                 self.starter_weight
             );
         }
