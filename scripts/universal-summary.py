@@ -38,7 +38,7 @@ def seeds_of(sc):
             cvae = {"best_epoch": best["epoch"], "epochs": len(lines), "val_fde": best["val"]["min_fde"]}
         else:  # MODE=joint: the proposal run alone (the CVAE is the shipped one)
             prop = load(os.path.join(rd, "proposal.json"))
-            cvae = {"best_epoch": "–", "epochs": "–", "val_fde": float("nan")}
+            cvae = {}
         out[s] = {"t": load(p), "sdd": sdd, **cvae,
                   "prop_val": prop["val"]["val_min_fde"] if prop else None,
                   "prop_epoch": prop["epoch"] if prop else None}
@@ -62,8 +62,8 @@ for sc in ETH:
           f"{ms([x['min_fde'] for x in s])}; {ms([x['min_ade_px'] for x in s], 2)} / "
           f"{ms([x['min_fde_px'] for x in s], 2)} px | {b['min_ade']:.3f} / {b['min_fde']:.3f} | "
           f"{ms([x['point_fde'] for x in t])} (zero-shot: {b['point_fde']:.3f}) | {t[0]['cv_fde']:.3f} | "
-          + ", ".join(f"{x['best_epoch']}/{x['epochs']} {x['val_fde']:.3f} m / {x['prop_val']:.3f} m "
-                      f"(epoch {x['prop_epoch']})" for x in r.values()) + " |")
+          + ", ".join((f"{x['best_epoch']}/{x['epochs']} {x['val_fde']:.3f} m / " if "val_fde" in x else "")
+                      + f"{x['prop_val']:.3f} m (epoch {x['prop_epoch']})" for x in r.values()) + " |")
 print(f"| SDD, shipped `sdd-m-lp-qe` (in domain) | – | – | {base_sdd['min_ade']:.3f} / "
       f"{base_sdd['min_fde']:.3f}; {base_sdd['min_ade_px']:.2f} / {base_sdd['min_fde_px']:.2f} px | – | – | "
       f"{base_sdd['cv_fde']:.3f} | – |")
