@@ -10,7 +10,7 @@
 #
 # BIN names another gpecnet binary (default: target/release/gpecnet, built first).
 # About 1 s per epoch and run on a 2020s x86 core (100 epochs: ~2 min); 16 runs of the
-# post-hoc variants, ~25 min on 2 cores; the 15 joint and starter runs, ~30 min.
+# post-hoc variants, ~25 min on 2 cores; the 21 joint and starter runs, ~40 min.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-runs/latents}
@@ -34,6 +34,8 @@ variants=(
   # starters (standing when forecast, > 1 m away at the horizon) weigh 3 windows each
   "h8st3 --epochs 100 --hidden 8 --starter-weight 3"
   "j8st3 --epochs 100 --hidden 8 --tune-decoder --decoder-lr 1e-4 --starter-weight 3"
+  "h8st10 --epochs 100 --hidden 8 --starter-weight 10"
+  "h8st30 --epochs 100 --hidden 8 --starter-weight 30"
 )
 jobs=()
 for v in "${variants[@]}"; do
