@@ -294,6 +294,32 @@ fn balance_makes_every_part_of_a_combined_set_weigh_the_same() {
         "{} vs the parts' mean {balanced} ({sdd:?}, {eth:?})",
         p.val.val_min_fde
     );
+    // Exported on the SDD-only CVAE, the blob and its card name both data sets and licences.
+    let sdd_m = DatasetSpec::parse("sdd-m").unwrap();
+    gpecnet_trainer::run_export::note_proposal_data(&mut m, &sdd_m, &p).unwrap();
+    let meta = m.config.meta.clone().unwrap();
+    assert!(
+        meta.data
+            .ends_with("; the latent proposal also trained on sdd-m+eth_ucy:zara1"),
+        "{}",
+        meta.data
+    );
+    assert!(
+        meta.licence.contains("CC BY-NC-SA 3.0") && meta.licence.contains("Pellegrini"),
+        "{}",
+        meta.licence
+    );
+    let written = gpecnet_trainer::export::blob_bytes(&m).unwrap();
+    let back = gpecnet_core::blob::Meta::of_blob(&written).unwrap();
+    assert_eq!(back.licence, meta.licence.as_str());
+    let card = gpecnet_trainer::card::CardData::new(Some(&meta), &sdd_m, 2829);
+    assert!(
+        card.licence.contains("non-commercial") || card.licence.contains("NonCommercial"),
+        "{}",
+        card.licence
+    );
+    assert!(card.licence.contains("also learned from other data sets"));
+    assert!(card.licence.contains("Pellegrini"), "{}", card.licence);
     // The plain validation mean (every window alike) is another number.
     let plain = p.val_core.unwrap().min_fde;
     let pooled = (sdd.1 * sdd.0 as f64 + eth.1 * eth.0 as f64) / (sdd.0 + eth.0) as f64;

@@ -500,6 +500,14 @@ impl CardData {
         } else {
             format!("Trained on {}. Licence: {}.\n", meta.data, meta.licence)
         };
+        // A model that learned from SDD and other data sets (a combined set, or a proposal
+        // trained on more than its CVAE) states every one's licence beside SDD's terms.
+        if spec.uses_sdd() && meta.licence != DatasetSpec::Sdd.licence() {
+            licence += &format!(
+                "It also learned from other data sets; every one's licence: {}.\n",
+                meta.licence
+            );
+        }
         if meta.data.contains("synthetic") {
             licence += "The synthetic trajectories come from `gpecnet synth` (this repository, MIT OR Apache-2.0).\n";
         }

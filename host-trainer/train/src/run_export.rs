@@ -148,6 +148,13 @@ pub fn ship_with(
     )?;
     let (cfg, mut model, epoch) = model_from_run(run, name)?;
     settings.apply(&mut model, k)?;
+    if let Some(p) = &settings.proposal {
+        note_proposal_data(
+            &mut model,
+            &cfg.dataset_spec()?,
+            &crate::proposal_file::ProposalFile::read(p)?,
+        )?;
+    }
     let blob = blob_bytes(&model)?;
     let core_model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{e}"))?;
     let spec = cfg.dataset_spec()?;
@@ -247,6 +254,57 @@ pub fn ship_with(
     Ok(card)
 }
 
+/// A proposal (and a decoder trained with it) that learned from other data than the CVAE
+/// `run_data`: the blob's training data names that data set too, and its licence is every
+/// data set's, so the card and the blob state everything the model learned from.
+pub fn note_proposal_data(
+    m: &mut RefModel,
+    run_data: &DatasetSpec,
+    p: &crate::proposal_file::ProposalFile,
+) -> Result<()> {
+    let spec = DatasetSpec::parse(&p.settings.dataset).map_err(anyhow::Error::msg)?;
+    if &spec == run_data {
+        return Ok(());
+    }
+    let Some(meta) = m.config.meta.as_mut() else {
+        return Ok(());
+    };
+    let what = if p.decoder.is_some() {
+        "decoder and latent proposal"
+    } else {
+        "latent proposal"
+    };
+    meta.data
+        .push_str(&format!("; the {what} also trained on {spec}"));
+    // Every distinct data set once: the run's, then the proposal's others.
+    let mut parts: Vec<DatasetSpec> = Vec::new();
+    for d in [run_data.clone(), spec] {
+        let flat = match d {
+            DatasetSpec::Combined(ps) => ps,
+            one => vec![one],
+        };
+        for d in flat {
+            if !parts.contains(&d) {
+                parts.push(d);
+            }
+        }
+    }
+    meta.licence = match parts.len() {
+        1 => parts[0].licence(),
+        _ => DatasetSpec::Combined(parts).licence(),
+    };
+    for (what, text) in [("training data", &meta.data), ("licence", &meta.licence)] {
+        if text.len() > gpecnet_core::blob::MAX_META_TEXT {
+            bail!(
+                "the blob's {what} in words is {} bytes, over the format's {}: {text}",
+                text.len(),
+                gpecnet_core::blob::MAX_META_TEXT
+            );
+        }
+    }
+    Ok(())
+}
+
 /// The files `gpecnet export --run RUN` reads (the run folder's checkpoints and config, or
 /// the checkpoint file itself): no output may be one of them.
 fn run_inputs(run: &Path) -> Vec<PathBuf> {
@@ -327,8 +385,17 @@ pub fn model_card_md(
     .fact("produced by", format!("`gpecnet export --run {} --name {name}{flags}`", run.display()))
     .text(&c.proposal.as_ref().map_or(String::new(), |p| {
         format!(
-            "| latent proposal | {}; validation minFDE {} {u} (K = {}) at its epoch {} (`docs/latents.md`); trained by `{}` |\n",
-            p.shape, p.val_min_fde, p.k, p.epoch, p.command
+            "| latent proposal | {}; validation minFDE {} {u} (K = {}) at its epoch {} (`docs/latents.md`); trained by `{}`{} |\n",
+            p.shape,
+            p.val_min_fde,
+            p.k,
+            p.epoch,
+            p.command,
+            if p.decoder_tuned {
+                "; the decoder was trained with it (joint training), so the blob's decoder is not the run's"
+            } else {
+                ""
+            }
         )
     }))
     .text(&c.score.as_ref().map_or(String::new(), score_fact_row))
