@@ -24,6 +24,8 @@
 #   4. score    endpoint probabilities and radii (the shipped settings)
 #   5. export   with proposal + scores, then quantize --endpoint-only (the MCU form)
 #   6. eval     the fixed-point blob on eth_ucy:<scene> and on sdd-m -> <run>-<target>.json
+#   7. stream   the held-out scene's test recordings through the track table and the online
+#               loop (`gpecnet stream`: r50 / r90 coverage as deployed) -> <run>-stream-<scene>.json
 # plus the shipped default weights/sdd-m-lp-qe.gpec on the same targets (baseline/).
 # Each stage is skipped when its output exists; training and proposals resume from their
 # checkpoints when interrupted.
@@ -63,6 +65,11 @@ mkdir -p "$models" "$runs/baseline"
 eval_to() { # blob, target, json
   [ -f "$3" ] && return 0
   "$BIN" eval --blob "$1" --dataset "$2" --json --draw "${3%.json}.svg" >"$3.tmp" && mv "$3.tmp" "$3"
+}
+
+stream_to() { # blob, target, json: the target's test recordings streamed (loop off and on)
+  [ -f "$3" ] && return 0
+  "$BIN" stream --blob "$1" --dataset "$2" --json >"$3.tmp" 2>/dev/null && mv "$3.tmp" "$3"
 }
 
 # Stages 1-3 of MODE=cvae: the CVAE trained on the combined data, its proposal; sets
@@ -109,12 +116,14 @@ one() { # scene seed
     "$BIN" quantize --endpoint-only --blob "$models/$name-lp.gpec" --out "$models/$name-lp-qe.gpec" >>"$log" 2>&1 || return 1
   eval_to "$models/$name-lp-qe.gpec" "eth_ucy:$sc" "$runs/$name-eth_ucy_$sc.json" || return 1
   eval_to "$models/$name-lp-qe.gpec" sdd-m "$runs/$name-sdd-m.json" || return 1
+  stream_to "$models/$name-lp-qe.gpec" "eth_ucy:$sc" "$runs/$name-stream-$sc.json" || return 1
   echo "done $name"
 }
 
 eval_to weights/sdd-m-lp-qe.gpec sdd-m "$runs/baseline/sdd-m-lp-qe-sdd-m.json"
 for sc in $scenes; do
   eval_to weights/sdd-m-lp-qe.gpec "eth_ucy:$sc" "$runs/baseline/sdd-m-lp-qe-eth_ucy_$sc.json"
+  stream_to weights/sdd-m-lp-qe.gpec "eth_ucy:$sc" "$runs/baseline/sdd-m-lp-qe-stream-$sc.json"
 done
 
 wait_slot() { while [ "$(jobs -rp | wc -l)" -ge "$jobs" ]; do sleep 5; done; }

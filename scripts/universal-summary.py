@@ -79,3 +79,35 @@ if full:
           f"{ms(avg('min_ade'))} / {ms(avg('min_fde'))} m; sdd-m-lp-qe "
           f"{statistics.mean(x['min_ade'] for x in bl):.3f} / {statistics.mean(x['min_fde'] for x in bl):.3f} m; "
           f"point FDE {ms(avg('point_fde'))} vs CV {statistics.mean(x['cv_fde'] for x in bl):.3f} m")
+
+# As deployed: the held-out scene's test recordings streamed through the track table and the
+# online loop (`gpecnet stream`), endpoint r50 / r90 coverage (goal 50 / 90 %) and mean r90,
+# loop off (the radii fitted on validation) and on (calibrated from the truth 4.8 s later).
+def stream(p):
+    d = load(p)
+    if d is None:
+        return None
+    return {x["adapt"]: x for x in d["pooled"]}
+
+
+def cov(rows, on):
+    r50 = [100 * r[on]["endpoint"]["r50"] for r in rows]
+    r90 = [100 * r[on]["endpoint"]["r90"] for r in rows]
+    mr = [r[on]["mean_r90"] for r in rows]
+    st = [100 * r[on]["starters"]["r90"] for r in rows]
+    return f"{ms(r50, 1)} / {ms(r90, 1)} %, {ms(mr, 2)} m; starters {ms(st, 1)} %"
+
+
+print()
+print("| target | model | recordings' forecasts scored | loop off: r50 / r90 coverage, mean r90; starters' r90 "
+      "| loop on: the same |")
+print("|---|---|---|---|---|")
+for sc in ETH:
+    base = stream(os.path.join(runs, "baseline", f"sdd-m-lp-qe-stream-{sc}.json"))
+    ours = [stream(os.path.join(runs, f"{prefix}-{sc}-s{s}-stream-{sc}.json")) for s in (1, 2, 3)]
+    ours = [x for x in ours if x]
+    if base:
+        print(f"| {sc.upper()} | sdd-m-lp-qe | {base[False]['endpoint']['n']} | {cov([base], False)} | {cov([base], True)} |")
+    if ours:
+        print(f"| {sc.upper()} | {prefix} ({len(ours)} seeds) | {ours[0][False]['endpoint']['n']} | "
+              f"{cov(ours, False)} | {cov(ours, True)} |")
