@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The widest-decoder study of docs/latents.md: the metric MCU recipe's CVAE with its decoder at
-# 48 (sdd-m-tiny.toml, the shipped width) and 56 (sdd-m-tiny-dec56.toml, the widest that keeps
-# code + weights under 64 KiB) wide, 3 seeds each, then the shipped 8-wide latent proposal for
+# 48 (sdd-m-tiny.toml, the shipped width, which leaves 18 B of the 64 KiB) and 56
+# (sdd-m-tiny-dec56.toml, one more kilobyte) wide, 3 seeds each, then the shipped 8-wide latent proposal for
 # each CVAE (the CVAE's seed), compared on validation. Resumable: every stage is skipped when
 # its output exists, training and proposals continue from their checkpoints.
 #
