@@ -7,21 +7,18 @@ trained from scratch, each on that scene's test split (K = 20, f32 blobs with th
 proposal and scores), mean ± std over the seeds found, and whether fine-tuning beats both
 others on minFDE by more than the seed spread.
 """
-import json
 import os
 import statistics
 import sys
+
+from studylib import load_json
 
 d = sys.argv[1] if len(sys.argv) > 1 else "target/finetune/runs/json"
 scenes = ["eth", "hotel", "univ", "zara1", "zara2"]
 
 
 def load(name):
-    p = os.path.join(d, name + ".json")
-    if not os.path.exists(p):
-        return None
-    with open(p) as f:
-        return json.load(f)
+    return load_json(os.path.join(d, name + ".json"))
 
 
 def stats(vals):

@@ -6,9 +6,10 @@ Per scene, the model's rows (loop off): best-of-20 minFDE and the point forecast
 and through the simulated drone under each condition, with the change against clean, and
 the drone's ground-point error overall and while yawing.
 """
-import json
 import os
 import sys
+
+from studylib import load_json
 
 d = sys.argv[1] if len(sys.argv) > 1 else "target/flight"
 scenes = ["eth", "hotel", "univ", "zara1", "zara2", "sdd-m"]
@@ -22,11 +23,7 @@ conds = [
 
 
 def load(name):
-    p = os.path.join(d, name + ".json")
-    if not os.path.exists(p):
-        return None
-    with open(p) as f:
-        return json.load(f)
+    return load_json(os.path.join(d, name + ".json"))
 
 
 def off(js):

@@ -18,6 +18,8 @@ Usage: scripts/generalisation-eval.py [--runs DIR] [--out DIR] [--bin PATH] [--s
 """
 import argparse, glob, json, os, re, statistics, subprocess, sys
 
+from studylib import mean_std
+
 ETH = ["eth", "hotel", "univ", "zara1", "zara2"]
 ap = argparse.ArgumentParser()
 ap.add_argument("--runs", default="runs/gen")
@@ -105,9 +107,7 @@ def evaluate():
 
 
 def ms(xs, d=2):
-    if len(xs) == 1:
-        return f"{xs[0]:.{d}f}"
-    return f"{statistics.mean(xs):.{d}f} ± {statistics.stdev(xs):.{d}f}"
+    return mean_std(xs, d)
 
 
 def summary():

@@ -6,17 +6,11 @@ and the starters' minFDE (standing when forecast, > 1 m away at the horizon).
 
 Usage: scripts/latents-summary.py [OUT]   (default runs/latents)
 """
-import glob, json, os, re, statistics, sys
+import glob, json, os, re, sys
+
+from studylib import mean_std as ms
 
 out = sys.argv[1] if len(sys.argv) > 1 else "runs/latents"
-
-
-def ms(xs, d=4):
-    if not xs:
-        return "-"
-    if len(xs) == 1:
-        return f"{xs[0]:.{d}f}"
-    return f"{statistics.mean(xs):.{d}f} ± {statistics.stdev(xs):.{d}f}"
 
 
 variants = {}
@@ -38,5 +32,5 @@ for name, runs in variants.items():
     st = [c["starters"] for c in core if c.get("starters")]
     st_txt = f"({st[0]['n']}) {ms([x['min_fde'] for x in st], 3)}" if st else "-"
     print(f"| {name} | {','.join(map(str, seeds))} | {', '.join(str(runs[s]['epoch']) for s in seeds)} "
-          f"| {' / '.join(f'{x:.4f}' for x in fde)} | {ms(fde)} | {ms(ade, 3)} | {ms(nll, 3)} "
+          f"| {' / '.join(f'{x:.4f}' for x in fde)} | {ms(fde, 4)} | {ms(ade, 3)} | {ms(nll, 3)} "
           f"| {ms(h0, 1)} % / {ms(h1, 1)} % | {st_txt} |")

@@ -7,19 +7,15 @@ Usage: scripts/universal-summary.py [RUNS [PREFIX]]   (default runs/universal un
 """
 import glob, json, os, re, statistics, sys
 
+from studylib import load_json as load, mean_std
+
 runs = sys.argv[1] if len(sys.argv) > 1 else "runs/universal"
 prefix = sys.argv[2] if len(sys.argv) > 2 else "uni"
 ETH = ["eth", "hotel", "univ", "zara1", "zara2"]
 
 
-def load(p):
-    return json.load(open(p)) if os.path.exists(p) else None
-
-
 def ms(xs, d=3):
-    if len(xs) == 1:
-        return f"{xs[0]:.{d}f}"
-    return f"{statistics.mean(xs):.{d}f} ± {statistics.stdev(xs):.{d}f}"
+    return mean_std(xs, d)
 
 
 def seeds_of(sc):

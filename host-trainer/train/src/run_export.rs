@@ -148,12 +148,13 @@ pub fn ship_with(
     )?;
     let (cfg, mut model, epoch) = model_from_run(run, name)?;
     settings.apply(&mut model, k)?;
-    if let Some(p) = &settings.proposal {
-        note_proposal_data(
-            &mut model,
-            &cfg.dataset_spec()?,
-            &crate::proposal_file::ProposalFile::read(p)?,
-        )?;
+    // The proposal file once more, for the blob's data description and the card.
+    let proposal = match &settings.proposal {
+        Some(p) => Some((crate::proposal_file::ProposalFile::read(p)?, p)),
+        None => None,
+    };
+    if let Some((p, _)) = &proposal {
+        note_proposal_data(&mut model, &cfg.dataset_spec()?, p)?;
     }
     let blob = blob_bytes(&model)?;
     let core_model = gpecnet_core::Model::from_blob(&blob).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -224,13 +225,9 @@ pub fn ship_with(
         val_point: val_point.filter(|_| test_point.is_some()),
         test_cv,
         dataset: (spec != DatasetSpec::Sdd).then(|| spec.to_string()),
-        proposal: match &settings.proposal {
-            Some(p) => Some(crate::proposal_file::ProposalCard::of(
-                &crate::proposal_file::ProposalFile::read(p)?,
-                p,
-            )),
-            None => None,
-        },
+        proposal: proposal
+            .as_ref()
+            .map(|(p, path)| crate::proposal_file::ProposalCard::of(p, path)),
         score: match &settings.score {
             Some(p) => Some(crate::score_file::ScoreCard::of(
                 &crate::score_file::ScoreFile::read(p)?,
