@@ -45,8 +45,8 @@ mod validate;
 pub use fingerprint::DataFingerprint;
 pub use memory::keep_freed_memory;
 pub use prepare::{
-    auto_data_scale, noisy_samples, prepare_data, social_train_groups, synthetic_windows,
-    with_obs_noise, PreparedData, OBS_NOISE_STREAMS,
+    auto_data_scale, data_scale_of, load_train_split, noisy_samples, prepare_data, prepare_loaded,
+    social_train_groups, synthetic_windows, with_obs_noise, PreparedData, OBS_NOISE_STREAMS,
 };
 pub use report::{plot_curves, write_metrics};
 pub use run::{

@@ -129,14 +129,31 @@ pub fn synthetic_windows(cfg: &TrainConfig, n_real: usize) -> Result<Vec<Window>
     Ok(windows)
 }
 
+/// The real training windows a run of `cfg` sees: the training split, cut to
+/// [`TrainConfig::train_fraction`] of its tracks (before `train_extra`, synthetic windows
+/// and every augmentation).
+pub fn load_train_split(cfg: &TrainConfig, data_root: &Path) -> Result<data::Dataset> {
+    let spec = cfg.dataset_spec()?;
+    let mut train = data::load(data_root, &spec, data::Split::Train, &cfg.val_scenes)?;
+    train.windows = data::track_fraction(std::mem::take(&mut train.windows), cfg.train_fraction);
+    Ok(train)
+}
+
 /// The data scale of a config that leaves it to the data ([`crate::config::AUTO_DATA_SCALE`]):
 /// [`crate::config::data_scale_rule`] of the RMS span (first observed point to endpoint) of
-/// the real training windows the run will see ([`TrainConfig::train_fraction`] applied),
-/// with that span and the window count. Errors when the split has no window.
+/// the real training windows the run will see ([`load_train_split`]), with that span and the
+/// window count. Errors when the split has no window.
 pub fn auto_data_scale(cfg: &TrainConfig, data_root: &Path) -> Result<(f32, f64, usize)> {
-    let spec = cfg.dataset_spec()?;
-    let train = data::load(data_root, &spec, data::Split::Train, &cfg.val_scenes)?;
-    let windows = data::track_fraction(train.windows, cfg.train_fraction);
+    data_scale_of(cfg, data_root, &load_train_split(cfg, data_root)?.windows)
+}
+
+/// [`auto_data_scale`] of windows already loaded with [`load_train_split`] (`data_root` and
+/// `cfg` only name the data in the error).
+pub fn data_scale_of(
+    cfg: &TrainConfig,
+    data_root: &Path,
+    windows: &[Window],
+) -> Result<(f32, f64, usize)> {
     let n = windows.len();
     let sum: f64 = windows
         .iter()
@@ -150,17 +167,26 @@ pub fn auto_data_scale(cfg: &TrainConfig, data_root: &Path) -> Result<(f32, f64,
     match crate::config::data_scale_rule(span) {
         Some(s) if n > 0 => Ok((s, span, n)),
         _ => bail!(
-            "cannot compute data_scale: {n} training windows in {} with RMS span {span}              (set data_scale in the config)",
-            spec.location(data_root)
+            "cannot compute data_scale: {n} training windows in {} with RMS span {span} \
+             (set data_scale in the config)",
+            cfg.dataset_spec()?.location(data_root)
         ),
     }
 }
 
 /// Load and prepare the data a config asks for. Never touches the test split.
 pub fn prepare_data(cfg: &TrainConfig, data_root: &Path) -> Result<PreparedData> {
+    prepare_loaded(cfg, data_root, load_train_split(cfg, data_root)?)
+}
+
+/// [`prepare_data`] with the training split already loaded by [`load_train_split`] (so a
+/// run that first computes its data scale from it reads it once).
+pub fn prepare_loaded(
+    cfg: &TrainConfig,
+    data_root: &Path,
+    mut train: data::Dataset,
+) -> Result<PreparedData> {
     let spec = cfg.dataset_spec()?;
-    let mut train = data::load(data_root, &spec, data::Split::Train, &cfg.val_scenes)?;
-    train.windows = data::track_fraction(std::mem::take(&mut train.windows), cfg.train_fraction);
     let val = data::load(data_root, &spec, data::Split::Val, &cfg.val_scenes)?;
     if cfg.include_train_extra {
         let extra = data::load_sdd(data_root, data::SddSplit::TrainExtra)?;

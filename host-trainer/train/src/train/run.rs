@@ -107,8 +107,11 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
         );
     }
     set_num_threads(cfg.resolved_threads());
+    // The training split is read once: for the data scale when the config leaves it to the
+    // data, then for training.
+    let train_split = load_train_split(&cfg, &opts.data_root)?;
     if cfg.data_scale == crate::config::AUTO_DATA_SCALE {
-        let (scale, span, n) = auto_data_scale(&cfg, &opts.data_root)?;
+        let (scale, span, n) = data_scale_of(&cfg, &opts.data_root, &train_split.windows)?;
         eprintln!(
             "data_scale = {scale} (computed: 1.86 x 208.2 / {span:.3}, the RMS span of {n} \
              training windows; written to config.toml)"
@@ -120,7 +123,7 @@ pub fn train_new(cfg: TrainConfig, opts: &TrainOptions) -> Result<TrainSummary> 
     }
     // Nothing is written before the data load: a run that fails there (wrong --data, a bad
     // file) leaves the folder as it was, so the corrected command needs no --force.
-    let data = prepare_data(&cfg, &opts.data_root)?;
+    let data = prepare_loaded(&cfg, &opts.data_root, train_split)?;
     rundir::write_atomic(
         &opts.run_dir.join("config.toml"),
         cfg.to_toml_string()?.as_bytes(),
