@@ -20,7 +20,11 @@
 #      with the CVAE's run $CVAE (default runs/gen/sdd-m-mirror-s2: weights/sdd-m-tiny.gpec,
 #      bit for bit, from `gpecnet train --config host-trainer/configs/sdd-m-tiny.toml --mirror
 #      --seed 2 --epochs 600 --out runs/gen/sdd-m-mirror-s2`)
-# then, in both modes:
+# MODE=jointpoint: MODE=joint with the CVAE's point head trained beside the proposal on the
+# same balanced batches (`--tune-point-head --point-lr $POINT_LR`, default 1e-4, selected on
+# its own balanced validation FDE): per run jbp-<scene>-s<seed> under $RUNS (default
+# runs/universal-joint-point). The proposal and decoder train exactly as in MODE=joint.
+# then, in every mode:
 #   4. score    endpoint probabilities and radii (the shipped settings)
 #   5. export   with proposal + scores, then quantize --endpoint-only (the MCU form)
 #   6. eval     the fixed-point blob on eth_ucy:<scene> and on sdd-m -> <run>-<target>.json
@@ -30,7 +34,7 @@
 # Each stage is skipped when its output exists; training and proposals resume from their
 # checkpoints when interrupted.
 #
-# Usage: [MODE=cvae|joint] [BIN=path/to/gpecnet] [JOBS=1] [SEEDS="1 2 3"] scripts/universal-runs.sh [SCENE...]
+# Usage: [MODE=cvae|joint|jointpoint] [BIN=path/to/gpecnet] [JOBS=1] [SEEDS="1 2 3"] scripts/universal-runs.sh [SCENE...]
 #        (scenes: eth hotel univ zara1 zara2; default: all five, as run for the doc)
 # Cost on one 2020s x86 core (the dev-profile binary, measured): MODE=cvae: eth 2.0 s per
 # training epoch (37,457 windows x 4 with time reversal + mirror), ~7 s per proposal epoch;
@@ -43,18 +47,20 @@ mode=${MODE:-cvae}
 case $mode in
   cvae) runs=${RUNS:-runs/universal} pepochs=${PEPOCHS:-25} prefix=uni ;;
   joint) runs=${RUNS:-runs/universal-joint} pepochs=${PEPOCHS:-30} prefix=jb ;;
-  *) echo "MODE is cvae or joint, not $mode" >&2; exit 2 ;;
+  jointpoint) runs=${RUNS:-runs/universal-joint-point} pepochs=${PEPOCHS:-30} prefix=jbp ;;
+  *) echo "MODE is cvae, joint or jointpoint, not $mode" >&2; exit 2 ;;
 esac
 jobs=${JOBS:-1}
 seeds=${SEEDS:-"1 2 3"}
 epochs=${EPOCHS:-150}
 dlr=${DECODER_LR:-1e-4}
+plr=${POINT_LR:-1e-4}
 cvae=${CVAE:-runs/gen/sdd-m-mirror-s2}
 if [ -z "${BIN:-}" ]; then
   cargo build --release -q -p gpecnet-trainer
   BIN=target/release/gpecnet
 fi
-if [ "$mode" = joint ] && [ ! -f "$cvae/checkpoint.bin" ]; then
+if [ "$mode" != cvae ] && [ ! -f "$cvae/checkpoint.bin" ]; then
   echo "no CVAE run at $cvae (see the header)" >&2
   exit 1
 fi
@@ -98,6 +104,16 @@ joint_stages() { # scene seed name out ds log
   [ -f "$out/proposal.json" ] ||
     "$BIN" propose --blob weights/sdd-m-tiny.gpec --dataset "$ds" --hidden 8 --tune-decoder \
       --decoder-lr "$dlr" --balance --seed "$s" --epochs "$pepochs" --out "$out" --resume >"$log" 2>&1 || return 1
+  src=$cvae blob=weights/sdd-m-tiny.gpec prop=$out
+}
+
+# Stage 3 of MODE=jointpoint: MODE=joint's, with the point head trained beside it.
+jointpoint_stages() { # scene seed name out ds log
+  local s=$2 out=$4 ds=$5 log=$6
+  [ -f "$out/proposal.json" ] ||
+    "$BIN" propose --blob weights/sdd-m-tiny.gpec --dataset "$ds" --hidden 8 --tune-decoder \
+      --decoder-lr "$dlr" --balance --tune-point-head --point-lr "$plr" --seed "$s" \
+      --epochs "$pepochs" --out "$out" --resume >"$log" 2>&1 || return 1
   src=$cvae blob=weights/sdd-m-tiny.gpec prop=$out
 }
 

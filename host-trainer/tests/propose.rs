@@ -2,8 +2,8 @@
 //! trains, selects on validation and beats the prior's draws there, refuses to mix runs,
 //! resumes, and its proposal joins only the model it was trained for (then the core and
 //! the reference agree bit for bit, in f32 and in fixed point); joint training tunes the
-//! decoder alone, starters may weigh more (data in metres only), and the parts of a
-//! combined data set the same.
+//! decoder alone, starters may weigh more (data in metres only), the parts of a combined
+//! data set the same, and a point head trained beside the proposal leaves it unchanged.
 
 use crate::common;
 
@@ -325,5 +325,107 @@ fn balance_makes_every_part_of_a_combined_set_weigh_the_same() {
     let pooled = (sdd.1 * sdd.0 as f64 + eth.1 * eth.0 as f64) / (sdd.0 + eth.0) as f64;
     assert!((plain - pooled).abs() < 1e-6, "{plain} vs {pooled}");
     assert!((plain - balanced).abs() > 1e-3, "{plain} vs {balanced}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_point_head_trained_beside_the_proposal_leaves_the_proposal_alone() {
+    let dir = temp_dir("propose-point");
+    let common = ["--hidden", "6", "--train-fraction", "0.2"];
+    let with = [&common[..], &["--tune-point-head", "--point-lr", "1e-4"]].concat();
+    let (ok, text) = propose(&dir.join("point"), "2", &with);
+    assert!(ok, "{text}");
+    let (ok, text) = propose(&dir.join("plain"), "2", &common);
+    assert!(ok, "{text}");
+    let p = ProposalFile::read(&dir.join("point/proposal.json")).unwrap();
+    let plain = ProposalFile::read(&dir.join("plain/proposal.json")).unwrap();
+    assert_eq!(p.settings.point_lr, Some(1e-4));
+    // The proposal trains exactly as without the head: the same epoch, numbers and bits.
+    assert_eq!(p.epoch, plain.epoch);
+    assert_eq!(p.val.val_min_fde, plain.val.val_min_fde);
+    for (a, b) in p.layers.iter().zip(&plain.layers) {
+        assert_eq!((&a.w, &a.b), (&b.w, &b.b));
+    }
+    assert!(plain.point_head.is_none() && plain.val.val_point_fde.is_none());
+    // Every epoch's validation FDE of the head is recorded, and the selected one is the
+    // smallest of them and of the blob's own head (epoch 0).
+    let rows = std::fs::read_to_string(dir.join("point/metrics.csv")).unwrap();
+    assert!(rows.starts_with("epoch,loss,val_min_fde,val_clamped,val_z_norm,val_point_fde\n"));
+    let fdes: Vec<f64> = rows
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(fdes.len(), 2, "{rows}");
+    let head = p.point_head.as_ref().expect("the trained point head");
+    assert!(
+        head.epoch <= 2 && fdes.iter().all(|&d| head.val_fde <= d + 5e-7),
+        "{rows}"
+    );
+    // Joined, the head replaces the blob's with the same shapes; the encoder and decoder stay.
+    let m = gpecnet_trainer::export::read_blob(&std::fs::read(blob()).unwrap()).unwrap();
+    let mut joined = m.clone();
+    p.join(&mut joined).unwrap();
+    let layers = p.point_head_layers().unwrap();
+    assert_eq!(layers.len(), m.nets.point_head.len());
+    for ((t, j), f) in layers
+        .iter()
+        .zip(&joined.nets.point_head)
+        .zip(&m.nets.point_head)
+    {
+        assert_eq!((t.in_dim, t.out_dim, t.act), (f.in_dim, f.out_dim, f.act));
+        assert_eq!(t.w, j.w);
+    }
+    assert_eq!(joined.nets.encoder_past[0].w, m.nets.encoder_past[0].w);
+    assert_eq!(joined.nets.decoder[0].w, m.nets.decoder[0].w);
+    // Through gpecnet-core, with the head joined: the loop's validation FDE of it again.
+    let core = p
+        .val_core
+        .unwrap()
+        .point
+        .expect("the point forecast on validation");
+    assert!((core.fde - head.val_fde).abs() < 1e-4, "{core:?} {head:?}");
+    // The card records the head and retrains it.
+    let card =
+        gpecnet_trainer::proposal_file::ProposalCard::of(&p, &dir.join("point/proposal.json"));
+    assert_eq!(card.point_head.as_ref().map(|h| h.0), Some(head.epoch));
+    assert!(
+        card.command.contains("--tune-point-head --point-lr 0.0001"),
+        "{}",
+        card.command
+    );
+    // A resume that drops the head mixes runs: refused.
+    let (ok, text) = propose(
+        &dir.join("point"),
+        "2",
+        &[&common[..], &["--resume"]].concat(),
+    );
+    assert!(!ok && text.contains("other settings"), "{text}");
+    // Without its switch, out of range, or for a blob without a point head: refused, and
+    // nothing is written.
+    for bad in [
+        &["--point-lr", "1e-4"][..],
+        &["--tune-point-head", "--point-lr", "0"],
+        &["--tune-point-head", "--point-lr", "NaN"],
+    ] {
+        let (ok, text) = propose(&dir.join("bad"), "1", bad);
+        assert!(!ok, "{bad:?}: {text}");
+    }
+    let out = dir.join("no-head");
+    let (ok, text) = run(&[
+        "propose",
+        "--blob",
+        s(&root().join("weights/sdd-tiny.gpec")),
+        "--dataset",
+        "sdd",
+        "--out",
+        s(&out),
+        "--epochs",
+        "1",
+        "--tune-point-head",
+    ]);
+    assert!(!ok && text.contains("no point head"), "{text}");
+    assert!(!out.exists());
+    assert!(!dir.join("bad").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

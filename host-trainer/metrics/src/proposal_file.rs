@@ -69,6 +69,12 @@ pub struct ProposeSettings {
     /// (absent from older files) = every window weighs the same.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub balance: bool,
+    /// Adam learning rate of the point head when it is trained beside the proposal
+    /// (`gpecnet propose --tune-point-head`), from the blob's, on the same windows and
+    /// weights, selected on its own validation point FDE; `None` (absent from older files)
+    /// = the point head stays frozen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point_lr: Option<f64>,
 }
 
 fn one() -> f32 {
@@ -96,6 +102,10 @@ pub struct EpochRow {
     pub val_clamped: f64,
     /// Validation mean latent norm.
     pub val_z_norm: f64,
+    /// Validation FDE of the point head trained beside the proposal (caller's unit;
+    /// `None` when it stays frozen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_point_fde: Option<f64>,
 }
 
 /// The exported proposal (`proposal.json`).
@@ -121,6 +131,21 @@ pub struct ProposalFile {
     /// layers; `None` = the frozen model's decoder.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decoder: Option<Vec<LayerFile>>,
+    /// The point head trained beside the proposal (`settings.point_lr` set) at its own best
+    /// validation epoch; `None` = the frozen model's point head.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point_head: Option<PointHeadFile>,
+}
+
+/// A point head trained beside a proposal, selected on its own validation point FDE.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PointHeadFile {
+    /// Its best validation epoch (1-based).
+    pub epoch: usize,
+    /// Its validation FDE at that epoch (caller's unit; weighted as the run's validation).
+    pub val_fde: f64,
+    /// Exported layers (last one linear, `2 · FUTURE` outputs).
+    pub layers: Vec<LayerFile>,
 }
 
 /// Validation numbers of the selected proposal computed through `gpecnet-core` (the f32
@@ -146,6 +171,18 @@ pub struct ValCore {
     /// (`gpecnet_data::motion_change`), for data in metres with at least one such window.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub starters: Option<GroupVal>,
+    /// The point forecast's ADE / FDE on the same windows (a model with a point head).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point: Option<PointVal>,
+}
+
+/// The point forecast's errors on the validation windows.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointVal {
+    /// Mean displacement over the forecast steps.
+    pub ade: f64,
+    /// Mean displacement at the horizon.
+    pub fde: f64,
 }
 
 /// Best-of-K numbers of one group of validation windows.
@@ -177,37 +214,41 @@ pub struct LayerFile {
 impl ProposalFile {
     /// The layers as the trainer's exported layers.
     pub fn layers(&self) -> Vec<Layer> {
-        self.layers
-            .iter()
-            .map(|l| Layer::new(l.in_dim, l.out_dim, l.act, l.w.clone(), l.b.clone()))
-            .collect()
+        layers_of(&self.layers)
     }
 
     /// The tuned decoder's layers, if the decoder was trained with the proposal.
     pub fn decoder_layers(&self) -> Option<Vec<Layer>> {
-        self.decoder.as_ref().map(|ls| {
-            ls.iter()
-                .map(|l| Layer::new(l.in_dim, l.out_dim, l.act, l.w.clone(), l.b.clone()))
-                .collect()
-        })
+        self.decoder.as_deref().map(layers_of)
+    }
+
+    /// The point head's layers, if it was trained beside the proposal.
+    pub fn point_head_layers(&self) -> Option<Vec<Layer>> {
+        self.point_head.as_ref().map(|p| layers_of(&p.layers))
     }
 
     /// Joins the proposal to `m`, the frozen model it was trained for: its layers become
     /// the proposal network, its bound the latent bound, test-time sampling is off, and a
-    /// decoder trained with it replaces the frozen one. Refused when `m` is not that model
-    /// ([`frozen_fingerprint`]) or the decoder's shape differs.
+    /// decoder or point head trained with it replaces the frozen one. Refused when `m` is
+    /// not that model ([`frozen_fingerprint`]) or a tuned network's shape differs.
     pub fn join(&self, m: &mut RefModel) -> Result<()> {
         if self.frozen != frozen_fingerprint(m) {
             anyhow::bail!("this proposal was trained for other encoder/decoder weights");
         }
+        let shapes = |ls: &[Layer]| -> Vec<(usize, usize, Act)> {
+            ls.iter().map(|l| (l.in_dim, l.out_dim, l.act)).collect()
+        };
         if let Some(dec) = self.decoder_layers() {
-            let shapes = |ls: &[Layer]| -> Vec<(usize, usize, Act)> {
-                ls.iter().map(|l| (l.in_dim, l.out_dim, l.act)).collect()
-            };
             if shapes(&dec) != shapes(&m.nets.decoder) {
                 anyhow::bail!("the proposal's tuned decoder has another shape than the model's");
             }
             m.nets.decoder = dec;
+        }
+        if let Some(head) = self.point_head_layers() {
+            if shapes(&head) != shapes(&m.nets.point_head) {
+                anyhow::bail!("the proposal's tuned point head has another shape than the model's");
+            }
+            m.nets.point_head = head;
         }
         m.config.tts_samples = 0;
         m.nets.proposal = self.layers();
@@ -241,6 +282,10 @@ pub struct ProposalCard {
     /// blob then holds that decoder, not the frozen model's.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub decoder_tuned: bool,
+    /// The point head trained beside the proposal: its epoch and validation FDE (the
+    /// blob's unit, 4 decimals); the blob then holds that head, not the frozen model's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point_head: Option<(usize, String)>,
 }
 
 impl ProposalCard {
@@ -276,7 +321,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -307,11 +352,23 @@ impl ProposalCard {
                     format!(" --starter-weight {}", s.starter_weight)
                 },
                 if s.balance { " --balance" } else { "" },
+                s.point_lr
+                    .map_or(String::new(), |lr| format!(" --tune-point-head --point-lr {lr}")),
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
             decoder_tuned: p.decoder.is_some(),
+            point_head: p
+                .point_head
+                .as_ref()
+                .map(|h| (h.epoch, format!("{:.4}", h.val_fde))),
         }
     }
+}
+
+fn layers_of(ls: &[LayerFile]) -> Vec<Layer> {
+    ls.iter()
+        .map(|l| Layer::new(l.in_dim, l.out_dim, l.act, l.w.clone(), l.b.clone()))
+        .collect()
 }
 
 fn act_name(a: Act) -> &'static str {

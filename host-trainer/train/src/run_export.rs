@@ -251,7 +251,7 @@ pub fn ship_with(
     Ok(card)
 }
 
-/// A proposal (and a decoder trained with it) that learned from other data than the CVAE
+/// A proposal (and a decoder or point head trained with it) that learned from other data than the CVAE
 /// `run_data`: the blob's training data names that data set too, and its licence is every
 /// data set's, so the card and the blob state everything the model learned from.
 pub fn note_proposal_data(
@@ -266,10 +266,11 @@ pub fn note_proposal_data(
     let Some(meta) = m.config.meta.as_mut() else {
         return Ok(());
     };
-    let what = if p.decoder.is_some() {
-        "decoder and latent proposal"
-    } else {
-        "latent proposal"
+    let what = match (p.decoder.is_some(), p.point_head.is_some()) {
+        (true, true) => "decoder, point head and latent proposal",
+        (true, false) => "decoder and latent proposal",
+        (false, true) => "point head and latent proposal",
+        (false, false) => "latent proposal",
     };
     meta.data
         .push_str(&format!("; the {what} also trained on {spec}"));
@@ -382,7 +383,7 @@ pub fn model_card_md(
     .fact("produced by", format!("`gpecnet export --run {} --name {name}{flags}`", run.display()))
     .text(&c.proposal.as_ref().map_or(String::new(), |p| {
         format!(
-            "| latent proposal | {}; validation minFDE {} {u} (K = {}) at its epoch {} (`docs/latents.md`); trained by `{}`{} |\n",
+            "| latent proposal | {}; validation minFDE {} {u} (K = {}) at its epoch {} (`docs/latents.md`); trained by `{}`{}{} |\n",
             p.shape,
             p.val_min_fde,
             p.k,
@@ -392,7 +393,10 @@ pub fn model_card_md(
                 "; the decoder was trained with it (joint training), so the blob's decoder is not the run's"
             } else {
                 ""
-            }
+            },
+            p.point_head.as_ref().map_or(String::new(), |(epoch, fde)| format!(
+                "; the point head was trained beside it (validation FDE {fde} {u} at its epoch {epoch}), so the blob's point head is not the run's"
+            ))
         )
     }))
     .text(&c.score.as_ref().map_or(String::new(), score_fact_row))

@@ -1,5 +1,7 @@
 //! The proposal's training step and its validation pass: tensors of the frozen model's
-//! features and true endpoints, the soft-min best-of-K loss through the frozen decoder.
+//! features and true endpoints, the soft-min best-of-K loss through the frozen decoder; and
+//! the point head's, when it is trained beside the proposal: its inputs, the true futures,
+//! its loss and its validation FDE.
 
 use anyhow::{bail, Result};
 use candle_core::{DType, Device, Tensor, Var};
@@ -11,12 +13,17 @@ use crate::reference::{RefModel, SineKind};
 
 /// The frozen model's view of a set of windows: features `f` (`[n, fdim]`, exactly the
 /// reference path's `encoder_past` output) and true endpoints in the networks' normalised
-/// frame (`[n, 2]`).
+/// frame (`[n, 2]`); the networks' input (the point head's too) and the true futures in the
+/// same frame, for the point head.
 pub struct Encoded {
     /// `[n, fdim]`.
     pub features: Tensor,
     /// `[n, 2]`.
     pub targets: Tensor,
+    /// `[n, 2 · PAST]`: the observed positions as the networks see them.
+    pub inputs: Tensor,
+    /// `[n, FUTURE, 2]`: the true future positions in the same frame.
+    pub futures: Tensor,
     /// Each window's weight in the loss (`[n]`), `None` = all 1.
     pub weights: Option<Tensor>,
     /// Windows.
@@ -28,9 +35,16 @@ impl Encoded {
     pub fn of(model: &RefModel, windows: &[Window]) -> Result<Self> {
         let c = &model.config;
         let (mut feats, mut targets) = (Vec::new(), Vec::new());
+        let (mut inputs, mut futures) = (Vec::new(), Vec::new());
         for w in windows {
             let past = &w.pos[..PAST];
             let (fr, f) = model.features(past, SineKind::Libm);
+            for p in past {
+                inputs.extend_from_slice(&fr.input(*p, c.data_scale));
+            }
+            for p in &w.pos[PAST..PAST + FUTURE] {
+                futures.extend_from_slice(&fr.input(*p, c.data_scale));
+            }
             if f.len() != c.fdim {
                 bail!(
                     "the encoder gives {} features, the config says {}",
@@ -45,6 +59,8 @@ impl Encoded {
         Ok(Self {
             features: Tensor::from_vec(feats, (n, c.fdim), &Device::Cpu)?,
             targets: Tensor::from_vec(targets, (n, 2), &Device::Cpu)?,
+            inputs: Tensor::from_vec(inputs, (n, 2 * PAST), &Device::Cpu)?,
+            futures: Tensor::from_vec(futures, (n, FUTURE, 2), &Device::Cpu)?,
             weights: None,
             n,
         })
@@ -64,10 +80,25 @@ impl Encoded {
 
     /// Rows `idx` of the features and targets, and of the weights if there are any.
     pub fn rows(&self, idx: &[u32]) -> Result<(Tensor, Tensor, Option<Tensor>)> {
+        self.select(&self.features, &self.targets, idx)
+    }
+
+    /// Rows `idx` of the networks' inputs and the true futures, and of the weights if there
+    /// are any (the point head's batch).
+    pub fn point_rows(&self, idx: &[u32]) -> Result<(Tensor, Tensor, Option<Tensor>)> {
+        self.select(&self.inputs, &self.futures, idx)
+    }
+
+    fn select(
+        &self,
+        x: &Tensor,
+        y: &Tensor,
+        idx: &[u32],
+    ) -> Result<(Tensor, Tensor, Option<Tensor>)> {
         let i = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
         Ok((
-            self.features.index_select(&i, 0)?,
-            self.targets.index_select(&i, 0)?,
+            x.index_select(&i, 0)?,
+            y.index_select(&i, 0)?,
             self.weights
                 .as_ref()
                 .map(|w| w.index_select(&i, 0))
@@ -77,14 +108,17 @@ impl Encoded {
 }
 
 /// A network of exported (w0-folded) layers as a candle MLP. Its parameters are trained only
-/// when given to an optimiser (the decoder under joint training); otherwise it stays frozen.
-pub fn mlp_of(layers: &[Layer]) -> Result<Mlp> {
+/// when given to an optimiser (the decoder under joint training, the point head beside the
+/// proposal); otherwise it stays frozen. `what` names the network in the error.
+pub fn mlp_of(layers: &[Layer], what: &str) -> Result<Mlp> {
     let hidden = layers
         .first()
         .filter(|_| layers.len() > 1)
         .map_or(Act::Linear, |l| l.act);
-    if layers.iter().rev().skip(1).any(|l| l.act != hidden) || layers.last().is_none() {
-        bail!("the decoder's hidden layers must share one activation");
+    if layers.iter().rev().skip(1).any(|l| l.act != hidden)
+        || layers.last().is_none_or(|l| l.act != Act::Linear)
+    {
+        bail!("the {what}'s hidden layers must share one activation and its last be linear");
     }
     let dense = layers
         .iter()
@@ -226,4 +260,50 @@ pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -
         clamped: clamped / comps.max(1) as f64,
         z_norm: norm / (n * spec.k as f64),
     })
+}
+
+/// The point head's loss on one batch, as `gpecnet train` trains it: the mean Euclidean
+/// displacement over the `FUTURE` steps plus the displacement at the horizon, per window
+/// (weighted by `w` when given: `Σ wᵢ sᵢ / Σ wᵢ`), averaged over the windows.
+pub fn point_loss(head: &Mlp, x: &Tensor, y: &Tensor, w: Option<&Tensor>) -> Result<Tensor> {
+    let dist = point_distances(head, x, y, crate::model::POINT_LOSS_EPS)?;
+    let per = (dist.mean(1)? + dist.narrow(1, FUTURE - 1, 1)?.squeeze(1)?)?;
+    Ok(match w {
+        Some(w) => (per.mul(w)?.sum_all()? / f64::from(w.sum_all()?.to_scalar::<f32>()?))?,
+        None => per.mean_all()?,
+    })
+}
+
+/// Distances `[b, FUTURE]` of the point head's forecast to the truth `y` (`[b, FUTURE, 2]`),
+/// `√(d² + eps)`: in the loss `eps` is `gpecnet train`'s offset that keeps the gradient
+/// finite at 0, in validation 0.
+fn point_distances(head: &Mlp, x: &Tensor, y: &Tensor, eps: f64) -> Result<Tensor> {
+    let b = x.dims2()?.0;
+    let pred = head.forward(x)?.reshape((b, FUTURE, 2))?;
+    Ok((pred - y)?.sqr()?.sum(2)?.affine(1.0, eps)?.sqrt()?)
+}
+
+/// The point head's mean FDE on all of `enc` (normalised units), in chunks; with weights,
+/// the weighted mean `Σ wᵢ dᵢ / Σ wᵢ`.
+pub fn validate_point(head: &Mlp, enc: &Encoded) -> Result<f64> {
+    let (mut fde, mut weight) = (0.0f64, 0.0f64);
+    let idx: Vec<u32> = (0..enc.n as u32).collect();
+    for chunk in idx.chunks(1024) {
+        let (x, y, w) = enc.point_rows(chunk)?;
+        let last = point_distances(head, &x, &y, 0.0)?
+            .narrow(1, FUTURE - 1, 1)?
+            .squeeze(1)?;
+        let last = match &w {
+            Some(w) => {
+                weight += f64::from(w.sum_all()?.to_scalar::<f32>()?);
+                last.mul(w)?
+            }
+            None => {
+                weight += chunk.len() as f64;
+                last
+            }
+        };
+        fde += last.to_dtype(DType::F64)?.sum_all()?.to_scalar::<f64>()?;
+    }
+    Ok(fde / weight.max(f64::MIN_POSITIVE))
 }

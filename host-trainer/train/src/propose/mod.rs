@@ -8,6 +8,9 @@
 //! best-of-K) plus a small weight on the prior's `½‖z‖²`. The CVAE's networks stay
 //! untouched, or, with `tune_decoder` (joint training), the decoder is trained together with
 //! the proposal, starting from the blob's, while the encoder and the point head stay frozen.
+//! With `point_lr` the point head is trained beside them on the same batches, from the
+//! blob's, under its own loss and optimiser; the running average of its weights is selected
+//! on its own validation FDE.
 //! A starter's window (standing when forecast, far at the horizon) may weigh more in the
 //! loss (`starter_weight`), and the parts of a combined data set may weigh the same
 //! (`balance`). Every latent component is clamped to `±bound`, in training exactly as in
@@ -131,6 +134,23 @@ pub struct ProposeArgs {
     /// window of a part with n of the N windows weighs N / (parts · n)).
     #[arg(long)]
     pub balance: bool,
+    /// Train the blob's point head too, beside the proposal: on the same windows, batches
+    /// and weights (--balance, --starter-weight), under the loss `gpecnet train` gives it
+    /// (mean displacement over the 12 steps plus the displacement at the horizon), with its
+    /// own Adam (--point-lr); the running average of its weights over about the last 1,000
+    /// steps is validated, selected on its own validation FDE and exported (the blob's head
+    /// when no epoch beats it). The proposal trains exactly as without it; `proposal.json` then holds the head, and `gpecnet score` (the
+    /// radii around the point forecast) and `gpecnet export --proposal` use it.
+    #[arg(long)]
+    pub tune_point_head: bool,
+    /// Adam learning rate of the point head under --tune-point-head.
+    #[arg(
+        long,
+        value_name = "LR",
+        default_value_t = 1e-4,
+        requires = "tune_point_head"
+    )]
+    pub point_lr: f64,
 }
 
 /// Hidden activation of a proposal network.
@@ -189,7 +209,11 @@ impl ProposeArgs {
                 bail!("--hidden has a layer of width {w}: allowed widths 1..={MAX_WIDTH}");
             }
         }
-        for (name, lr) in [("--lr", self.lr), ("--decoder-lr", self.decoder_lr)] {
+        for (name, lr) in [
+            ("--lr", self.lr),
+            ("--decoder-lr", self.decoder_lr),
+            ("--point-lr", self.point_lr),
+        ] {
             if !(lr.is_finite() && lr > 0.0 && lr <= 1.0) {
                 bail!("{name} {lr} is out of range: allowed a finite number in (0, 1]");
             }
@@ -336,6 +360,7 @@ impl ProposeArgs {
             decoder_lr: self.tune_decoder.then_some(self.decoder_lr),
             starter_weight: self.starter_weight,
             balance: self.balance,
+            point_lr: self.tune_point_head.then_some(self.point_lr),
         };
         ProposeRun {
             model: &model,
