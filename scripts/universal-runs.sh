@@ -24,6 +24,8 @@
 # same balanced batches (`--tune-point-head --point-lr $POINT_LR`, default 1e-4, selected on
 # its own balanced validation FDE): per run jbp-<scene>-s<seed> under $RUNS (default
 # runs/universal-joint-point). The proposal and decoder train exactly as in MODE=joint.
+# With SPEED=0.8,1.25 (say), every training window also walked at those speeds
+# (`--speed-scales`): per run jbps-<scene>-s<seed> under runs/universal-joint-point-speed.
 # then, in every mode:
 #   4. score    endpoint probabilities and radii (the shipped settings)
 #   5. export   with proposal + scores, then quantize --endpoint-only (the MCU form)
@@ -47,7 +49,13 @@ mode=${MODE:-cvae}
 case $mode in
   cvae) runs=${RUNS:-runs/universal} pepochs=${PEPOCHS:-25} prefix=uni ;;
   joint) runs=${RUNS:-runs/universal-joint} pepochs=${PEPOCHS:-30} prefix=jb ;;
-  jointpoint) runs=${RUNS:-runs/universal-joint-point} pepochs=${PEPOCHS:-30} prefix=jbp ;;
+  jointpoint)
+    if [ -n "${SPEED:-}" ]; then
+      runs=${RUNS:-runs/universal-joint-point-speed} prefix=jbps
+    else
+      runs=${RUNS:-runs/universal-joint-point} prefix=jbp
+    fi
+    pepochs=${PEPOCHS:-30} ;;
   *) echo "MODE is cvae, joint or jointpoint, not $mode" >&2; exit 2 ;;
 esac
 jobs=${JOBS:-1}
@@ -112,7 +120,7 @@ jointpoint_stages() { # scene seed name out ds log
   local s=$2 out=$4 ds=$5 log=$6
   [ -f "$out/proposal.json" ] ||
     "$BIN" propose --blob weights/sdd-m-tiny.gpec --dataset "$ds" --hidden 8 --tune-decoder \
-      --decoder-lr "$dlr" --balance --tune-point-head --point-lr "$plr" --seed "$s" \
+      --decoder-lr "$dlr" --balance --tune-point-head --point-lr "$plr" ${SPEED:+--speed-scales "$SPEED"} --seed "$s" \
       --epochs "$pepochs" --out "$out" --resume >"$log" 2>&1 || return 1
   src=$cvae blob=weights/sdd-m-tiny.gpec prop=$out
 }

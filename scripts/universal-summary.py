@@ -107,3 +107,36 @@ for sc in ETH:
     if ours:
         print(f"| {sc.upper()} | {prefix} ({len(ours)} seeds) | {ours[0][False]['endpoint']['n']} | "
               f"{cov(ours, False)} | {cov(ours, True)} |")
+
+# The point forecast (the point head, static: no online loop) against constant velocity with
+# its window chosen on validation, on every held-out scene and on SDD's test set (px, scene
+# by scene); the point head's own validation epoch when it was trained beside the proposal.
+print()
+print("| test set | point FDE of these models (seeds) | `sdd-m-lp-qe`'s point FDE | constant velocity FDE "
+      "| seeds better than constant velocity | point head: epoch, validation FDE (balanced) |")
+print("|---|---|---|---|---|---|")
+for sc in ETH + ["sdd"]:
+    rows = done.get(sc) if sc != "sdd" else None
+    if sc == "sdd":
+        t = [x["sdd"] for r in done.values() for x in r.values()]
+        key, cvk, unit, b = "point_fde_px", "cv_fde_px", " px", base_sdd
+    else:
+        if not rows:
+            continue
+        t = [x["t"] for x in rows.values()]
+        key, cvk, unit = "point_fde", "cv_fde", " m"
+        b = load(os.path.join(runs, "baseline", f"sdd-m-lp-qe-eth_ucy_{sc}.json"))
+    if not t or b is None:
+        continue
+    d = 2 if unit == " px" else 3
+    cv = t[0][cvk]
+    wins = sum(x[key] < x[cvk] for x in t)
+    heads = "–"
+    if rows:
+        props = [load(os.path.join(runs, f"{prefix}-{sc}-s{s}", "proposal.json")) for s in rows]
+        hs = [p["point_head"] for p in props if p and p.get("point_head")]
+        if hs:
+            heads = ", ".join(f"{h['epoch']}: {h['val_fde']:.3f}" for h in hs)
+    label = "SDD (every split's models)" if sc == "sdd" else sc.upper()
+    print(f"| {label} | {ms([x[key] for x in t], d)}{unit} | {b[key]:.{d}f}{unit} | {cv:.{d}f}{unit} "
+          f"| {wins} of {len(t)} | {heads} |")

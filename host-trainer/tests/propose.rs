@@ -429,3 +429,59 @@ fn a_point_head_trained_beside_the_proposal_leaves_the_proposal_alone() {
     assert!(!dir.join("bad").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn speed_scaled_copies_keep_the_path_and_scale_the_speed() {
+    // A real window walked 1.25 times as fast: the same first position, every displacement
+    // from it (so the observed speed) 1.25 times the recorded one.
+    let val = data::load(
+        &data::default_data_root(),
+        &DatasetSpec::parse("eth_ucy:zara1").unwrap(),
+        Split::Val,
+        &data::default_sdd_val_scenes(),
+    )
+    .unwrap();
+    let w = val
+        .windows
+        .iter()
+        .find(|w| data::observed_speed(w) > 0.5)
+        .unwrap();
+    let fast = w.speed_scaled(1.25);
+    assert_eq!(fast.pos[0], w.pos[0]);
+    let ratio = data::observed_speed(&fast) / data::observed_speed(w);
+    assert!((ratio - 1.25).abs() < 1e-4, "{ratio}");
+    let (d, e) = (w.pos.last().unwrap(), fast.pos.last().unwrap());
+    let (d0, e0) = (w.pos[0], fast.pos[0]);
+    assert!(((e[0] - e0[0]) - 1.25 * (d[0] - d0[0])).abs() < 1e-4);
+    // `gpecnet propose --speed-scales`: recorded, retrained by the card's command, and a
+    // factor out of [0.25, 4] is refused before anything is written.
+    let dir = temp_dir("propose-speed");
+    let out = dir.join("run");
+    let (ok, text) = propose(
+        &out,
+        "1",
+        &[
+            "--hidden",
+            "6",
+            "--train-fraction",
+            "0.1",
+            "--speed-scales",
+            "0.8,1.25",
+        ],
+    );
+    assert!(ok, "{text}");
+    let p = ProposalFile::read(&out.join("proposal.json")).unwrap();
+    assert_eq!(p.settings.speed_scales, vec![0.8, 1.25]);
+    let card = gpecnet_trainer::proposal_file::ProposalCard::of(&p, &out.join("proposal.json"));
+    assert!(
+        card.command.contains(" --speed-scales 0.8,1.25 "),
+        "{}",
+        card.command
+    );
+    for bad in ["5", "0.1", "NaN", "1,-1"] {
+        let (ok, text) = propose(&dir.join("bad"), "1", &["--speed-scales", bad]);
+        assert!(!ok && text.contains("--speed-scales"), "{bad}: {text}");
+    }
+    assert!(!dir.join("bad").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -85,6 +85,19 @@ impl Window {
             *p = [p[0] * s, p[1] * s];
         }
     }
+
+    /// The same path walked `s` times as fast: every position moved to `p0 + s·(p − p0)`
+    /// about the first observed position `p0` (in f32, in that order), so the window stays
+    /// where it was in the world and only its displacements scale.
+    pub fn speed_scaled(&self, s: f32) -> Window {
+        let mut w = self.clone();
+        if let Some(&[x0, y0]) = self.pos.first() {
+            for p in w.pos.iter_mut() {
+                *p = [x0 + s * (p[0] - x0), y0 + s * (p[1] - y0)];
+            }
+        }
+        w
+    }
 }
 
 /// A loaded split: a list of windows in one unit.

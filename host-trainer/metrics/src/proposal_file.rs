@@ -75,6 +75,11 @@ pub struct ProposeSettings {
     /// = the point head stays frozen.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub point_lr: Option<f64>,
+    /// Speed augmentation: for each factor `s`, a copy of every training window (and of its
+    /// time-reversed and mirrored copies) walked `s` times as fast
+    /// (`gpecnet_data::Window::speed_scaled`); empty (absent from older files) = none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub speed_scales: Vec<f32>,
 }
 
 fn one() -> f32 {
@@ -321,7 +326,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{}{}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -354,6 +359,18 @@ impl ProposalCard {
                 if s.balance { " --balance" } else { "" },
                 s.point_lr
                     .map_or(String::new(), |lr| format!(" --tune-point-head --point-lr {lr}")),
+                if s.speed_scales.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " --speed-scales {}",
+                        s.speed_scales
+                            .iter()
+                            .map(f32::to_string)
+                            .collect::<Vec<_>>()
+                            .join(",")
+                    )
+                },
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
             decoder_tuned: p.decoder.is_some(),

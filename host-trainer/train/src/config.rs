@@ -45,6 +45,9 @@ pub const MAX_NONLOCAL_POOLS: usize = 16;
 /// Largest `obs_noise` (the data's unit): far beyond any detector's noise in metres or in
 /// SDD pixels, it only keeps the noisy positions well inside f32's exact range.
 pub const MAX_OBS_NOISE: f32 = 1000.0;
+/// The speed factors allowed for speed augmentation (`speed_scales`, `gpecnet propose
+/// --speed-scales`): a quarter to four times the recorded speed.
+pub const SPEED_SCALE_RANGE: std::ops::RangeInclusive<f32> = 0.25..=4.0;
 /// Most bytes of one training layer's activations (`batch_size · width · 4`): 4 GiB.
 pub const MAX_TRAIN_ACTIVATION_BYTES: u64 = 4 << 30;
 

@@ -202,7 +202,7 @@ impl TrainConfig {
         if let Some(s) = self
             .speed_scales
             .iter()
-            .find(|s| !(s.is_finite() && (0.25..=4.0).contains(*s)))
+            .find(|s| !(s.is_finite() && super::SPEED_SCALE_RANGE.contains(*s)))
         {
             bail!("speed_scales: every factor must be a number in [0.25, 4], got {s}");
         }

@@ -151,6 +151,13 @@ pub struct ProposeArgs {
         requires = "tune_point_head"
     )]
     pub point_lr: f64,
+    /// Speed augmentation, comma separated factors: for each factor s, a copy of every
+    /// training window (and of its time-reversed and mirrored copies) walked s times as
+    /// fast (the path kept, every displacement from the first observed position times s),
+    /// as `speed_scales` in `gpecnet train`'s config. Each in [0.25, 4]. Validation stays
+    /// as recorded.
+    #[arg(long, value_name = "S,...", value_delimiter = ',')]
+    pub speed_scales: Vec<f32>,
 }
 
 /// Hidden activation of a proposal network.
@@ -229,6 +236,18 @@ impl ProposeArgs {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{name} {v} is out of range: allowed a finite number > 0");
             }
+        }
+        let range = crate::config::SPEED_SCALE_RANGE;
+        if let Some(f) = self
+            .speed_scales
+            .iter()
+            .find(|f| !(f.is_finite() && range.contains(*f)))
+        {
+            bail!(
+                "--speed-scales has the factor {f}: allowed numbers in [{}, {}]",
+                range.start(),
+                range.end()
+            );
         }
         let max_noise = crate::config::MAX_OBS_NOISE;
         if !(self.obs_noise.is_finite() && (0.0..=max_noise).contains(&self.obs_noise)) {
@@ -361,6 +380,7 @@ impl ProposeArgs {
             starter_weight: self.starter_weight,
             balance: self.balance,
             point_lr: self.tune_point_head.then_some(self.point_lr),
+            speed_scales: self.speed_scales.clone(),
         };
         ProposeRun {
             model: &model,

@@ -216,8 +216,9 @@ fn set_weights(mlp: &Mlp, w: &[Vec<f32>]) -> Result<()> {
     Ok(())
 }
 
-/// The training windows with their time-reversed and mirrored copies, as the settings ask,
-/// and each window's part index carried along.
+/// The training windows with their time-reversed and mirrored copies, then a copy of all
+/// of them per speed factor, as the settings ask, and each window's part index carried
+/// along.
 fn augment(
     mut ws: Vec<Window>,
     mut part_of: Vec<usize>,
@@ -232,6 +233,12 @@ fn augment(
         let mir: Vec<Window> = ws.iter().map(data::mirrored).collect();
         ws.extend(mir);
         part_of.extend_from_within(..);
+    }
+    let base = ws.len();
+    for &f in &s.speed_scales {
+        let scaled: Vec<Window> = ws[..base].iter().map(|w| w.speed_scaled(f)).collect();
+        ws.extend(scaled);
+        part_of.extend_from_within(..base);
     }
     (ws, part_of)
 }
