@@ -203,11 +203,29 @@ pub fn loss(
             .log()?
             * temp)?)?;
     let prior = (z.sqr()?.sum(1)?.mean_all()? * (0.5 * f64::from(spec.prior_weight)))?;
-    let data = match w {
-        Some(w) => (soft.mul(w)?.sum_all()? / f64::from(w.sum_all()?.to_scalar::<f32>()?))?,
-        None => soft.mean_all()?,
+    Ok((weighted_mean(&soft, w)? + prior)?)
+}
+
+/// The mean of the per-window values `v` (`[b]`), weighted by `w` when given:
+/// `Σ wᵢ vᵢ / Σ wᵢ` (differentiable: the training losses).
+fn weighted_mean(v: &Tensor, w: Option<&Tensor>) -> Result<Tensor> {
+    Ok(match w {
+        Some(w) => (v.mul(w)?.sum_all()? / f64::from(w.sum_all()?.to_scalar::<f32>()?))?,
+        None => v.mean_all()?,
+    })
+}
+
+/// `(Σ wᵢ vᵢ, Σ wᵢ)` of the per-window values `v` (`[b]`), every weight 1 without `w`, in
+/// f64 (a validation pass sums these over its chunks).
+fn weighted_total(v: &Tensor, w: Option<&Tensor>) -> Result<(f64, f64)> {
+    let (v, weight) = match w {
+        Some(w) => (v.mul(w)?, f64::from(w.sum_all()?.to_scalar::<f32>()?)),
+        None => (v.clone(), v.dims1()? as f64),
     };
-    Ok((data + prior)?)
+    Ok((
+        v.to_dtype(DType::F64)?.sum_all()?.to_scalar::<f64>()?,
+        weight,
+    ))
 }
 
 /// Validation numbers of one pass (normalised units; divide by `data_scale` for the
@@ -231,18 +249,9 @@ pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -
     for chunk in idx.chunks(1024) {
         let (f, t, w) = enc.rows(chunk)?;
         let (d, z) = endpoints(proposal, decoder, &f, spec)?;
-        let dist = distances(&d, &t)?.min(1)?;
-        let dist = match &w {
-            Some(w) => {
-                weight += f64::from(w.sum_all()?.to_scalar::<f32>()?);
-                dist.mul(w)?
-            }
-            None => {
-                weight += chunk.len() as f64;
-                dist
-            }
-        };
-        fde += dist.to_dtype(DType::F64)?.sum_all()?.to_scalar::<f64>()?;
+        let (sum, w) = weighted_total(&distances(&d, &t)?.min(1)?, w.as_ref())?;
+        fde += sum;
+        weight += w;
         let zv = z.flatten_all()?.to_vec1::<f32>()?;
         clamped += zv.iter().filter(|v| v.abs() >= spec.bound).count() as f64;
         comps += zv.len();
@@ -268,10 +277,7 @@ pub fn validate(proposal: &Mlp, decoder: &Mlp, enc: &Encoded, spec: &LossSpec) -
 pub fn point_loss(head: &Mlp, x: &Tensor, y: &Tensor, w: Option<&Tensor>) -> Result<Tensor> {
     let dist = point_distances(head, x, y, crate::model::POINT_LOSS_EPS)?;
     let per = (dist.mean(1)? + dist.narrow(1, FUTURE - 1, 1)?.squeeze(1)?)?;
-    Ok(match w {
-        Some(w) => (per.mul(w)?.sum_all()? / f64::from(w.sum_all()?.to_scalar::<f32>()?))?,
-        None => per.mean_all()?,
-    })
+    weighted_mean(&per, w)
 }
 
 /// Distances `[b, FUTURE]` of the point head's forecast to the truth `y` (`[b, FUTURE, 2]`),
@@ -293,17 +299,9 @@ pub fn validate_point(head: &Mlp, enc: &Encoded) -> Result<f64> {
         let last = point_distances(head, &x, &y, 0.0)?
             .narrow(1, FUTURE - 1, 1)?
             .squeeze(1)?;
-        let last = match &w {
-            Some(w) => {
-                weight += f64::from(w.sum_all()?.to_scalar::<f32>()?);
-                last.mul(w)?
-            }
-            None => {
-                weight += chunk.len() as f64;
-                last
-            }
-        };
-        fde += last.to_dtype(DType::F64)?.sum_all()?.to_scalar::<f64>()?;
+        let (sum, w) = weighted_total(&last, w.as_ref())?;
+        fde += sum;
+        weight += w;
     }
     Ok(fde / weight.max(f64::MIN_POSITIVE))
 }
