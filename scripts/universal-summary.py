@@ -140,3 +140,32 @@ for sc in ETH + ["sdd"]:
     label = "SDD (every split's models)" if sc == "sdd" else sc.upper()
     print(f"| {label} | {ms([x[key] for x in t], d)}{unit} | {b[key]:.{d}f}{unit} | {cv:.{d}f}{unit} "
           f"| {wins} of {len(t)} | {heads} |")
+
+# Starters (standing when forecast, more than 1 m away at the horizon) and everyone else, on
+# every held-out scene and on SDD's test set: best-of-20 minFDE of these models against the
+# shipped default's (`gpecnet eval --json`, `changes`).
+def group(d, name):
+    return next((g for g in d.get("changes") or [] if g["scene"] == name), None)
+
+
+print()
+print("| test set | starters (n) minFDE: these models | `sdd-m-lp-qe` | ratio | other windows (n) minFDE: these models | `sdd-m-lp-qe` |")
+print("|---|---|---|---|---|---|")
+for sc in ETH + ["sdd"]:
+    if sc == "sdd":
+        t = [x["sdd"] for r in done.values() for x in r.values()]
+        b = base_sdd
+    else:
+        if sc not in done:
+            continue
+        t = [x["t"] for x in done[sc].values()]
+        b = load(os.path.join(runs, "baseline", f"sdd-m-lp-qe-eth_ucy_{sc}.json"))
+    bs, bo = (group(b, "starters"), group(b, "neither")) if b else (None, None)
+    st = [group(x, "starters") for x in t]
+    ot = [group(x, "neither") for x in t]
+    if not bs or not all(st) or not all(ot):
+        continue
+    mean = statistics.mean(g["min_fde"] for g in st)
+    label = "SDD (every split's models)" if sc == "sdd" else sc.upper()
+    print(f"| {label} | ({bs['n']}) {ms([g['min_fde'] for g in st])} | {bs['min_fde']:.3f} | {mean / bs['min_fde']:.2f} "
+          f"| ({bo['n']}) {ms([g['min_fde'] for g in ot])} | {bo['min_fde']:.3f} |")
