@@ -394,13 +394,21 @@ fn a_point_head_trained_beside_the_proposal_leaves_the_proposal_alone() {
         "{}",
         card.command
     );
-    // A resume that drops the head mixes runs: refused.
-    let (ok, text) = propose(
-        &dir.join("point"),
-        "2",
-        &[&common[..], &["--resume"]].concat(),
-    );
+    // A resume that drops the head mixes runs: refused. A resume with the same settings
+    // reads the head's state back and selects the same head.
+    let resume =
+        |extra: &[&str]| propose(&dir.join("point"), "2", &[extra, &["--resume"]].concat());
+    let (ok, text) = resume(&common);
     assert!(!ok && text.contains("other settings"), "{text}");
+    let (ok, text) = resume(&with);
+    assert!(ok, "{text}");
+    let again = ProposalFile::read(&dir.join("point/proposal.json")).unwrap();
+    let again_head = again.point_head.as_ref().unwrap();
+    assert_eq!(
+        (again_head.epoch, again_head.val_fde),
+        (head.epoch, head.val_fde)
+    );
+    assert_eq!(again_head.layers[0].w, head.layers[0].w);
     // Without its switch, out of range, or for a blob without a point head: refused, and
     // nothing is written.
     for bad in [

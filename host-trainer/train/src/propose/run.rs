@@ -52,7 +52,9 @@ struct NetCheckpoint {
 /// validated and exported, and its best epoch on its own validation FDE.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct PointCheckpoint {
-    #[serde(flatten)]
+    /// Its weights, optimiser and best (averaged) weights. Nested, not flattened: serde
+    /// buffers a flattened struct's numbers, which some serde_json features cannot read back
+    /// as f32.
     net: NetCheckpoint,
     /// The exponential moving average of the weights over the steps ([`POINT_EMA_DECAY`]).
     average: Vec<Vec<f32>>,
