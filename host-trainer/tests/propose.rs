@@ -388,7 +388,7 @@ fn a_point_head_trained_beside_the_proposal_leaves_the_proposal_alone() {
     // The card records the head and retrains it.
     let card =
         gpecnet_trainer::proposal_file::ProposalCard::of(&p, &dir.join("point/proposal.json"));
-    assert_eq!(card.point_head.as_ref().map(|h| h.0), Some(head.epoch));
+    assert_eq!(card.point_head.as_ref().map(|h| h.epoch), Some(head.epoch));
     assert!(
         card.command.contains("--tune-point-head --point-lr 0.0001"),
         "{}",

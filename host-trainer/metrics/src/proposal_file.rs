@@ -287,10 +287,19 @@ pub struct ProposalCard {
     /// blob then holds that decoder, not the frozen model's.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub decoder_tuned: bool,
-    /// The point head trained beside the proposal: its epoch and validation FDE (the
-    /// blob's unit, 4 decimals); the blob then holds that head, not the frozen model's.
+    /// The point head trained beside the proposal; the blob then holds that head, not the
+    /// frozen model's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub point_head: Option<(usize, String)>,
+    pub point_head: Option<PointHeadCard>,
+}
+
+/// A point head trained beside the proposal, in the model card.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointHeadCard {
+    /// Its best validation epoch.
+    pub epoch: usize,
+    /// Its validation FDE at that epoch (the blob's unit, 4 decimals).
+    pub val_fde: String,
 }
 
 impl ProposalCard {
@@ -374,10 +383,10 @@ impl ProposalCard {
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
             decoder_tuned: p.decoder.is_some(),
-            point_head: p
-                .point_head
-                .as_ref()
-                .map(|h| (h.epoch, format!("{:.4}", h.val_fde))),
+            point_head: p.point_head.as_ref().map(|h| PointHeadCard {
+                epoch: h.epoch,
+                val_fde: format!("{:.4}", h.val_fde),
+            }),
         }
     }
 }

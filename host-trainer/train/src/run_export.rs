@@ -394,8 +394,9 @@ pub fn model_card_md(
             } else {
                 ""
             },
-            p.point_head.as_ref().map_or(String::new(), |(epoch, fde)| format!(
-                "; the point head was trained beside it (validation FDE {fde} {u} at its epoch {epoch}), so the blob's point head is not the run's"
+            p.point_head.as_ref().map_or(String::new(), |h| format!(
+                "; the point head was trained beside it (validation FDE {} {u} at its epoch {}), so the blob's point head is not the run's",
+                h.val_fde, h.epoch
             ))
         )
     }))
