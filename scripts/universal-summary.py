@@ -75,6 +75,10 @@ if full:
           f"{ms(avg('min_ade'))} / {ms(avg('min_fde'))} m; sdd-m-lp-qe "
           f"{statistics.mean(x['min_ade'] for x in bl):.3f} / {statistics.mean(x['min_fde'] for x in bl):.3f} m; "
           f"point FDE {ms(avg('point_fde'))} vs CV {statistics.mean(x['cv_fde'] for x in bl):.3f} m")
+    sdd_avg = lambda k: [statistics.mean(done[sc][s]["sdd"][k] for sc in full) for s in seeds]
+    print(f"SDD test through the five split models (per seed, the mean of the splits): "
+          f"{ms(sdd_avg('min_ade_px'), 2)} / {ms(sdd_avg('min_fde_px'), 2)} px; sdd-m-lp-qe "
+          f"{base_sdd['min_ade_px']:.2f} / {base_sdd['min_fde_px']:.2f} px")
 
 # As deployed: the held-out scene's test recordings streamed through the track table and the
 # online loop (`gpecnet stream`), endpoint r50 / r90 coverage (goal 50 / 90 %) and mean r90,
