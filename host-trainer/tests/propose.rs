@@ -486,7 +486,7 @@ fn speed_scaled_copies_keep_the_path_and_scale_the_speed() {
         "{}",
         card.command
     );
-    for bad in ["5", "0.1", "NaN", "1,-1"] {
+    for bad in ["5", "0.1", "NaN", "1,-1", "1,1,1,1,1,1,1,1,1"] {
         let (ok, text) = propose(&dir.join("bad"), "1", &["--speed-scales", bad]);
         assert!(!ok && text.contains("--speed-scales"), "{bad}: {text}");
     }

@@ -139,8 +139,9 @@ pub struct ProposeArgs {
     /// (mean displacement over the 12 steps plus the displacement at the horizon), with its
     /// own Adam (--point-lr); the running average of its weights over about the last 1,000
     /// steps is validated, selected on its own validation FDE and exported (the blob's head
-    /// when no epoch beats it). The proposal trains exactly as without it; `proposal.json` then holds the head, and `gpecnet score` (the
-    /// radii around the point forecast) and `gpecnet export --proposal` use it.
+    /// when no epoch beats it). The proposal trains exactly as without it; `proposal.json`
+    /// then holds the head, and `gpecnet score` (the radii around the point forecast) and
+    /// `gpecnet export --proposal` use it.
     #[arg(long)]
     pub tune_point_head: bool,
     /// Adam learning rate of the point head under --tune-point-head.
@@ -154,8 +155,8 @@ pub struct ProposeArgs {
     /// Speed augmentation, comma separated factors: for each factor s, a copy of every
     /// training window (and of its time-reversed and mirrored copies) walked s times as
     /// fast (the path kept, every displacement from the first observed position times s),
-    /// as `speed_scales` in `gpecnet train`'s config. Each in [0.25, 4]. Validation stays
-    /// as recorded.
+    /// as `speed_scales` in `gpecnet train`'s config. Each in [0.25, 4], at most 8 factors
+    /// (each one adds a copy of the whole training split). Validation stays as recorded.
     #[arg(long, value_name = "S,...", value_delimiter = ',')]
     pub speed_scales: Vec<f32>,
 }
@@ -172,6 +173,10 @@ pub enum ActArg {
 /// The most latents a proposal may give: the core's limit
 /// (`gpecnet_core::blob::MAX_PROPOSAL_LATENTS`).
 pub const MAX_PROPOSAL_K: usize = gpecnet_core::blob::MAX_PROPOSAL_LATENTS;
+
+/// The most `--speed-scales` factors: each one adds a copy of the whole (time-reversed and
+/// mirrored) training split, so 8 already make it 9 times larger.
+pub const MAX_SPEED_SCALES: usize = 8;
 
 /// The largest `--starter-weight`: starters are 1–15 % of a training split, so a larger
 /// weight would let a few windows decide every step.
@@ -236,6 +241,12 @@ impl ProposeArgs {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{name} {v} is out of range: allowed a finite number > 0");
             }
+        }
+        if self.speed_scales.len() > MAX_SPEED_SCALES {
+            bail!(
+                "--speed-scales has {} factors: allowed at most {MAX_SPEED_SCALES} (each adds a copy of the training split)",
+                self.speed_scales.len()
+            );
         }
         let range = crate::config::SPEED_SCALE_RANGE;
         if let Some(f) = self
