@@ -147,12 +147,9 @@ pub fn ship_with(
             .collect::<Vec<_>>(),
     )?;
     let (cfg, mut model, epoch) = model_from_run(run, name)?;
-    settings.apply(&mut model, k)?;
-    // The proposal file once more, for the blob's data description and the card.
-    let proposal = match &settings.proposal {
-        Some(p) => Some((crate::proposal_file::ProposalFile::read(p)?, p)),
-        None => None,
-    };
+    let proposal = settings
+        .apply(&mut model, k)?
+        .zip(settings.proposal.as_ref());
     if let Some((p, _)) = &proposal {
         note_proposal_data(&mut model, &cfg.dataset_spec()?, p)?;
     }
@@ -454,8 +451,13 @@ pub struct ExportSettings {
 }
 
 impl ExportSettings {
-    /// Writes the settings into `m` (checked: `N >= k`, finite positive sigma).
-    pub fn apply(&self, m: &mut RefModel, k: usize) -> Result<()> {
+    /// Writes the settings into `m` (checked: `N >= k`, finite positive sigma); returns the
+    /// proposal file it joined, read once, for the blob's data description and the card.
+    pub fn apply(
+        &self,
+        m: &mut RefModel,
+        k: usize,
+    ) -> Result<Option<crate::proposal_file::ProposalFile>> {
         if let Some(s) = self.sigma {
             if !(s.is_finite() && s > 0.0) {
                 bail!("--sigma must be a positive number, got {s}");
@@ -475,6 +477,7 @@ impl ExportSettings {
             m.config.tts_iters = 3;
             m.config.tts_init = 0;
         }
+        let mut joined = None;
         if let Some(path) = &self.proposal {
             let p = crate::proposal_file::ProposalFile::read(path)?;
             if p.settings.k != k {
@@ -489,6 +492,7 @@ impl ExportSettings {
             }
             p.join(m)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            joined = Some(p);
         }
         if let Some(path) = &self.score {
             if self.proposal.is_none() {
@@ -496,6 +500,6 @@ impl ExportSettings {
             }
             crate::score::attach(m, path)?;
         }
-        Ok(())
+        Ok(joined)
     }
 }

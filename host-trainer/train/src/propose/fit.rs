@@ -13,37 +13,45 @@ use crate::reference::{RefModel, SineKind};
 
 /// The frozen model's view of a set of windows: features `f` (`[n, fdim]`, exactly the
 /// reference path's `encoder_past` output) and true endpoints in the networks' normalised
-/// frame (`[n, 2]`); the networks' input (the point head's too) and the true futures in the
-/// same frame, for the point head.
+/// frame (`[n, 2]`); and, when the point head is trained, its inputs and targets.
 pub struct Encoded {
     /// `[n, fdim]`.
     pub features: Tensor,
     /// `[n, 2]`.
     pub targets: Tensor,
-    /// `[n, 2 · PAST]`: the observed positions as the networks see them.
-    pub inputs: Tensor,
-    /// `[n, FUTURE, 2]`: the true future positions in the same frame.
-    pub futures: Tensor,
+    /// The point head's batch data (only when asked for: a run that trains the head).
+    pub point: Option<PointData>,
     /// Each window's weight in the loss (`[n]`), `None` = all 1.
     pub weights: Option<Tensor>,
     /// Windows.
     pub n: usize,
 }
 
+/// The point head's view of a set of windows, in the networks' normalised frame.
+pub struct PointData {
+    /// `[n, 2 · PAST]`: the observed positions as the networks see them.
+    pub inputs: Tensor,
+    /// `[n, FUTURE, 2]`: the true future positions.
+    pub futures: Tensor,
+}
+
 impl Encoded {
-    /// Encodes `windows` with the frozen `model` (f32 reference arithmetic, libm sine).
-    pub fn of(model: &RefModel, windows: &[Window]) -> Result<Self> {
+    /// Encodes `windows` with the frozen `model` (f32 reference arithmetic, libm sine), with
+    /// the point head's [`PointData`] when `point` is set.
+    pub fn of(model: &RefModel, windows: &[Window], point: bool) -> Result<Self> {
         let c = &model.config;
         let (mut feats, mut targets) = (Vec::new(), Vec::new());
         let (mut inputs, mut futures) = (Vec::new(), Vec::new());
         for w in windows {
             let past = &w.pos[..PAST];
             let (fr, f) = model.features(past, SineKind::Libm);
-            for p in past {
-                inputs.extend_from_slice(&fr.input(*p, c.data_scale));
-            }
-            for p in &w.pos[PAST..PAST + FUTURE] {
-                futures.extend_from_slice(&fr.input(*p, c.data_scale));
+            if point {
+                for p in past {
+                    inputs.extend_from_slice(&fr.input(*p, c.data_scale));
+                }
+                for p in &w.pos[PAST..PAST + FUTURE] {
+                    futures.extend_from_slice(&fr.input(*p, c.data_scale));
+                }
             }
             if f.len() != c.fdim {
                 bail!(
@@ -59,8 +67,13 @@ impl Encoded {
         Ok(Self {
             features: Tensor::from_vec(feats, (n, c.fdim), &Device::Cpu)?,
             targets: Tensor::from_vec(targets, (n, 2), &Device::Cpu)?,
-            inputs: Tensor::from_vec(inputs, (n, 2 * PAST), &Device::Cpu)?,
-            futures: Tensor::from_vec(futures, (n, FUTURE, 2), &Device::Cpu)?,
+            point: match point {
+                true => Some(PointData {
+                    inputs: Tensor::from_vec(inputs, (n, 2 * PAST), &Device::Cpu)?,
+                    futures: Tensor::from_vec(futures, (n, FUTURE, 2), &Device::Cpu)?,
+                }),
+                false => None,
+            },
             weights: None,
             n,
         })
@@ -84,9 +97,12 @@ impl Encoded {
     }
 
     /// Rows `idx` of the networks' inputs and the true futures, and of the weights if there
-    /// are any (the point head's batch).
+    /// are any (the point head's batch); an error for windows encoded without them.
     pub fn point_rows(&self, idx: &[u32]) -> Result<(Tensor, Tensor, Option<Tensor>)> {
-        self.select(&self.inputs, &self.futures, idx)
+        let Some(p) = &self.point else {
+            bail!("these windows were encoded without the point head's data");
+        };
+        self.select(&p.inputs, &p.futures, idx)
     }
 
     fn select(

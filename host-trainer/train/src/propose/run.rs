@@ -281,12 +281,15 @@ impl ProposeRun<'_> {
             Some(w) => enc.with_weights(w.clone()),
             None => Ok(enc),
         };
-        let mut train = weigh(Encoded::of(self.model, &train_windows)?)?;
+        // The point head's inputs and targets are kept only when it is trained.
+        let point_data = s.point_lr.is_some();
+        let mut train = weigh(Encoded::of(self.model, &train_windows, point_data)?)?;
         // Validation weighs the parts under `balance` (never the starters): the epoch is
         // selected on the mean of the parts' minFDE.
+        let val = Encoded::of(self.model, &val, point_data)?;
         let val = match s.balance {
-            true => Encoded::of(self.model, &val)?.with_weights(balance_weights(&val_parts))?,
-            false => Encoded::of(self.model, &val)?,
+            true => val.with_weights(balance_weights(&val_parts))?,
+            false => val,
         };
         let decoder = fit::mlp_of(&self.model.nets.decoder, "decoder")?;
         // The point head beside the proposal: the blob's, trained on the same batches under
@@ -571,7 +574,7 @@ impl ProposeRun<'_> {
             .iter()
             .map(|w| crate::train::with_obs_noise(w, s.obs_noise, &mut rng))
             .collect();
-        Encoded::of(self.model, &noisy)
+        Encoded::of(self.model, &noisy, s.point_lr.is_some())
     }
 
     /// [`ValCore`] of `file` joined to the frozen model.
