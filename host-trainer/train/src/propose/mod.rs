@@ -35,7 +35,7 @@ use anyhow::{bail, Context, Result};
 use crate::data;
 use crate::network::Act;
 use crate::proposal_file::{ProposalFile, ProposeSettings};
-pub use fit::{Encoded, LossSpec, ValScore};
+pub use fit::{Encoded, LossSpec, PointData, ValScore};
 pub use run::ProposeRun;
 
 /// `gpecnet propose`'s options (the command's help text is in the CLI).
