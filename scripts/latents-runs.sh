@@ -8,7 +8,8 @@
 #   scripts/latents-runs.sh [OUT [VARIANT...]]   # OUT defaults to runs/latents; all variants
 #   scripts/latents-summary.py [OUT]             # mean ± std of each variant's validation numbers
 #
-# BIN names another gpecnet binary (default: target/release/gpecnet, built first).
+# BIN names another gpecnet binary (default: target/release/gpecnet, built first); JOBS
+# the runs at a time (default 2).
 # About 1 s per epoch and run on a 2020s x86 core (100 epochs: ~2 min); 16 runs of the
 # post-hoc variants, ~25 min on 2 cores; the 21 joint and starter runs, ~40 min.
 set -euo pipefail
@@ -36,6 +37,13 @@ variants=(
   "j8st3 --epochs 100 --hidden 8 --tune-decoder --decoder-lr 1e-4 --starter-weight 3"
   "h8st10 --epochs 100 --hidden 8 --starter-weight 10"
   "h8st30 --epochs 100 --hidden 8 --starter-weight 30"
+  # distilled from the 64-wide host proposal on the same CVAE (weights/sdd-m-lp-host.gpec)
+  "h8d03 --epochs 100 --hidden 8 --teacher weights/sdd-m-lp-host.gpec --distill-weight 0.3"
+  "h8d1 --epochs 100 --hidden 8 --teacher weights/sdd-m-lp-host.gpec --distill-weight 1"
+  "h8d3 --epochs 100 --hidden 8 --teacher weights/sdd-m-lp-host.gpec --distill-weight 3"
+  # synthetic starters (and stoppers) on real observed pasts, 5 % of the training windows each
+  "h8ss5 --epochs 100 --hidden 8 --synthetic-starters 0.05"
+  "h8sss5 --epochs 100 --hidden 8 --synthetic-starters 0.05 --synthetic-stoppers 0.05"
 )
 jobs=()
 for v in "${variants[@]}"; do
@@ -56,4 +64,4 @@ run() {
 }
 export -f run
 export out bin
-printf '%s\n' "${jobs[@]}" | xargs -P 2 -L 1 bash -c 'run "$@"' _
+printf '%s\n' "${jobs[@]}" | xargs -P "${JOBS:-2}" -L 1 bash -c 'run "$@"' _

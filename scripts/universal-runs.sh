@@ -26,6 +26,9 @@
 # runs/universal-joint-point). The proposal and decoder train exactly as in MODE=joint.
 # With SPEED=0.8,1.25 (say), every training window also walked at those speeds
 # (`--speed-scales`): per run jbps-<scene>-s<seed> under runs/universal-joint-point-speed.
+# MODE=joint with TAG=<tag> EXTRA="<propose options>": the joint recipe with more options
+# (say TAG=st10 EXTRA="--starter-weight 10"): per run jb<tag>-<scene>-s<seed> under
+# runs/universal-joint-<tag>.
 # then, in every mode:
 #   4. score    endpoint probabilities and radii (the shipped settings)
 #   5. export   with proposal + scores, then quantize --endpoint-only (the MCU form)
@@ -48,7 +51,7 @@ cd "$(dirname "$0")/.."
 mode=${MODE:-cvae}
 case $mode in
   cvae) runs=${RUNS:-runs/universal} pepochs=${PEPOCHS:-25} prefix=uni ;;
-  joint) runs=${RUNS:-runs/universal-joint} pepochs=${PEPOCHS:-30} prefix=jb ;;
+  joint) runs=${RUNS:-runs/universal-joint${TAG:+-$TAG}} pepochs=${PEPOCHS:-30} prefix=jb${TAG:-} ;;
   jointpoint)
     if [ -n "${SPEED:-}" ]; then
       runs=${RUNS:-runs/universal-joint-point-speed} prefix=jbps
@@ -111,7 +114,7 @@ joint_stages() { # scene seed name out ds log
   local s=$2 out=$4 ds=$5 log=$6
   [ -f "$out/proposal.json" ] ||
     "$BIN" propose --blob weights/sdd-m-tiny.gpec --dataset "$ds" --hidden 8 --tune-decoder \
-      --decoder-lr "$dlr" --balance --seed "$s" --epochs "$pepochs" --out "$out" --resume >"$log" 2>&1 || return 1
+      --decoder-lr "$dlr" --balance ${EXTRA:-} --seed "$s" --epochs "$pepochs" --out "$out" --resume >"$log" 2>&1 || return 1
   src=$cvae blob=weights/sdd-m-tiny.gpec prop=$out
 }
 

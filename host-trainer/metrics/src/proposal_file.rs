@@ -80,6 +80,34 @@ pub struct ProposeSettings {
     /// (`gpecnet_data::Window::speed_scaled`); empty (absent from older files) = none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub speed_scales: Vec<f32>,
+    /// Synthetic starters added to the training windows, as a share of the real ones (with
+    /// their time-reversed and mirrored copies): real standing pasts with a synthetic
+    /// departure (`gpecnet_trainer::synthetic::start_stop`); 0 (absent from older files) =
+    /// none.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub synthetic_starters: f32,
+    /// Synthetic stoppers added the same way: real walking pasts with a synthetic halt; 0
+    /// (absent from older files) = none.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub synthetic_stoppers: f32,
+    /// Distillation from a larger proposal on the same CVAE; `None` (absent from older
+    /// files) = none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distill: Option<Distill>,
+}
+
+/// Distillation of a proposal from a teacher: a blob with a proposal of the same K on the
+/// same frozen encoder and decoder ([`frozen_fingerprint`]). Each of the K endpoints of a
+/// training window is pulled towards the teacher's endpoint of the same index: the loss
+/// gains `weight` times the mean distance between them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Distill {
+    /// The teacher blob's path as given.
+    pub teacher: String,
+    /// Its CRC-32 (`gpecnet_core::Model::crc`): a resumed run must have the same teacher.
+    pub teacher_crc: u32,
+    /// The distillation term's weight.
+    pub weight: f32,
 }
 
 fn one() -> f32 {
@@ -335,7 +363,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{}{}{}{}{}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -380,6 +408,20 @@ impl ProposalCard {
                             .join(",")
                     )
                 },
+                if s.synthetic_starters > 0.0 {
+                    format!(" --synthetic-starters {}", s.synthetic_starters)
+                } else {
+                    String::new()
+                },
+                if s.synthetic_stoppers > 0.0 {
+                    format!(" --synthetic-stoppers {}", s.synthetic_stoppers)
+                } else {
+                    String::new()
+                },
+                s.distill.as_ref().map_or(String::new(), |d| format!(
+                    " --teacher {} --distill-weight {}",
+                    d.teacher, d.weight
+                )),
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
             decoder_tuned: p.decoder.is_some(),

@@ -1,7 +1,8 @@
 //! The proposal's training step and its validation pass: tensors of the frozen model's
 //! features and true endpoints, the soft-min best-of-K loss through the frozen decoder; and
 //! the point head's, when it is trained beside the proposal: its inputs, the true futures,
-//! its loss and its validation FDE.
+//! its loss and its validation FDE; and a teacher's endpoints, when the proposal is
+//! distilled from a larger one.
 
 use anyhow::{bail, Result};
 use candle_core::{DType, Device, Tensor, Var};
@@ -23,6 +24,9 @@ pub struct Encoded {
     pub point: Option<PointData>,
     /// Each window's weight in the loss (`[n]`), `None` = all 1.
     pub weights: Option<Tensor>,
+    /// The teacher's K endpoints of each window (`[n, k, 2]`, normalised frame), `None`
+    /// without distillation.
+    pub teacher: Option<Tensor>,
     /// Windows.
     pub n: usize,
 }
@@ -75,8 +79,27 @@ impl Encoded {
                 false => None,
             },
             weights: None,
+            teacher: None,
             n,
         })
+    }
+
+    /// The same windows with `teacher`'s endpoints of each ([`Teacher::endpoints`]).
+    pub fn with_teacher(self, teacher: &Teacher) -> Result<Self> {
+        Ok(Self {
+            teacher: Some(teacher.endpoints(&self.features)?),
+            ..self
+        })
+    }
+
+    /// Rows `idx` of the teacher's endpoints (`None` without a teacher).
+    pub fn teacher_rows(&self, idx: &[u32]) -> Result<Option<Tensor>> {
+        let i = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
+        Ok(self
+            .teacher
+            .as_ref()
+            .map(|t| t.index_select(&i, 0))
+            .transpose()?)
     }
 
     /// The same windows, each weighing `weights[i]` in the loss (one weight per window).
@@ -165,9 +188,84 @@ pub struct LossSpec {
     pub temperature: f32,
     /// Weight of `½‖z‖²` (the prior's log-density up to a constant).
     pub prior_weight: f32,
+    /// Weight of the mean distance to the teacher's endpoints (0 without one).
+    pub distill_weight: f32,
 }
 
-/// The K endpoints of a batch (`[b, k, 2]`) and its clamped latents (`[b·k, zdim]`).
+/// A teacher for distillation: another blob's proposal on the same frozen encoder and
+/// decoder, with its own latent clamp. Its networks stay frozen (no optimiser sees them),
+/// and its decoder is its own copy, so it does not move when the student's decoder is
+/// tuned.
+pub struct Teacher {
+    proposal: Mlp,
+    decoder: Mlp,
+    spec: LossSpec,
+}
+
+impl Teacher {
+    /// The teacher in `teacher` for a student of `k` latents on `student`'s frozen
+    /// networks: an error unless `teacher` has a proposal of `k` latents and the same
+    /// encoder, decoder, data scale and heading frame
+    /// ([`crate::proposal_file::frozen_fingerprint`]).
+    pub fn of(teacher: &RefModel, student: &RefModel, k: usize) -> Result<Self> {
+        use crate::proposal_file::frozen_fingerprint;
+        if teacher.nets.proposal.is_empty() {
+            bail!("the teacher has no learned proposal to distil from");
+        }
+        if teacher.proposal_latents() != k {
+            bail!(
+                "the teacher's proposal gives {} latents, the student {k}: they must be the same K",
+                teacher.proposal_latents()
+            );
+        }
+        if frozen_fingerprint(teacher) != frozen_fingerprint(student) {
+            bail!(
+                "the teacher's encoder, decoder, data scale or heading frame differ from the blob's: a teacher must be a proposal on the same CVAE"
+            );
+        }
+        let c = &teacher.config;
+        Ok(Self {
+            proposal: mlp_of(&teacher.nets.proposal, "teacher's proposal")?,
+            decoder: mlp_of(&teacher.nets.decoder, "teacher's decoder")?,
+            spec: LossSpec {
+                k,
+                zdim: c.zdim,
+                bound: c.latent_bound,
+                temperature: 1.0,
+                prior_weight: 0.0,
+                distill_weight: 0.0,
+            },
+        })
+    }
+
+    /// Its K endpoints for the features `f` (`[n, fdim]` to `[n, k, 2]`), in chunks. A
+    /// scored teacher's logits (after its `K·zdim` latent components) are not used.
+    pub fn endpoints(&self, f: &Tensor) -> Result<Tensor> {
+        let n = f.dims2()?.0;
+        let mut parts = Vec::new();
+        for start in (0..n).step_by(1024) {
+            let chunk = f.narrow(0, start, 1024.min(n - start))?;
+            // Detached: the loss's gradient must not flow back into the teacher (nor walk
+            // its graph over every window at each step).
+            parts.push(
+                endpoints(&self.proposal, &self.decoder, &chunk, &self.spec)?
+                    .0
+                    .detach(),
+            );
+        }
+        if parts.is_empty() {
+            return Ok(Tensor::zeros(
+                (0, self.spec.k, 2),
+                DType::F32,
+                &Device::Cpu,
+            )?);
+        }
+        Ok(Tensor::cat(&parts, 0)?)
+    }
+}
+
+/// The K endpoints of a batch (`[b, k, 2]`) and its clamped latents (`[b·k, zdim]`): the
+/// proposal's first `K·zdim` outputs (a scored proposal's logits follow them).
 pub fn endpoints(
     proposal: &Mlp,
     decoder: &Mlp,
@@ -177,6 +275,7 @@ pub fn endpoints(
     let (b, fdim) = f.dims2()?;
     let z = proposal
         .forward(f)?
+        .narrow(1, 0, spec.k * spec.zdim)?
         .reshape((b * spec.k, spec.zdim))?
         .clamp(-spec.bound, spec.bound)?;
     let fk = f
@@ -197,13 +296,17 @@ pub fn distances(d: &Tensor, t: &Tensor) -> Result<Tensor> {
 /// The training loss of one batch: the soft minimum over the K endpoint errors
 /// (`m − T·ln Σ_k exp(−(d_k − m)/T)`, `m` the hard minimum, not differentiated), averaged
 /// over the windows (weighted by `w` when given: `Σ wᵢ sᵢ / Σ wᵢ`), plus
-/// `prior_weight · ½‖z‖²` averaged over the latents.
+/// `prior_weight · ½‖z‖²` averaged over the latents; with a teacher's endpoints
+/// `teacher` (`[b, k, 2]`), plus `distill_weight` times the distance between each endpoint
+/// and the teacher's of the same index, averaged over the K and then over the windows
+/// (weighted alike).
 pub fn loss(
     proposal: &Mlp,
     decoder: &Mlp,
     f: &Tensor,
     t: &Tensor,
     w: Option<&Tensor>,
+    teacher: Option<&Tensor>,
     spec: &LossSpec,
 ) -> Result<Tensor> {
     let (d, z) = endpoints(proposal, decoder, f, spec)?;
@@ -219,7 +322,14 @@ pub fn loss(
             .log()?
             * temp)?)?;
     let prior = (z.sqr()?.sum(1)?.mean_all()? * (0.5 * f64::from(spec.prior_weight)))?;
-    Ok((weighted_mean(&soft, w)? + prior)?)
+    let total = (weighted_mean(&soft, w)? + prior)?;
+    Ok(match teacher {
+        Some(te) => {
+            let gap = ((d - te)?.sqr()?.sum(2)? + 1e-8)?.sqrt()?.mean(1)?;
+            (total + (weighted_mean(&gap, w)? * f64::from(spec.distill_weight))?)?
+        }
+        None => total,
+    })
 }
 
 /// The mean of the per-window values `v` (`[b]`), weighted by `w` when given:

@@ -12,7 +12,10 @@
 //! blob's, under its own loss and optimiser; the running average of its weights is selected
 //! on its own validation FDE.
 //! A starter's window (standing when forecast, far at the horizon) may weigh more in the
-//! loss (`starter_weight`), and the parts of a combined data set may weigh the same
+//! loss (`starter_weight`), synthetic starters and stoppers on real observed pasts may be
+//! added (`synthetic_starters`, `synthetic_stoppers`: [`crate::synthetic::start_stop`]),
+//! the proposal may be distilled from a larger one on the same CVAE (`distill`: each
+//! endpoint pulled towards the teacher's of the same index), and the parts of a combined data set may weigh the same
 //! (`balance`). Every latent component is clamped to `±bound`, in training exactly as in
 //! `gpecnet-core`, so the fixed-point decoder's input range is respected by construction.
 //!
@@ -34,8 +37,8 @@ use anyhow::{bail, Context, Result};
 
 use crate::data;
 use crate::network::Act;
-use crate::proposal_file::{ProposalFile, ProposeSettings};
-pub use fit::{Encoded, LossSpec, PointData, ValScore};
+use crate::proposal_file::{Distill, ProposalFile, ProposeSettings};
+pub use fit::{Encoded, LossSpec, PointData, Teacher, ValScore};
 pub use run::ProposeRun;
 
 /// `gpecnet propose`'s options (the command's help text is in the CLI).
@@ -159,6 +162,29 @@ pub struct ProposeArgs {
     /// (each one adds a copy of the whole training split). Validation stays as recorded.
     #[arg(long, value_name = "S,...", value_delimiter = ',')]
     pub speed_scales: Vec<f32>,
+    /// Synthetic starters: add SHARE times as many training windows (counting the
+    /// time-reversed and mirrored copies, not the speed copies) made from real pedestrians
+    /// standing when forecast, who stay put for 0-7 steps and then walk off in a random
+    /// direction at 0.8-1.6 m/s (their observed positions as recorded). In [0, 1]; needs
+    /// data in metres. They are starters, so --starter-weight weighs them too.
+    #[arg(long, value_name = "SHARE", default_value_t = 0.0)]
+    pub synthetic_starters: f32,
+    /// Synthetic stoppers: add SHARE times as many training windows made from real
+    /// pedestrians walking when forecast (at least 0.8 m/s), who go on at their last
+    /// velocity for 0-6 steps, slow down over two and then stand. In [0, 1]; needs data in
+    /// metres.
+    #[arg(long, value_name = "SHARE", default_value_t = 0.0)]
+    pub synthetic_stoppers: f32,
+    /// Distil from a teacher: a blob with a learned proposal of the same K on the same CVAE
+    /// (its encoder and decoder identical to --blob's; e.g. weights/sdd-m-lp-host.gpec for
+    /// weights/sdd-m-tiny.gpec). Each of the proposal's K endpoints is pulled towards the
+    /// teacher's endpoint of the same index, with weight --distill-weight, beside the
+    /// best-of-K loss against the truth. Selection stays on validation minFDE.
+    #[arg(long, value_name = "FILE")]
+    pub teacher: Option<PathBuf>,
+    /// Weight of the distance to the teacher's endpoints (the best-of-K term weighs 1).
+    #[arg(long, value_name = "W", default_value_t = 1.0, requires = "teacher")]
+    pub distill_weight: f32,
 }
 
 /// Hidden activation of a proposal network.
@@ -177,6 +203,10 @@ pub const MAX_PROPOSAL_K: usize = gpecnet_core::blob::MAX_PROPOSAL_LATENTS;
 /// The most `--speed-scales` factors: each one adds a copy of the whole (time-reversed and
 /// mirrored) training split, so 8 already make it 9 times larger.
 pub const MAX_SPEED_SCALES: usize = 8;
+
+/// The largest `--distill-weight`: past it the best-of-K term against the truth no longer
+/// counts.
+pub const MAX_DISTILL_WEIGHT: f32 = 100.0;
 
 /// The largest `--starter-weight`: starters are 1–15 % of a training split, so a larger
 /// weight would let a few windows decide every step.
@@ -235,6 +265,20 @@ impl ProposeArgs {
             bail!(
                 "--starter-weight {} is out of range: allowed a number in (0, {MAX_STARTER_WEIGHT}]",
                 self.starter_weight
+            );
+        }
+        for (name, share) in [
+            ("--synthetic-starters", self.synthetic_starters),
+            ("--synthetic-stoppers", self.synthetic_stoppers),
+        ] {
+            if !(share.is_finite() && (0.0..=1.0).contains(&share)) {
+                bail!("{name} {share} is out of range: allowed a share in [0, 1] of the training windows");
+            }
+        }
+        if !(self.distill_weight > 0.0 && self.distill_weight <= MAX_DISTILL_WEIGHT) {
+            bail!(
+                "--distill-weight {} is out of range: allowed a number in (0, {MAX_DISTILL_WEIGHT}]",
+                self.distill_weight
             );
         }
         for (name, v) in [("--temperature", self.temperature), ("--bound", self.bound)] {
@@ -353,7 +397,25 @@ impl ProposeArgs {
             .map_err(|e| anyhow::anyhow!("{}: {e}", self.blob.display()))?;
         data::units::check_unit(&core, &meta, &spec, None)
             .with_context(|| format!("proposing latents for {}", self.blob.display()))?;
-        let sidecars = crate::outpath::blob_and_sidecars(&self.blob);
+        let teacher = match &self.teacher {
+            Some(path) => {
+                let bytes = crate::inpath::read_limited(path, crate::inpath::FileKind::Blob)?;
+                let crc = gpecnet_core::Model::from_blob(&bytes)
+                    .map_err(|e| anyhow::anyhow!("--teacher {}: {e}", path.display()))?
+                    .crc();
+                let t = crate::export::read_blob(&bytes)
+                    .with_context(|| format!("reading --teacher {}", path.display()))?;
+                fit::Teacher::of(&t, &model, self.k)
+                    .with_context(|| format!("--teacher {}", path.display()))?;
+                Some((t, crc))
+            }
+            None => None,
+        };
+        let mut sidecars = crate::outpath::blob_and_sidecars(&self.blob).to_vec();
+        if let Some(t) = &self.teacher {
+            sidecars.extend(crate::outpath::blob_and_sidecars(t));
+            sidecars.push(t.clone());
+        }
         let mut inputs: Vec<&std::path::Path> = sidecars.iter().map(PathBuf::as_path).collect();
         inputs.push(&self.blob);
         let data_dirs = crate::outpath::data_input_dirs(&self.data);
@@ -392,6 +454,16 @@ impl ProposeArgs {
             balance: self.balance,
             point_lr: self.tune_point_head.then_some(self.point_lr),
             speed_scales: self.speed_scales.clone(),
+            synthetic_starters: self.synthetic_starters,
+            synthetic_stoppers: self.synthetic_stoppers,
+            distill: match (&self.teacher, &teacher) {
+                (Some(path), Some((_, crc))) => Some(Distill {
+                    teacher: path.display().to_string(),
+                    teacher_crc: *crc,
+                    weight: self.distill_weight,
+                }),
+                _ => None,
+            },
         };
         ProposeRun {
             model: &model,
@@ -400,6 +472,7 @@ impl ProposeArgs {
             out: self.out.clone(),
             resume: self.resume,
             source: self.blob.clone(),
+            teacher: teacher.as_ref().map(|(t, _)| t),
         }
         .run()
     }

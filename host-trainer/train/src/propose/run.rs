@@ -19,6 +19,7 @@ use crate::proposal_file::{
 use crate::reference::RefModel;
 use crate::rng::{Rng, RngState};
 use crate::rundir::{write_atomic, RunLock};
+use crate::synthetic::start_stop;
 
 /// Everything needed to continue a run.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -85,7 +86,14 @@ pub struct ProposeRun<'a> {
     pub resume: bool,
     /// The frozen blob's path (for the record).
     pub source: PathBuf,
+    /// The teacher's model when the settings distil ([`ProposeSettings::distill`]).
+    pub teacher: Option<&'a RefModel>,
 }
+
+/// The random stream of the run's seed that draws the synthetic starters and stoppers
+/// (stream 1 orders the batches; observation noise uses streams from
+/// [`crate::train::OBS_NOISE_STREAMS`]).
+const START_STOP_STREAM: u64 = 2;
 
 /// The windows of one split and, for each, the index of the part of a combined data set
 /// it comes from (0 for a single data set). The training split is cut to the settings'
@@ -103,9 +111,17 @@ fn windows(
     let (mut out, mut part_of) = (Vec::new(), Vec::new());
     for (i, part) in parts.into_iter().enumerate() {
         let set = data::load(root, part, split, &s.val_scenes)?;
-        if s.starter_weight != 1.0 && set.unit != data::Unit::Metres {
+        let metric = [
+            ("--starter-weight", s.starter_weight != 1.0),
+            ("--synthetic-starters", s.synthetic_starters > 0.0),
+            ("--synthetic-stoppers", s.synthetic_stoppers > 0.0),
+        ];
+        if let Some((name, _)) = metric
+            .iter()
+            .find(|(_, on)| *on && set.unit != data::Unit::Metres)
+        {
             bail!(
-                "--starter-weight needs data in metres (a starter is defined in m/s and m); {} is in {}",
+                "{name} needs data in metres (starters and stoppers are defined in m/s and m); {} is in {}",
                 set.name,
                 set.unit.words()
             );
@@ -219,8 +235,9 @@ fn set_weights(mlp: &Mlp, w: &[Vec<f32>]) -> Result<()> {
 }
 
 /// The training windows with their time-reversed and mirrored copies, then a copy of all
-/// of them per speed factor, as the settings ask, and each window's part index carried
-/// along.
+/// of them per speed factor, then the synthetic starters and stoppers built on those
+/// copies (before the speed copies; their count a share of them), as the settings ask, and
+/// each window's part index carried along (a synthetic window's is its source's).
 fn augment(
     mut ws: Vec<Window>,
     mut part_of: Vec<usize>,
@@ -241,6 +258,20 @@ fn augment(
         let scaled: Vec<Window> = ws[..base].iter().map(|w| w.speed_scaled(f)).collect();
         ws.extend(scaled);
         part_of.extend_from_within(..base);
+    }
+    let mut rng = Rng::with_stream(s.seed, START_STOP_STREAM);
+    for (share, make) in [
+        (
+            s.synthetic_starters,
+            start_stop::starter as fn(&Window, &mut Rng) -> _,
+        ),
+        (s.synthetic_stoppers, start_stop::stopper),
+    ] {
+        let n = (f64::from(share) * base as f64).round() as usize;
+        for (i, w) in start_stop::synthesize(&ws[..base], n, make, &mut rng) {
+            part_of.push(part_of[i]);
+            ws.push(w);
+        }
     }
     (ws, part_of)
 }
@@ -275,11 +306,22 @@ impl ProposeRun<'_> {
             augment(ws, parts, s)
         };
         let (val, val_parts) = windows(&self.data_root, &spec, data::Split::Val, s)?;
+        let teacher = match (&s.distill, self.teacher) {
+            (Some(_), Some(t)) => Some(fit::Teacher::of(t, self.model, s.k)?),
+            (None, None) => None,
+            _ => bail!("distillation needs both its settings and the teacher's model"),
+        };
         // With observation noise the windows are encoded again every epoch, noisy.
         let weights = window_weights(&train_windows, &train_parts, s);
-        let weigh = |enc: Encoded| match &weights {
-            Some(w) => enc.with_weights(w.clone()),
-            None => Ok(enc),
+        let weigh = |enc: Encoded| -> Result<Encoded> {
+            let enc = match &weights {
+                Some(w) => enc.with_weights(w.clone())?,
+                None => enc,
+            };
+            match &teacher {
+                Some(t) => enc.with_teacher(t),
+                None => Ok(enc),
+            }
         };
         // The point head's inputs and targets are kept only when it is trained.
         let point_data = s.point_lr.is_some();
@@ -307,6 +349,7 @@ impl ProposeRun<'_> {
             bound: s.bound,
             temperature: s.temperature * c.data_scale,
             prior_weight: s.prior_weight,
+            distill_weight: s.distill.as_ref().map_or(0.0, |d| d.weight),
         };
         let mut adam = Adam::new(trainable(&proposal, s.codebook), AdamParams::with_lr(s.lr));
         // Joint training: the decoder's own Adam, with its own learning rate.
@@ -418,7 +461,16 @@ impl ProposeRun<'_> {
             let (mut sum, mut n) = (0.0f64, 0usize);
             for chunk in order.chunks(s.batch) {
                 let (f, t, w) = train.rows(chunk)?;
-                let l = fit::loss(&proposal, &decoder, &f, &t, w.as_ref(), &loss_spec)?;
+                let te = train.teacher_rows(chunk)?;
+                let l = fit::loss(
+                    &proposal,
+                    &decoder,
+                    &f,
+                    &t,
+                    w.as_ref(),
+                    te.as_ref(),
+                    &loss_spec,
+                )?;
                 match &mut dec_adam {
                     Some(da) => {
                         let grads = l.backward()?;

@@ -11,6 +11,6 @@ pub mod cli;
 pub mod sweep;
 
 pub use crate::synthetic::{
-    abscore, agent, classify, hmm, in_range, newtonian, plot, quantile_sorted, sample, Stats, Traj,
-    DT, SDD_RANGE,
+    abscore, agent, classify, hmm, in_range, newtonian, plot, quantile_sorted, sample, start_stop,
+    Stats, Traj, DT, SDD_RANGE,
 };

@@ -8,6 +8,7 @@
 //! * [`hmm`]: the HMM interaction playground (hidden motion states, proximity detection).
 //! * [`agent`]: the 8→16→8→4 policy network and REINFORCE with the paper's reward.
 //! * [`sample`]: the fixed-order synthetic pool matching the training set's type statistics.
+//! * [`start_stop`]: synthetic starters and stoppers on real observed pasts (metres).
 //! * [`plot`]: hand-written SVG pictures.
 //!
 //! The data side only: it sits below the training loop, which reads the pool
@@ -24,6 +25,7 @@ pub mod hmm;
 pub mod newtonian;
 pub mod plot;
 pub mod sample;
+pub mod start_stop;
 
 use crate::data::WINDOW;
 
