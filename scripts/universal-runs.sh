@@ -11,6 +11,9 @@
 #               --dataset sdd-m+eth_ucy:<scene> --seed <seed> --epochs $EPOCHS (default 150)
 #   2. export   the best-validation epoch's CVAE (f32; sigma unused once a proposal is attached)
 #   3. propose  --hidden 8 --seed <seed> --epochs $PEPOCHS (default 25) on the combined data
+#   With TAG=<tag> CONFIG=<toml> [POOL=<synthetic pool>]: that config (and pool) in step 1
+#   (say TAG=syn6 CONFIG=host-trainer/configs/sdd-m-tiny-syn6.toml POOL=runs/gen/pool6k.csv:
+#   6 % synthetic trajectories): per run uni<tag>-<scene>-s<seed> under runs/universal-<tag>.
 # MODE=joint: the shipped default's CVAE kept (encoder and point head trained on SDD alone),
 # its decoder and the 8-wide proposal trained jointly on the combined data, each data set
 # weighing half of the loss and of the validation score: per run jb-<scene>-s<seed> under
@@ -50,7 +53,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${MODE:-cvae}
 case $mode in
-  cvae) runs=${RUNS:-runs/universal} pepochs=${PEPOCHS:-25} prefix=uni ;;
+  cvae) runs=${RUNS:-runs/universal${TAG:+-$TAG}} pepochs=${PEPOCHS:-25} prefix=uni${TAG:-} ;;
   joint) runs=${RUNS:-runs/universal-joint${TAG:+-$TAG}} pepochs=${PEPOCHS:-30} prefix=jb${TAG:-} ;;
   jointpoint)
     if [ -n "${SPEED:-}" ]; then
@@ -98,8 +101,8 @@ cvae_stages() { # scene seed name out ds log
   if [ -f "$out/checkpoint.bin" ]; then
     [ "$done_epochs" -ge "$epochs" ] || "$BIN" train --resume --out "$out" --quiet --epochs "$epochs" >>"$log" 2>&1 || return 1
   else
-    "$BIN" train --config host-trainer/configs/sdd-m-tiny.toml --mirror --dataset "$ds" \
-      --seed "$s" --epochs "$epochs" --out "$out" --quiet >"$log" 2>&1 || return 1
+    "$BIN" train --config "${CONFIG:-host-trainer/configs/sdd-m-tiny.toml}" ${POOL:+--pool "$POOL"} --mirror \
+      --dataset "$ds" --seed "$s" --epochs "$epochs" --out "$out" --quiet >"$log" 2>&1 || return 1
   fi
   [ -f "$models/$name.gpec" ] ||
     "$BIN" export --run "$out" --name "$name" --out "$models" --sigma 1.3 --tts 0 >>"$log" 2>&1 || return 1

@@ -43,6 +43,28 @@ fn propose(out: &Path, epochs: &str, extra: &[&str]) -> (bool, String) {
     run(&args)
 }
 
+/// A one-epoch run on a tenth of the training tracks (a 6-wide proposal) with `extra`:
+/// its `proposal.json` and the retraining command of its card.
+fn short_run(out: &Path, extra: &[&str]) -> (ProposalFile, String) {
+    let args = [&["--hidden", "6", "--train-fraction", "0.1"][..], extra].concat();
+    let (ok, text) = propose(out, "1", &args);
+    assert!(ok, "{text}");
+    let p = ProposalFile::read(&out.join("proposal.json")).unwrap();
+    let card = gpecnet_trainer::proposal_file::ProposalCard::of(&p, &out.join("proposal.json"));
+    (p, card.command)
+}
+
+/// The validation windows of the data set `spec`.
+fn val_set(spec: &str) -> data::Dataset {
+    data::load(
+        &data::default_data_root(),
+        &DatasetSpec::parse(spec).unwrap(),
+        Split::Val,
+        &data::default_sdd_val_scenes(),
+    )
+    .unwrap()
+}
+
 #[test]
 fn a_proposal_run_trains_on_train_selects_on_validation_and_resumes() {
     let dir = temp_dir("propose");
@@ -273,15 +295,8 @@ fn balance_makes_every_part_of_a_combined_set_weigh_the_same() {
     let mut m = gpecnet_trainer::export::read_blob(&std::fs::read(&blob).unwrap()).unwrap();
     p.join(&mut m).unwrap();
     let bytes = gpecnet_trainer::export::blob_bytes(&m).unwrap();
-    let root_data = data::default_data_root();
     let part = |name: &str| {
-        let val = data::load(
-            &root_data,
-            &DatasetSpec::parse(name).unwrap(),
-            Split::Val,
-            &data::default_sdd_val_scenes(),
-        )
-        .unwrap();
+        let val = val_set(name);
         let (metrics, _) =
             gpecnet_trainer::core_eval::evaluate_core(&bytes, SineKind::Libm, &val, 20, 0).unwrap();
         (metrics.n, metrics.min_fde)
@@ -442,13 +457,7 @@ fn a_point_head_trained_beside_the_proposal_leaves_the_proposal_alone() {
 fn speed_scaled_copies_keep_the_path_and_scale_the_speed() {
     // A real window walked 1.25 times as fast: the same first position, every displacement
     // from it (so the observed speed) 1.25 times the recorded one.
-    let val = data::load(
-        &data::default_data_root(),
-        &DatasetSpec::parse("eth_ucy:zara1").unwrap(),
-        Split::Val,
-        &data::default_sdd_val_scenes(),
-    )
-    .unwrap();
+    let val = val_set("eth_ucy:zara1");
     let w = val
         .windows
         .iter()
@@ -464,28 +473,9 @@ fn speed_scaled_copies_keep_the_path_and_scale_the_speed() {
     // `gpecnet propose --speed-scales`: recorded, retrained by the card's command, and a
     // factor out of [0.25, 4] is refused before anything is written.
     let dir = temp_dir("propose-speed");
-    let out = dir.join("run");
-    let (ok, text) = propose(
-        &out,
-        "1",
-        &[
-            "--hidden",
-            "6",
-            "--train-fraction",
-            "0.1",
-            "--speed-scales",
-            "0.8,1.25",
-        ],
-    );
-    assert!(ok, "{text}");
-    let p = ProposalFile::read(&out.join("proposal.json")).unwrap();
+    let (p, command) = short_run(&dir.join("run"), &["--speed-scales", "0.8,1.25"]);
     assert_eq!(p.settings.speed_scales, vec![0.8, 1.25]);
-    let card = gpecnet_trainer::proposal_file::ProposalCard::of(&p, &out.join("proposal.json"));
-    assert!(
-        card.command.contains(" --speed-scales 0.8,1.25 "),
-        "{}",
-        card.command
-    );
+    assert!(command.contains(" --speed-scales 0.8,1.25 "), "{command}");
     for bad in ["5", "0.1", "NaN", "1,-1", "1,1,1,1,1,1,1,1,1"] {
         let (ok, text) = propose(&dir.join("bad"), "1", &["--speed-scales", bad]);
         assert!(!ok && text.contains("--speed-scales"), "{bad}: {text}");
@@ -498,13 +488,7 @@ fn speed_scaled_copies_keep_the_path_and_scale_the_speed() {
 fn synthetic_starters_and_stoppers_keep_the_real_past_and_change_motion() {
     use gpecnet_trainer::rng::Rng;
     use gpecnet_trainer::synth::start_stop::{starter, stopper, synthesize};
-    let val = data::load(
-        &data::default_data_root(),
-        &DatasetSpec::parse("sdd-m").unwrap(),
-        Split::Val,
-        &data::default_sdd_val_scenes(),
-    )
-    .unwrap();
+    let val = val_set("sdd-m");
     let mut rng = Rng::new(7);
     let (mut starters, mut stoppers) = (0, 0);
     for w in &val.windows {
@@ -549,33 +533,22 @@ fn synthetic_starters_and_stoppers_keep_the_real_past_and_change_motion() {
     // `gpecnet propose --synthetic-starters/--synthetic-stoppers`: recorded, retrained by the
     // card's command; a share out of [0, 1] and data in pixels are refused, nothing written.
     let dir = temp_dir("propose-start-stop");
-    let out = dir.join("run");
-    let (ok, text) = propose(
-        &out,
-        "1",
+    let (p, command) = short_run(
+        &dir.join("run"),
         &[
-            "--hidden",
-            "6",
-            "--train-fraction",
-            "0.1",
             "--synthetic-starters",
             "0.05",
             "--synthetic-stoppers",
             "0.02",
         ],
     );
-    assert!(ok, "{text}");
-    let p = ProposalFile::read(&out.join("proposal.json")).unwrap();
     assert_eq!(
         (p.settings.synthetic_starters, p.settings.synthetic_stoppers),
         (0.05, 0.02)
     );
-    let card = gpecnet_trainer::proposal_file::ProposalCard::of(&p, &out.join("proposal.json"));
     assert!(
-        card.command
-            .contains(" --synthetic-starters 0.05 --synthetic-stoppers 0.02 "),
-        "{}",
-        card.command
+        command.contains(" --synthetic-starters 0.05 --synthetic-stoppers 0.02 "),
+        "{command}"
     );
     for bad in ["1.5", "-0.1", "NaN"] {
         let arg = format!("--synthetic-starters={bad}");
@@ -639,13 +612,7 @@ fn distillation_pulls_the_endpoints_towards_the_teachers() {
     // same index than the plain proposal's do.
     let base = gpecnet_trainer::export::read_blob(&std::fs::read(blob()).unwrap()).unwrap();
     let teacher = gpecnet_trainer::export::read_blob(&host_bytes).unwrap();
-    let val = data::load(
-        &data::default_data_root(),
-        &DatasetSpec::parse("sdd-m").unwrap(),
-        Split::Val,
-        &data::default_sdd_val_scenes(),
-    )
-    .unwrap();
+    let val = val_set("sdd-m");
     let enc = Encoded::of(&base, &val.windows, false).unwrap();
     let target = Teacher::of(&teacher, &base, 20)
         .unwrap()
