@@ -235,9 +235,9 @@ fn set_weights(mlp: &Mlp, w: &[Vec<f32>]) -> Result<()> {
 }
 
 /// The training windows with their time-reversed and mirrored copies, then a copy of all
-/// of them per speed factor, then the synthetic starters and stoppers built on those
-/// copies (before the speed copies; their count a share of them), as the settings ask, and
-/// each window's part index carried along (a synthetic window's is its source's).
+/// of them per speed factor, then the synthetic starters and stoppers, made from the
+/// windows before the speed copies and counted as a share of those, as the settings ask;
+/// and each window's part index carried along (a synthetic window's is its source's).
 fn augment(
     mut ws: Vec<Window>,
     mut part_of: Vec<usize>,
@@ -311,9 +311,10 @@ impl ProposeRun<'_> {
             (None, None) => None,
             _ => bail!("distillation needs both its settings and the teacher's model"),
         };
-        // With observation noise the windows are encoded again every epoch, noisy.
+        // Each encoding of the training windows gets their loss weights and the teacher's
+        // endpoints (with observation noise the windows are encoded again every epoch, noisy).
         let weights = window_weights(&train_windows, &train_parts, s);
-        let weigh = |enc: Encoded| -> Result<Encoded> {
+        let prepare = |enc: Encoded| -> Result<Encoded> {
             let enc = match &weights {
                 Some(w) => enc.with_weights(w.clone())?,
                 None => enc,
@@ -325,7 +326,7 @@ impl ProposeRun<'_> {
         };
         // The point head's inputs and targets are kept only when it is trained.
         let point_data = s.point_lr.is_some();
-        let mut train = weigh(Encoded::of(self.model, &train_windows, point_data)?)?;
+        let mut train = prepare(Encoded::of(self.model, &train_windows, point_data)?)?;
         // Validation weighs the parts under `balance` (never the starters): the epoch is
         // selected on the mean of the parts' minFDE.
         let val = Encoded::of(self.model, &val, point_data)?;
@@ -455,7 +456,7 @@ impl ProposeRun<'_> {
         let mut order: Vec<u32> = (0..train.n as u32).collect();
         while ck.epoch < s.epochs {
             if s.obs_noise > 0.0 {
-                train = weigh(self.noisy_encoding(&train_windows, ck.epoch)?)?;
+                train = prepare(self.noisy_encoding(&train_windows, ck.epoch)?)?;
             }
             rng.shuffle(&mut order);
             let (mut sum, mut n) = (0.0f64, 0usize);
