@@ -15,9 +15,10 @@
 //! loss (`starter_weight`), synthetic starters and stoppers on real observed pasts may be
 //! added (`synthetic_starters`, `synthetic_stoppers`: [`crate::synthetic::start_stop`]),
 //! the proposal may be distilled from a larger one on the same CVAE (`distill`: each
-//! endpoint pulled towards the teacher's of the same index), and the parts of a combined data set may weigh the same
-//! (`balance`). Every latent component is clamped to `±bound`, in training exactly as in
-//! `gpecnet-core`, so the fixed-point decoder's input range is respected by construction.
+//! endpoint pulled towards the teacher's of the same index), and the parts of a combined
+//! data set may weigh the same (`balance`). Every latent component is clamped to `±bound`,
+//! in training exactly as in `gpecnet-core`, so the fixed-point decoder's input range is
+//! respected by construction.
 //!
 //! The run folder holds `checkpoint.json` (after every epoch, atomically: the current and
 //! the best-validation weights, the optimiser and sampler state), `metrics.csv` and, at the
