@@ -17,9 +17,12 @@
 //!   and then 1/3 of it over the next two, and stands from then on, so it has stood for at
 //!   least the last 4 steps (1.6 s): a stopper by `motion_change`'s definition.
 //!
-//! The direction of a starter is uniform because nothing in a standing pedestrian's past
-//! says where it will go; the model can only learn to spread its endpoints. Every draw
-//! comes from the caller's [`Rng`], so a set is reproducible from its seed.
+//! A starter's direction is uniform, as if nothing in a standing pedestrian's past said
+//! where it will go. Measured, that is not so: most real starters leave within 45° of the
+//! direction they drift while standing, and walk less far than these do, so these synthetic
+//! starters teach a proposal to ignore that cue and hurt the real starters
+//! (`docs/generalisation.md`, "Starters in the union"). Every draw comes from the caller's
+//! [`Rng`], so a set is reproducible from its seed.
 
 use crate::data::{observed_speed, Window, PAST, PERIOD_S};
 use crate::rng::Rng;
