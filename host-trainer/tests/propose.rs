@@ -243,24 +243,35 @@ fn joint_training_tunes_the_decoder_only_and_the_export_carries_it() {
 }
 
 #[test]
-fn starter_weights_need_data_in_metres() {
+fn starter_options_need_data_in_metres() {
+    // Starters and stoppers are defined in m/s and m: each option that uses them is
+    // refused on pixel data, naming itself, before anything is written.
     let dir = temp_dir("propose-starters-px");
     let blob = root().join("weights/sdd-tiny-v2.gpec");
-    let (ok, text) = run(&[
-        "propose",
-        "--blob",
-        s(&blob),
-        "--dataset",
-        "sdd",
-        "--out",
-        s(&dir.join("run")),
-        "--epochs",
-        "1",
+    for option in [
         "--starter-weight",
-        "2",
-    ]);
-    assert!(!ok && text.contains("metres"), "{text}");
-    assert!(!dir.join("run/proposal.json").exists());
+        "--synthetic-starters",
+        "--synthetic-stoppers",
+    ] {
+        let (ok, text) = run(&[
+            "propose",
+            "--blob",
+            s(&blob),
+            "--dataset",
+            "sdd",
+            "--out",
+            s(&dir.join("run")),
+            "--epochs",
+            "1",
+            option,
+            "0.5",
+        ]);
+        assert!(
+            !ok && text.contains("metres") && text.contains(option),
+            "{option}: {text}"
+        );
+        assert!(!dir.join("run/proposal.json").exists());
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -531,7 +542,8 @@ fn synthetic_starters_and_stoppers_keep_the_real_past_and_change_motion() {
         .all(|(i, w)| data::observed_speed(&val.windows[*i]) < 0.3
             && w.obs() == val.windows[*i].obs()));
     // `gpecnet propose --synthetic-starters/--synthetic-stoppers`: recorded, retrained by the
-    // card's command; a share out of [0, 1] and data in pixels are refused, nothing written.
+    // card's command; a share out of [0, 1] is refused, nothing written (data in pixels:
+    // `starter_options_need_data_in_metres`).
     let dir = temp_dir("propose-start-stop");
     let (p, command) = short_run(
         &dir.join("run"),
@@ -558,20 +570,6 @@ fn synthetic_starters_and_stoppers_keep_the_real_past_and_change_motion() {
             "{bad}: {text}"
         );
     }
-    let (ok, text) = run(&[
-        "propose",
-        "--blob",
-        s(&root().join("weights/sdd-tiny-v2.gpec")),
-        "--dataset",
-        "sdd",
-        "--out",
-        s(&dir.join("bad")),
-        "--epochs",
-        "1",
-        "--synthetic-stoppers",
-        "0.1",
-    ]);
-    assert!(!ok && text.contains("metres"), "{text}");
     assert!(!dir.join("bad/proposal.json").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
