@@ -110,6 +110,55 @@ pub struct Distill {
     pub weight: f32,
 }
 
+impl ProposeSettings {
+    /// The `gpecnet propose` options of the settings that are not at their defaults, each
+    /// with its leading space, in the order the card's command writes them (after
+    /// `--bound`).
+    fn optional_options(&self) -> String {
+        let when = |on: bool, option: String| if on { option } else { String::new() };
+        let list = |v: &[f32]| v.iter().map(f32::to_string).collect::<Vec<_>>().join(",");
+        [
+            when(!self.time_reversal, " --no-time-reversal".into()),
+            when(!self.mirror, " --no-mirror".into()),
+            when(
+                self.obs_noise > 0.0,
+                format!(" --obs-noise {}", self.obs_noise),
+            ),
+            when(
+                self.train_fraction < 1.0,
+                format!(" --train-fraction {}", self.train_fraction),
+            ),
+            self.decoder_lr.map_or(String::new(), |lr| {
+                format!(" --tune-decoder --decoder-lr {lr}")
+            }),
+            when(
+                self.starter_weight != 1.0,
+                format!(" --starter-weight {}", self.starter_weight),
+            ),
+            when(self.balance, " --balance".into()),
+            self.point_lr.map_or(String::new(), |lr| {
+                format!(" --tune-point-head --point-lr {lr}")
+            }),
+            when(
+                !self.speed_scales.is_empty(),
+                format!(" --speed-scales {}", list(&self.speed_scales)),
+            ),
+            when(
+                self.synthetic_starters > 0.0,
+                format!(" --synthetic-starters {}", self.synthetic_starters),
+            ),
+            when(
+                self.synthetic_stoppers > 0.0,
+                format!(" --synthetic-stoppers {}", self.synthetic_stoppers),
+            ),
+            self.distill.as_ref().map_or(String::new(), |d| {
+                format!(" --teacher {} --distill-weight {}", d.teacher, d.weight)
+            }),
+        ]
+        .concat()
+    }
+}
+
 fn one() -> f32 {
     1.0
 }
@@ -363,7 +412,7 @@ impl ProposalCard {
             epoch: p.epoch,
             val_min_fde: format!("{:.4}", p.val.val_min_fde),
             command: format!(
-                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{}{}{}{}{}{}{}{}{}{}{}{} --out {}",
+                "gpecnet propose --blob {} --dataset {} --seed {} --k {}{hidden} --epochs {} --batch {} --lr {} --prior-weight {} --temperature {} --bound {}{} --out {}",
                 p.source,
                 s.dataset,
                 s.seed,
@@ -374,54 +423,7 @@ impl ProposalCard {
                 s.prior_weight,
                 s.temperature,
                 s.bound,
-                if s.time_reversal { "" } else { " --no-time-reversal" },
-                if s.mirror { "" } else { " --no-mirror" },
-                if s.obs_noise > 0.0 {
-                    format!(" --obs-noise {}", s.obs_noise)
-                } else {
-                    String::new()
-                },
-                if s.train_fraction < 1.0 {
-                    format!(" --train-fraction {}", s.train_fraction)
-                } else {
-                    String::new()
-                },
-                s.decoder_lr
-                    .map_or(String::new(), |lr| format!(" --tune-decoder --decoder-lr {lr}")),
-                if s.starter_weight == 1.0 {
-                    String::new()
-                } else {
-                    format!(" --starter-weight {}", s.starter_weight)
-                },
-                if s.balance { " --balance" } else { "" },
-                s.point_lr
-                    .map_or(String::new(), |lr| format!(" --tune-point-head --point-lr {lr}")),
-                if s.speed_scales.is_empty() {
-                    String::new()
-                } else {
-                    format!(
-                        " --speed-scales {}",
-                        s.speed_scales
-                            .iter()
-                            .map(f32::to_string)
-                            .collect::<Vec<_>>()
-                            .join(",")
-                    )
-                },
-                if s.synthetic_starters > 0.0 {
-                    format!(" --synthetic-starters {}", s.synthetic_starters)
-                } else {
-                    String::new()
-                },
-                if s.synthetic_stoppers > 0.0 {
-                    format!(" --synthetic-stoppers {}", s.synthetic_stoppers)
-                } else {
-                    String::new()
-                },
-                s.distill.as_ref().map_or(String::new(), |d| format!(
-                    " --teacher {} --distill-weight {}",
-                    d.teacher, d.weight
-                )),
+                s.optional_options(),
                 path.parent().map_or(".".into(), |d| d.display().to_string()),
             ),
             decoder_tuned: p.decoder.is_some(),

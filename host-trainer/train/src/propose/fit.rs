@@ -200,6 +200,8 @@ pub struct Teacher {
     proposal: Mlp,
     decoder: Mlp,
     spec: LossSpec,
+    /// The frozen networks' fingerprint it was checked against.
+    fingerprint: u32,
 }
 
 impl Teacher {
@@ -218,7 +220,8 @@ impl Teacher {
                 teacher.proposal_latents()
             );
         }
-        if frozen_fingerprint(teacher) != frozen_fingerprint(student) {
+        let fingerprint = frozen_fingerprint(teacher);
+        if fingerprint != frozen_fingerprint(student) {
             bail!(
                 "the teacher's encoder, decoder, data scale or heading frame differ from the blob's: a teacher must be a proposal on the same CVAE"
             );
@@ -235,7 +238,18 @@ impl Teacher {
                 prior_weight: 0.0,
                 distill_weight: 0.0,
             },
+            fingerprint,
         })
+    }
+
+    /// An error unless the teacher fits a student of `k` latents on `student`'s frozen
+    /// networks (what [`Teacher::of`] checked, for a teacher built elsewhere).
+    pub fn check_fits(&self, student: &RefModel, k: usize) -> Result<()> {
+        if self.spec.k != k || self.fingerprint != crate::proposal_file::frozen_fingerprint(student)
+        {
+            bail!("the teacher was built for another K or another CVAE than this run's");
+        }
+        Ok(())
     }
 
     /// Its K endpoints for the features `f` (`[n, fdim]` to `[n, k, 2]`), in chunks. A

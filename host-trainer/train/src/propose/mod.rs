@@ -406,7 +406,7 @@ impl ProposeArgs {
                     .crc();
                 let t = crate::export::read_blob(&bytes)
                     .with_context(|| format!("reading --teacher {}", path.display()))?;
-                fit::Teacher::of(&t, &model, self.k)
+                let t = fit::Teacher::of(&t, &model, self.k)
                     .with_context(|| format!("--teacher {}", path.display()))?;
                 Some((t, crc))
             }

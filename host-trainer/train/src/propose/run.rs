@@ -86,8 +86,9 @@ pub struct ProposeRun<'a> {
     pub resume: bool,
     /// The frozen blob's path (for the record).
     pub source: PathBuf,
-    /// The teacher's model when the settings distil ([`ProposeSettings::distill`]).
-    pub teacher: Option<&'a RefModel>,
+    /// The teacher when the settings distil ([`ProposeSettings::distill`]), built with
+    /// [`fit::Teacher::of`] for this run's model and K.
+    pub teacher: Option<&'a fit::Teacher>,
 }
 
 /// The random stream of the run's seed that draws the synthetic starters and stoppers
@@ -307,9 +308,12 @@ impl ProposeRun<'_> {
         };
         let (val, val_parts) = windows(&self.data_root, &spec, data::Split::Val, s)?;
         let teacher = match (&s.distill, self.teacher) {
-            (Some(_), Some(t)) => Some(fit::Teacher::of(t, self.model, s.k)?),
+            (Some(_), Some(t)) => {
+                t.check_fits(self.model, s.k)?;
+                Some(t)
+            }
             (None, None) => None,
-            _ => bail!("distillation needs both its settings and the teacher's model"),
+            _ => bail!("distillation needs both its settings and the teacher"),
         };
         // Each encoding of the training windows gets their loss weights and the teacher's
         // endpoints (with observation noise the windows are encoded again every epoch, noisy).
@@ -319,7 +323,7 @@ impl ProposeRun<'_> {
                 Some(w) => enc.with_weights(w.clone())?,
                 None => enc,
             };
-            match &teacher {
+            match teacher {
                 Some(t) => enc.with_teacher(t),
                 None => Ok(enc),
             }
